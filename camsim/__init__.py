@@ -1,0 +1,18 @@
+"""camsim — exact, event-driven simulation of cam-driven machinery with impact.
+
+The command-line tool ``camsim`` is a thin layer over this package; everything it does
+can be done from Python::
+
+    from camsim import load_machine, simulate
+    machine = load_machine("machines/cdtm.toml")
+    result = simulate(machine)
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("camsim")
+except PackageNotFoundError:  # running from a source tree that was not installed
+    __version__ = "0.0.0+unknown"
+
+__all__ = ["__version__"]

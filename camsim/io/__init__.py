@@ -1,0 +1,1 @@
+"""Reading and writing files: atomic output, HDF5 results, CSV."""

@@ -1,0 +1,285 @@
+"""The machine description in SI: plain dataclasses that the rest of camsim uses.
+
+:func:`camsim.loader.load_machine` builds these from a TOML machine file; everything
+below the loader (cam program, model, integrator) sees only these floats in SI units:
+m, kg, s, N, rad. Node names are ``"ground"``, ``"cam"`` or a mass name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+GROUND = "ground"
+CAM = "cam"
+FIXED_NODES = (GROUND, CAM)
+
+MOTIONS = ("rise", "fall", "dwell")
+LAWS = ("cycloidal", "harmonic", "modified-trapezoid", "modified-sine", "poly345", "poly4567")
+CONTACT_LAWS = ("linear", "power", "restitution")
+
+#: Standard gravity [m/s^2] (CGPM 1901), used for ``gravity = true``.
+STANDARD_GRAVITY = 9.80665
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One row of the cam segment table.
+
+    Attributes
+    ----------
+    motion : str
+        ``"rise"``, ``"fall"`` or ``"dwell"``.
+    law : str or None
+        Motion law (one of :data:`LAWS`); None for a dwell.
+    duration : float
+        Cam angle the segment lasts, β [rad].
+    lift : float
+        Lift at the roller, h [m] (angular lifts already turned into arc length by the
+        follower ``arm``); 0 for a dwell. Always positive: a fall descends by ``lift``.
+    """
+
+    motion: str
+    law: str | None
+    duration: float
+    lift: float
+
+
+@dataclass(frozen=True)
+class CamTable:
+    """A measured or exported cam profile (the thesis imported DYNACAM tables).
+
+    Attributes
+    ----------
+    angle : tuple of float
+        Cam angles [rad], strictly increasing, spanning less than one revolution.
+    displacement : tuple of float
+        Roller lift at each angle [m].
+    velocity, acceleration : tuple of float or None
+        Optional roller velocity [m/s] and acceleration [m/s^2] at the cam's speed, used
+        only to check the spline.
+    source : str
+        The CSV path as written in the machine file.
+    """
+
+    angle: tuple[float, ...]
+    displacement: tuple[float, ...]
+    velocity: tuple[float, ...] | None = None
+    acceleration: tuple[float, ...] | None = None
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Cam:
+    """The cam: constant speed, a segment table or a table profile, the linkage.
+
+    Attributes
+    ----------
+    speed : float
+        Camshaft speed ω [rad/s], > 0.
+    segments : tuple of Segment
+        The segment table (empty when ``table`` is given).
+    table : CamTable or None
+        A table profile replacing the segments.
+    ratio : float
+        Roller motion → model axis (dimensionless), default 1.
+    arm : float or None
+        Follower arm [m] that turned angular lifts into arc length at the roller.
+    drives : str or None
+        Name of the mass whose motion the cam prescribes exactly.
+    start_angle : float
+        θ0 [rad], cam angle at t = 0.
+    """
+
+    speed: float
+    segments: tuple[Segment, ...] = ()
+    table: CamTable | None = None
+    ratio: float = 1.0
+    arm: float | None = None
+    drives: str | None = None
+    start_angle: float = 0.0
+
+    @property
+    def period(self) -> float:
+        """One revolution, T = 2π/ω [s]."""
+        import math
+
+        return 2.0 * math.pi / self.speed
+
+
+@dataclass(frozen=True)
+class Mass:
+    """A lumped mass on the model axis: ``mass`` [kg] > 0."""
+
+    name: str
+    mass: float
+
+
+@dataclass(frozen=True)
+class Damping:
+    """How an element is damped: a coefficient [N·s/m], or a ratio ζ of critical.
+
+    With a ratio, c = 2ζ·√(k·m_ref) per branch, m_ref being the mass named by
+    ``reference_mass`` (default: the upper node's, or the lower node's when the upper is
+    ground or the cam). At most one of ``coefficient`` and ``ratio`` is set.
+    """
+
+    coefficient: float | None = None
+    ratio: float | None = None
+    reference_mass: str | None = None
+
+
+@dataclass(frozen=True)
+class Element:
+    """Common part of every element: joins ``lower`` and ``upper`` along the axis.
+
+    Deflection d = x_upper − x_lower; force f is tension-positive (acts −f on upper).
+    """
+
+    name: str
+    lower: str
+    upper: str
+    damping: Damping = field(default_factory=Damping)
+
+    @property
+    def nodes(self) -> tuple[str, str]:
+        return (self.lower, self.upper)
+
+
+@dataclass(frozen=True)
+class Spring(Element):
+    """Linear spring: f = P + k·d + c·ḋ. ``stiffness`` k [N/m], ``preload`` P [N]."""
+
+    stiffness: float = 0.0
+    preload: float = 0.0
+
+
+@dataclass(frozen=True)
+class PreloadedLink(Element):
+    """Over-travel link: two parts held together by a preloaded spring.
+
+    Joined (d ≤ d_sep = P/k_push): f = k_push·d + c_push·ḋ.
+    Separated: f = P + k_pull·(d − d_sep) + c_pull·ḋ.
+    ``push_stiffness``, ``pull_stiffness`` [N/m], ``preload`` P [N] > 0.
+    """
+
+    push_stiffness: float = 0.0
+    pull_stiffness: float = 0.0
+    preload: float = 0.0
+
+    @property
+    def separation_deflection(self) -> float:
+        """d_sep = P / k_push [m]."""
+        return self.preload / self.push_stiffness
+
+
+@dataclass(frozen=True)
+class Contact(Element):
+    """Unilateral contact; penetration δ = gap − d, force compressive-positive.
+
+    Attributes
+    ----------
+    gap : float
+        g0 [m] ≥ 0.
+    law : str
+        ``"linear"`` (F = k·δ + c·δ̇), ``"power"`` (F = C·δ^a, Hunt–Crossley damped when
+        ``restitution`` is given) or ``"restitution"`` (rigid, Newton's law).
+    stiffness : float
+        k [N/m] for the linear law.
+    coefficient, exponent : float
+        C [N/m^a] and a for the power law.
+    restitution : float or None
+        e ∈ [0, 1].
+    transducer : bool
+        Its force is summed into ``/transducer/force``.
+    """
+
+    gap: float = 0.0
+    law: str = "linear"
+    stiffness: float = 0.0
+    coefficient: float = 0.0
+    exponent: float = 1.0
+    restitution: float | None = None
+    transducer: bool = False
+
+
+@dataclass(frozen=True)
+class InitialCondition:
+    """Initial displacement [m] and/or velocity [m/s] of one free mass."""
+
+    mass: str
+    displacement: float | None = None
+    velocity: float | None = None
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """Run settings.
+
+    Attributes
+    ----------
+    cycles : int
+        Recorded revolutions (≥ 1).
+    warmup_cycles : int
+        Revolutions computed and discarded first (≥ 0).
+    sample_rate : float
+        Output samples per second [Hz].
+    gravity : float
+        Acceleration of gravity along −x [m/s^2]; 0 for none.
+    duration : float or None
+        Recorded time [s] instead of ``cycles`` (required when there is no cam).
+    """
+
+    cycles: int = 1
+    warmup_cycles: int = 1
+    sample_rate: float = 50_000.0
+    gravity: float = 0.0
+    duration: float | None = None
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A whole machine in SI, as loaded from a machine file.
+
+    Attributes
+    ----------
+    name : str
+        ``[machine] name``.
+    cam : Cam or None
+        None when the machine has no cam: the ``cam`` node stays at x = 0.
+    masses : tuple of Mass
+    elements : tuple of Element
+    simulation : Simulation
+    initial : tuple of InitialCondition
+    source : str
+        The file the machine came from (for messages), ``"<string>"`` otherwise.
+    text : str
+        The TOML text as read (stored in result files).
+    """
+
+    name: str
+    cam: Cam | None
+    masses: tuple[Mass, ...]
+    elements: tuple[Element, ...]
+    simulation: Simulation = field(default_factory=Simulation)
+    initial: tuple[InitialCondition, ...] = ()
+    source: str = "<string>"
+    text: str = ""
+
+    def mass_of(self, name: str) -> float:
+        """Mass [kg] of the mass called ``name``."""
+        for m in self.masses:
+            if m.name == name:
+                return m.mass
+        raise KeyError(name)
+
+    @property
+    def free_masses(self) -> tuple[Mass, ...]:
+        """Masses that are degrees of freedom (all but the one the cam drives)."""
+        driven = self.cam.drives if self.cam is not None else None
+        return tuple(m for m in self.masses if m.name != driven)
+
+    def element(self, name: str) -> Element:
+        for e in self.elements:
+            if e.name == name:
+                return e
+        raise KeyError(name)
