@@ -1,0 +1,427 @@
+"""The cam program: follower displacement, velocity, acceleration and jerk against time.
+
+:class:`CamProgram` turns a :class:`camsim.machine.Cam` into the prescribed motion s(t)
+of the ``cam`` node on the model axis, with its exact time derivatives v, a, j:
+
+* the camshaft turns at constant speed ω: cam angle θ(t) = θ0 + ω·t, one cycle being one
+  revolution T = 2π/ω;
+* a **segment table** lays its rows end to end from θ = 0: segment i spans
+  [Θ_i, Θ_i + β_i] with Θ_i the sum of the earlier durations; with u = (θ − Θ_i)/β_i,
+  the roller lift is h0_i + h_i·y(u) for a rise starting at height h0_i (h0_i − h_i·y(u)
+  for a fall, h0_i for a dwell), the first segment starting at height 0;
+* a **table** cam uses a periodic quintic spline of the measured lift
+  (:mod:`camsim.cam.spline`);
+* the model axis sees ``ratio`` × the roller lift:
+  s = ratio·lift, v = ratio·(dlift/dθ)·ω, a = ratio·(d²lift/dθ²)·ω², j = ratio·(d³lift/dθ³)·ω³.
+
+Jumps of s, v or a where two segments meet violate the fundamental law of cam design; they
+are reported in :attr:`CamProgram.warnings` (computed from the law values on both sides of
+each join, not from a list of "bad" laws). Derivatives jump at joins, so an integrator
+should not step across one: :meth:`CamProgram.boundary_times` lists them.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from camsim.cam.laws import rise
+from camsim.cam.spline import TableSpline
+from camsim.machine import Cam
+
+__all__ = ["CamProgram", "law_peaks", "sample_revolution"]
+
+_TWO_PI = 2.0 * math.pi
+_EPS = np.finfo(float).eps
+#: The segment durations must add up to 2π within this [rad].
+DURATION_TOLERANCE = 1e-6
+#: Samples of u ∈ [0, 1] used to bracket a law's peaks before refining them.
+_PEAK_SAMPLES = 4001
+#: Jumps smaller than this fraction of the cam's largest |s|, |v| or |a| are rounding.
+_JUMP_TOLERANCE = 1e-9
+#: Boundary times closer than this fraction of a period to a window end are dropped.
+_BOUNDARY_TOLERANCE = 1e-12
+
+_QUANTITIES = (("displacement", "m"), ("velocity", "m/s"), ("acceleration", "m/s^2"))
+
+
+def _refine_peak(func, lo: float, hi: float, samples: int) -> tuple[float, float]:
+    """Largest |func| on [lo, hi] and where: dense sampling, then bounded Brent refinement.
+
+    ``func`` maps an array of abscissae to values. Of samples within 1e-9 (relative) of
+    the largest, the first is refined, so ties (a plateau, equal peaks) report the first.
+    Returns (peak, abscissa).
+    """
+    x = np.linspace(lo, hi, samples)
+    f = np.abs(func(x))
+    top = float(f.max())
+    if top == 0.0:
+        return 0.0, float(lo)
+    k = int(np.argmax(f >= top * (1.0 - 1e-9)))
+    best_x, best_f = float(x[k]), float(f[k])
+    a, b = x[max(k - 1, 0)], x[min(k + 1, samples - 1)]
+    res = minimize_scalar(
+        lambda z: -abs(float(func(np.array([z]))[0])),
+        bounds=(a, b),
+        method="bounded",
+        options={"xatol": 1e-13 * max(1.0, abs(hi - lo))},
+    )
+    if -res.fun > best_f * (1.0 + 1e-12):
+        best_x, best_f = float(res.x), float(-res.fun)
+    return best_f, best_x
+
+
+@lru_cache(maxsize=None)
+def law_peaks(law: str) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+    """Peaks of |y′|, |y″|, |y‴| of a normalised rise and the u where each first occurs.
+
+    Found by sampling u at 4001 points and refining the best sample with bounded Brent
+    minimisation (``xatol`` 1e-13); peaks at u = 0 or 1 and plateaus report their first
+    point. Returns ((Cv, u_v), (Ca, u_a), (Cj, u_j)).
+    """
+    out = []
+    for order in (1, 2, 3):
+        out.append(_refine_peak(lambda u, o=order: rise(law, u)[o], 0.0, 1.0, _PEAK_SAMPLES))
+    return tuple(out)  # type: ignore[return-value]
+
+
+class CamProgram:
+    """Prescribed motion of the ``cam`` node on the model axis.
+
+    Parameters
+    ----------
+    cam : Cam or None
+        The machine's cam (SI). None means no cam: s = v = a = j = 0 for all times, no
+        segment boundaries.
+
+    Attributes
+    ----------
+    speed : float
+        Camshaft speed ω [rad/s]; 0 without a cam.
+    period : float
+        One revolution 2π/ω [s]; ``math.inf`` without a cam.
+    start_angle : float
+        θ0, the cam angle at t = 0 [rad].
+    ratio : float
+        Roller motion → model axis [-].
+    kind : str
+        ``"segments"``, ``"table"`` or ``"none"``.
+    warnings : list of str
+        Jumps of s, v or a at segment joins, and table columns that disagree with the
+        spline. Warnings, not errors.
+
+    Raises
+    ------
+    ValueError
+        If the segment durations do not add up to 360° (within 1e-6 rad), a duration is
+        not positive, a law is unknown, or the cam table is unusable.
+    """
+
+    def __init__(self, cam: Cam | None):
+        self.cam = cam
+        self.warnings: list[str] = []
+        self._table: TableSpline | None = None
+        if cam is None:
+            self.kind = "none"
+            self.speed = 0.0
+            self.period = math.inf
+            self.start_angle = 0.0
+            self.ratio = 1.0
+            self._starts = np.zeros(0)
+            return
+        self.speed = float(cam.speed)
+        self.period = _TWO_PI / self.speed
+        self.start_angle = float(cam.start_angle)
+        self.ratio = float(cam.ratio)
+        if cam.table is not None:
+            self.kind = "table"
+            self._table = TableSpline(cam.table, self.speed)
+            self._starts = np.zeros(0)
+            self.warnings.extend(self._table.warnings)
+            return
+        self.kind = "segments"
+        segments = cam.segments
+        if not segments:
+            raise ValueError("cam: neither segments nor a table given")
+        betas = np.array([seg.duration for seg in segments], dtype=float)
+        if np.any(betas <= 0):
+            bad = ", ".join(str(i + 1) for i in np.flatnonzero(betas <= 0))
+            raise ValueError(f"cam: segment duration must be positive (segment {bad})")
+        total = float(betas.sum())
+        if abs(total - _TWO_PI) > DURATION_TOLERANCE:
+            raise ValueError(f"cam: segment durations add up to {math.degrees(total):.6g} deg, not 360 deg")
+        laws: list[str | None] = []
+        signed = np.zeros(len(segments))
+        for i, seg in enumerate(segments):
+            if seg.motion == "dwell":
+                laws.append(None)
+            elif seg.motion in ("rise", "fall"):
+                rise(str(seg.law), 0.0)  # raises ValueError on an unknown law
+                laws.append(seg.law)
+                signed[i] = seg.lift if seg.motion == "rise" else -seg.lift
+            else:
+                raise ValueError(f"cam: segment {i + 1}: unknown motion {seg.motion!r}")
+        self._betas = betas
+        self._starts = np.concatenate(([0.0], np.cumsum(betas)[:-1]))
+        self._signed = signed
+        self._h0 = np.concatenate(([0.0], np.cumsum(signed)[:-1]))
+        self._laws = laws
+        self._law_names = sorted({law for law in laws if law is not None})
+        codes = [-1 if law is None else self._law_names.index(law) for law in laws]
+        self._codes = np.array(codes, dtype=int)
+        self.warnings.extend(self._join_warnings())
+
+    # ------------------------------------------------------------------ evaluation
+    def angle(self, t) -> np.ndarray:
+        """Cam angle θ = θ0 + ω·t [rad], not wrapped, at times ``t`` [s]."""
+        t_arr = np.asarray(t, dtype=float)
+        return self.start_angle + self.speed * t_arr
+
+    def lift(self, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Roller lift and its derivatives with respect to cam angle.
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angle [rad], any value (wrapped modulo 2π). At a segment boundary (to
+            within rounding of θ) the segment that starts there is used.
+
+        Returns
+        -------
+        lift, d1, d2, d3 : ndarray
+            Roller lift [m], d lift/dθ [m/rad], d²/dθ² [m/rad²], d³/dθ³ [m/rad³]
+            (before ``ratio``), shaped like ``theta``.
+        """
+        theta = np.asarray(theta, dtype=float)
+        if self.kind == "none":
+            z = np.zeros_like(theta)
+            return z, z.copy(), z.copy(), z.copy()
+        if self._table is not None:
+            return self._table(theta)
+        shape = theta.shape
+        th = theta.reshape(-1)
+        phi = np.mod(th, _TWO_PI)
+        # Rounding of θ = θ0 + ω·t must not put a boundary sample in the segment before.
+        tol = 64.0 * _EPS * np.maximum(np.abs(th), _TWO_PI)
+        phi = np.where(phi > _TWO_PI - tol, phi - _TWO_PI, phi)
+        idx = np.searchsorted(self._starts, phi + tol, side="right") - 1
+        np.clip(idx, 0, len(self._starts) - 1, out=idx)
+        u = np.clip((phi - self._starts[idx]) / self._betas[idx], 0.0, 1.0)
+        y = np.zeros((4, th.size))
+        code = self._codes[idx]
+        for c, law in enumerate(self._law_names):
+            mask = code == c
+            if mask.any():
+                y[:, mask] = rise(law, u[mask])
+        h = self._signed[idx]
+        inv_beta = 1.0 / self._betas[idx]
+        out = (
+            self._h0[idx] + h * y[0],
+            h * y[1] * inv_beta,
+            h * y[2] * inv_beta**2,
+            h * y[3] * inv_beta**3,
+        )
+        return tuple(o.reshape(shape) for o in out)  # type: ignore[return-value]
+
+    def svaj(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Displacement, velocity, acceleration and jerk of the cam on the model axis.
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s] (θ = θ0 + ω·t).
+
+        Returns
+        -------
+        s, v, a, j : ndarray
+            [m], [m/s], [m/s^2], [m/s^3], shaped like ``t``; zeros without a cam.
+        """
+        lift, d1, d2, d3 = self.lift(self.angle(t))
+        w, r = self.speed, self.ratio
+        return r * lift, (r * w) * d1, (r * w * w) * d2, (r * w**3) * d3
+
+    def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
+        """Times in the open interval (t_start, t_end) where a segment boundary passes.
+
+        A boundary is θ = Θ_i + 2πk (Θ_i the start of segment i, including Θ_0 = 0, the
+        join of the last segment to the first). Times within 1e-12·T of either end are
+        left out. Empty for a table cam (smooth everywhere) and without a cam.
+
+        Parameters
+        ----------
+        t_start, t_end : float
+            The window [s].
+
+        Returns
+        -------
+        ndarray
+            Sorted times [s].
+        """
+        if self.kind != "segments" or not t_end > t_start:
+            return np.zeros(0)
+        w, th0 = self.speed, self.start_angle
+        lo = th0 + w * t_start
+        hi = th0 + w * t_end
+        k = np.arange(math.floor(lo / _TWO_PI) - 1, math.ceil(hi / _TWO_PI) + 2)
+        theta = (self._starts[None, :] + _TWO_PI * k[:, None]).reshape(-1)
+        times = (theta - th0) / w
+        tol = _BOUNDARY_TOLERANCE * self.period
+        keep = (times > t_start + tol) & (times < t_end - tol)
+        return np.unique(times[keep])
+
+    # ------------------------------------------------------------------ reporting
+    def boundary_angles(self) -> np.ndarray:
+        """Cam angles [rad] in [0, 2π) where segments start (empty for a table or no cam)."""
+        return self._starts.copy()
+
+    def _describe(self, i: int) -> str:
+        law = self._laws[i]
+        seg = self.cam.segments[i]  # type: ignore[union-attr]
+        return f"segment {i + 1} {seg.motion}" if law is None else f"segment {i + 1} {law} {seg.motion}"
+
+    def _segment_values(self, i: int, u: float) -> np.ndarray:
+        """Model-axis s [m], v [m/s], a [m/s^2] of segment ``i`` at normalised angle u."""
+        beta, h, h0 = self._betas[i], self._signed[i], self._h0[i]
+        law = self._laws[i]
+        if law is None:
+            y = (0.0, 0.0, 0.0)
+        else:
+            y = tuple(float(v) for v in rise(law, u)[:3])
+        k = self.speed / beta
+        return self.ratio * np.array([h0 + h * y[0], h * y[1] * k, h * y[2] * k * k])
+
+    def _join_warnings(self) -> list[str]:
+        n = len(self._laws)
+        peaks = self.segment_peaks()
+        scale = np.array(
+            [
+                max(abs(self.ratio) * float(np.max(np.abs(np.append(self._h0, self._h0 + self._signed)))), 0.0),
+                max(p["peak_velocity"] for p in peaks),
+                max(p["peak_acceleration"] for p in peaks),
+            ]
+        )
+        out = []
+        for i in range(n):
+            nxt = (i + 1) % n
+            jumps = self._segment_values(nxt, 0.0) - self._segment_values(i, 1.0)
+            where = math.degrees(float(self._starts[nxt]))
+            for q, (name, unit) in enumerate(_QUANTITIES):
+                if abs(jumps[q]) > _JUMP_TOLERANCE * scale[q] and jumps[q] != 0.0:
+                    out.append(
+                        f"{name} jumps by {jumps[q]:.3g} {unit} at {where:g} deg "
+                        f"({self._describe(i)} -> {self._describe(nxt)})"
+                    )
+        return out
+
+    def segment_peaks(self) -> list[dict]:
+        """Per segment: lift and the peaks of |v|, |a|, |j| on the model axis, with angles.
+
+        Peaks are the law's normalised peaks (:func:`law_peaks`: dense sampling refined
+        by bounded Brent minimisation) scaled by h·ω/β, h·(ω/β)², h·(ω/β)³ and ``ratio``.
+        A table cam is reported as one segment, its peaks found the same way on the
+        spline (16 samples per table interval, at least 7200). A harmonic law's jerk is
+        the finite peak inside the segment (the jerk is infinite at a join where its
+        acceleration jumps). Empty without a cam.
+
+        Returns
+        -------
+        list of dict
+            Keys: ``index`` (1-based), ``motion``, ``law`` (None for a dwell),
+            ``start_deg``, ``duration_deg`` [deg], ``lift_m`` [m, model axis],
+            ``peak_velocity`` [m/s], ``peak_acceleration`` [m/s^2], ``peak_jerk``
+            [m/s^3], and ``peak_velocity_deg``, ``peak_acceleration_deg``,
+            ``peak_jerk_deg``: the cam angle [deg] where each first occurs (None for a
+            dwell).
+        """
+        if self.kind == "none":
+            return []
+        r, w = abs(self.ratio), self.speed
+        if self._table is not None:
+            spline = self._table
+            n = max(7200, 16 * len(self.cam.table.angle))  # type: ignore[union-attr]
+            entry = {
+                "index": 1,
+                "motion": "table",
+                "law": "spline",
+                "start_deg": math.degrees(spline.theta0),
+                "duration_deg": 360.0,
+            }
+            lo, hi = spline.theta0, spline.theta0 + _TWO_PI
+            lift = spline(np.linspace(lo, hi, n))[0]
+            below, above = float(lift.min()), float(lift.max())
+            span = max(above - below, 1e-300)
+            # Refine the highest and lowest lift: extrema of |lift − c| with c outside the range.
+            top = _refine_peak(lambda x: spline(x)[0] - (below - span), lo, hi, n)[0] + below - span
+            bottom = above + span - _refine_peak(lambda x: spline(x)[0] - (above + span), lo, hi, n)[0]
+            entry["lift_m"] = r * (top - bottom)
+            for order, key in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+                peak, where = _refine_peak(
+                    lambda x, o=order: spline(x)[o], spline.theta0, spline.theta0 + _TWO_PI, n
+                )
+                entry[f"peak_{key}"] = r * peak * w**order
+                entry[f"peak_{key}_deg"] = math.degrees(where) % 360.0
+            return [entry]
+        out = []
+        for i, seg in enumerate(self.cam.segments):  # type: ignore[union-attr]
+            beta, start = float(self._betas[i]), float(self._starts[i])
+            h = abs(float(self._signed[i]))
+            entry = {
+                "index": i + 1,
+                "motion": seg.motion,
+                "law": self._laws[i],
+                "start_deg": math.degrees(start),
+                "duration_deg": math.degrees(beta),
+                "lift_m": r * h,
+            }
+            law = self._laws[i]
+            for order, key in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+                if law is None or h == 0.0:
+                    entry[f"peak_{key}"] = 0.0
+                    entry[f"peak_{key}_deg"] = None
+                    continue
+                coeff, u = law_peaks(law)[order - 1]
+                entry[f"peak_{key}"] = r * h * coeff * (w / beta) ** order
+                entry[f"peak_{key}_deg"] = math.degrees(start + u * beta)
+            out.append(entry)
+        return out
+
+
+def sample_revolution(program: CamProgram, points: int = 3600) -> dict[str, np.ndarray]:
+    """The cam program over one revolution from t = 0, at ``points`` equal time steps.
+
+    Parameters
+    ----------
+    program : CamProgram
+        A program with a cam (finite period).
+    points : int
+        Number of samples [-]; t = k·T/points for k = 0 … points − 1 (the end of the
+        revolution, equal to its start, is not repeated).
+
+    Returns
+    -------
+    dict of ndarray
+        ``time`` [s], ``angle`` [deg] (θ0 + ω·t, not wrapped), ``displacement`` [m],
+        ``velocity`` [m/s], ``acceleration`` [m/s^2], ``jerk`` [m/s^3] on the model axis.
+
+    Raises
+    ------
+    ValueError
+        Without a cam, or with fewer than 2 points.
+    """
+    if program.kind == "none":
+        raise ValueError("the machine has no cam")
+    if points < 2:
+        raise ValueError(f"points must be at least 2, got {points}")
+    t = np.arange(points) * (program.period / points)
+    s, v, a, j = program.svaj(t)
+    return {
+        "time": t,
+        "angle": np.degrees(program.angle(t)),
+        "displacement": s,
+        "velocity": v,
+        "acceleration": a,
+        "jerk": j,
+    }

@@ -1,0 +1,192 @@
+"""``camsim cam``: the cam program of a machine — peaks per segment, warnings, s/v/a/j traces.
+
+The library calls behind it: :class:`camsim.cam.CamProgram` (peaks, warnings) and
+:func:`camsim.cam.sample_revolution` (traces); :func:`write_cam_hdf5` and
+:func:`write_cam_csv` below write the traces.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from camsim import __version__
+from camsim.cam import CamProgram, sample_revolution
+from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.errors import InputError, MachineFileError
+from camsim.io.atomic import atomic_path, check_writable
+from camsim.io.hdf5 import create_file, write_time, write_trace
+
+#: The traces written by ``camsim cam -o``: name, units, long name.
+TRACES = (
+    ("displacement", "m", "cam displacement on the model axis"),
+    ("velocity", "m/s", "cam velocity on the model axis"),
+    ("acceleration", "m/s^2", "cam acceleration on the model axis"),
+    ("jerk", "m/s^3", "cam jerk on the model axis"),
+)
+
+
+def _root_attrs(machine) -> dict:
+    text = machine.text or ""
+    return {
+        "camsim_version": __version__,
+        "schema": 1,
+        "file_kind": "cam",
+        "machine_name": machine.name,
+        "machine_toml": text,
+        "machine_sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
+        "units_system": "SI",
+    }
+
+
+def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, points: int = 3600) -> Path:
+    """Write one revolution of the cam program as a camsim HDF5 file (``file_kind = "cam"``).
+
+    Layout: ``/time`` [s] (a dimension scale attached to every trace), ``/cam/angle``
+    [deg], ``/cam/displacement`` [m], ``/cam/velocity`` [m/s], ``/cam/acceleration``
+    [m/s^2], ``/cam/jerk`` [m/s^3] on the model axis, ``/cam/boundaries_deg`` (segment
+    start angles [deg], segment cams only); root attributes as in a run file.
+    Written through :func:`camsim.io.atomic.atomic_path`.
+    """
+    data = sample_revolution(program, points)
+    with atomic_path(path) as tmp:
+        with create_file(tmp) as f:
+            for key, value in _root_attrs(machine).items():
+                f.attrs[key] = value
+            time = write_time(f, data["time"])
+            write_trace(f, "cam/angle", data["angle"], "deg", "cam angle", time)
+            for name, units, long_name in TRACES:
+                write_trace(f, f"cam/{name}", data[name], units, long_name, time)
+            if program.kind == "segments":
+                write_trace(
+                    f, "cam/boundaries_deg", np.degrees(program.boundary_angles()), "deg", "cam angles of segment joins"
+                )
+    return Path(path)
+
+
+def write_cam_csv(path: str | os.PathLike[str], program: CamProgram, points: int = 3600) -> Path:
+    """Write one revolution of the cam program as CSV, units in the header.
+
+    Columns: ``time [s]``, ``angle [deg]``, ``displacement [m]``, ``velocity [m/s]``,
+    ``acceleration [m/s^2]``, ``jerk [m/s^3]`` (12 significant digits).
+    """
+    data = sample_revolution(program, points)
+    header = ",".join(["time [s]", "angle [deg]"] + [f"{name} [{units}]" for name, units, _ in TRACES])
+    columns = np.column_stack([data["time"], data["angle"]] + [data[name] for name, _, _ in TRACES])
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, columns, fmt="%.12g", delimiter=",", header=header, comments="")
+    return Path(path)
+
+
+def _fmt(value: float, angle: float | None) -> str:
+    if angle is None:
+        return "0"
+    return f"{value:.4g} @ {angle:.4g}°"
+
+
+def _print_table(machine, program: CamProgram, peaks: list[dict]) -> None:
+    rpm = program.speed * 60.0 / (2.0 * math.pi)
+    title = (
+        f"{machine.name}: cam at {rpm:.6g} rpm, ratio {program.ratio:.6g}, "
+        f"start angle {math.degrees(program.start_angle):.6g} deg (model axis, SI)"
+    )
+    table = Table(title=title, title_justify="left")
+    for header in (
+        "#",
+        "motion",
+        "law",
+        "start [deg]",
+        "duration [deg]",
+        "lift [mm]",
+        "peak |v| [m/s] @ deg",
+        "peak |a| [m/s^2] @ deg",
+        "peak |j| [m/s^3] @ deg",
+    ):
+        table.add_column(header, justify="left" if header in ("motion", "law") else "right")
+    for p in peaks:
+        table.add_row(
+            str(p["index"]),
+            p["motion"],
+            p["law"] or "-",
+            f"{p['start_deg']:.6g}",
+            f"{p['duration_deg']:.6g}",
+            f"{1e3 * p['lift_m']:.6g}",
+            _fmt(p["peak_velocity"], p["peak_velocity_deg"]),
+            _fmt(p["peak_acceleration"], p["peak_acceleration_deg"]),
+            _fmt(p["peak_jerk"], p["peak_jerk_deg"]),
+        )
+    err_console.print(table)
+
+
+@app.command("cam")
+def cam_command(
+    machine_file: Path = typer.Argument(..., metavar="MACHINE.toml", help="The machine file (TOML)."),
+    output: Path | None = typer.Option(
+        None,
+        "-o",
+        "--output",
+        help=(
+            "Write one revolution of s [m], v [m/s], a [m/s^2], j [m/s^3] on the model axis "
+            "against time [s] and cam angle [deg]: .h5 (HDF5) or .csv."
+        ),
+    ),
+    points: int = typer.Option(3600, "--points", min=2, help="Samples over the revolution written by -o."),
+    as_json: bool = typer.Option(False, "--json", help="Print the peaks and warnings as JSON on stdout."),
+) -> None:
+    """Show the cam program: per segment its law, duration, lift and peak |v|, |a|, |j|.
+
+    Values are on the model axis (roller lift times the cam ratio) at the machine's cam
+    speed, in SI; angles are cam angles in degrees. Jumps of displacement, velocity or
+    acceleration where segments meet are printed as warnings on stderr.
+    """
+    with user_errors():
+        kind = None
+        if output is not None:
+            suffix = output.suffix.lower()
+            if suffix in (".h5", ".hdf5"):
+                kind = "h5"
+            elif suffix == ".csv":
+                kind = "csv"
+            else:
+                raise InputError(f"{output}: -o: unknown output type {output.suffix or '(none)'!r}; use .h5 or .csv")
+            check_writable(output)
+        from camsim.loader import load_machine
+
+        machine = load_machine(machine_file)
+        if machine.cam is None:
+            raise MachineFileError(str(machine_file), "cam", "the machine has no cam")
+        try:
+            program = CamProgram(machine.cam)
+        except ValueError as exc:
+            raise MachineFileError(str(machine_file), "cam", str(exc)) from None
+        peaks = program.segment_peaks()
+        if as_json:
+            print_json(
+                {
+                    "machine": machine.name,
+                    "speed_rad_s": program.speed,
+                    "ratio": program.ratio,
+                    "start_angle_deg": math.degrees(program.start_angle),
+                    "segments": peaks,
+                    "warnings": list(program.warnings),
+                }
+            )
+        else:
+            _print_table(machine, program, peaks)
+        for message in program.warnings:
+            err_console.print(f"camsim: warning: {message}", markup=False)
+        if kind == "h5":
+            write_cam_hdf5(output, machine, program, points)  # type: ignore[arg-type]
+        elif kind == "csv":
+            write_cam_csv(output, program, points)  # type: ignore[arg-type]
+        if output is not None and not as_json:
+            err_console.print(f"wrote {output} ({points} samples over one revolution)", markup=False)
+
+
+__all__ = ["cam_command", "write_cam_csv", "write_cam_hdf5"]
