@@ -1,0 +1,1165 @@
+"""Load a TOML machine file into a :class:`camsim.machine.Machine` in SI units.
+
+This is the only place where the machine file's text, its units and its key names are
+known. Every value is parsed with :func:`camsim.units.to_si` and checked for its
+dimension and range; every problem raises :class:`camsim.errors.MachineFileError`
+naming the file and the key path (``element[3].stiffness``, ``cam.segments[2].lift``,
+``initial.M3.velocity``; array indices are 0-based) with a one-line message.
+
+Command-line overrides (``--set KEY=VALUE``) are applied to the parsed TOML document
+before validation, so an overridden value is checked exactly like one in the file.
+The key grammar addresses masses and elements by name and segments by index::
+
+    cam.speed=150 rpm            cam.segments[2].lift=0.4 in
+    mass.M2.mass=1.7 lb          element.seat.stiffness=9e6
+    simulation.cycles=3          initial.M3.velocity=-0.2 m/s
+
+See ``docs/machine-file.md`` for the full reference.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import difflib
+import math
+import re
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from camsim.errors import MachineFileError
+from camsim.machine import (
+    CAM,
+    CONTACT_LAWS,
+    FIXED_NODES,
+    GROUND,
+    LAWS,
+    MOTIONS,
+    STANDARD_GRAVITY,
+    Cam,
+    CamTable,
+    Contact,
+    Damping,
+    Element,
+    InitialCondition,
+    Machine,
+    Mass,
+    PreloadedLink,
+    Segment,
+    Simulation,
+    Spring,
+)
+from camsim.units import QuantityError, to_si, ureg
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "load_machine",
+    "load_machine_text",
+    "apply_override",
+    "override_keys",
+    "machine_to_dict",
+    "damping_coefficients",
+]
+
+#: The machine-file schema this loader reads (top-level ``schema = 1``).
+SCHEMA_VERSION = 1
+
+# --------------------------------------------------------------------------------------
+# The schema: which keys each table may hold
+# --------------------------------------------------------------------------------------
+TOP_KEYS = ("schema", "machine", "cam", "mass", "element", "simulation", "initial")
+MACHINE_KEYS = ("name", "description")
+CAM_KEYS = ("speed", "ratio", "arm", "drives", "start_angle", "segments", "table")
+SEGMENT_KEYS = ("motion", "law", "duration", "lift")
+MASS_KEYS = ("name", "mass")
+ELEMENT_TYPES = ("spring", "preloaded", "contact")
+ELEMENT_COMMON_KEYS = ("name", "type", "between", "damping", "damping_ratio", "reference_mass")
+ELEMENT_TYPE_KEYS = {
+    "spring": ("stiffness", "preload"),
+    "preloaded": ("push_stiffness", "pull_stiffness", "preload"),
+    "contact": ("gap", "law", "stiffness", "coefficient", "exponent", "restitution", "transducer"),
+}
+#: Contact keys that only some laws accept (the rest are common to all laws).
+_CONTACT_LAW_KEYS = {
+    "linear": ("stiffness", "damping", "damping_ratio", "reference_mass"),
+    "power": ("coefficient", "exponent", "restitution"),
+    "restitution": ("restitution",),
+}
+SIMULATION_KEYS = ("cycles", "warmup_cycles", "sample_rate", "gravity", "duration")
+INITIAL_KEYS = ("displacement", "velocity")
+
+#: Tolerance on the sum of segment durations [deg].
+DURATION_TOLERANCE_DEG = 1e-6
+#: Relative tolerance on the net lift of a segment table (of the total rise).
+LIFT_TOLERANCE = 1e-9
+
+_TABLE_COLUMNS = ("angle", "displacement", "velocity", "acceleration")
+
+
+# --------------------------------------------------------------------------------------
+# Public API
+# --------------------------------------------------------------------------------------
+def load_machine(path: str | Path, overrides: Sequence[str] = ()) -> Machine:
+    """Read and validate a machine file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML machine file. A cam ``table`` CSV is looked up relative to it.
+    overrides : sequence of str
+        ``"KEY=VALUE"`` assignments (as from ``--set``), applied before validation.
+
+    Returns
+    -------
+    Machine
+        The machine in SI units; ``source`` is ``str(path)``.
+
+    Raises
+    ------
+    MachineFileError
+        Missing or unreadable file, invalid TOML, or any invalid key or value.
+    """
+    source = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MachineFileError(source, "", "no such machine file") from None
+    except IsADirectoryError:
+        raise MachineFileError(source, "", "is a directory, not a machine file") from None
+    except UnicodeDecodeError as exc:
+        raise MachineFileError(source, "", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise MachineFileError(source, "", f"cannot read machine file: {exc.strerror or exc}") from None
+    return load_machine_text(text, source=source, base_dir=Path(path).parent, overrides=overrides)
+
+
+def load_machine_text(
+    text: str,
+    source: str = "<string>",
+    base_dir: Path = Path("."),
+    overrides: Sequence[str] = (),
+) -> Machine:
+    """Parse and validate machine-file text.
+
+    Parameters
+    ----------
+    text : str
+        TOML text of a machine file.
+    source : str
+        Name used in error messages and stored as ``Machine.source``.
+    base_dir : Path
+        Directory that a cam ``table`` path is relative to.
+    overrides : sequence of str
+        ``"KEY=VALUE"`` assignments applied to the document before validation.
+
+    Returns
+    -------
+    Machine
+        The machine in SI. ``Machine.text`` is ``text``; with overrides it is the
+        overridden document re-serialised as TOML (so that it reproduces the machine).
+
+    Raises
+    ------
+    MachineFileError
+    """
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise MachineFileError(source, "", f"invalid TOML: {exc}") from None
+    origin: dict[str, str] = {}
+    for assignment in overrides:
+        path = _apply_override(doc, assignment, source)
+        origin[path] = assignment
+    try:
+        machine = _Validator(source, Path(base_dir)).machine(doc)
+    except MachineFileError as exc:
+        if exc.key in origin:
+            raise MachineFileError(
+                exc.file, exc.key, f"{exc.message} (value from --set {origin[exc.key]})"
+            ) from None
+        raise
+    if overrides:
+        import tomli_w
+
+        header = "".join(f"# --set {a}\n" for a in overrides)
+        text = f"# {source} with command-line overrides:\n{header}" + tomli_w.dumps(doc)
+    return _replace_text(machine, text)
+
+
+def apply_override(doc: dict, assignment: str, source: str) -> None:
+    """Apply one ``KEY=VALUE`` assignment to a parsed machine document, in place.
+
+    Parameters
+    ----------
+    doc : dict
+        The document as returned by :func:`tomllib.loads`.
+    assignment : str
+        ``"cam.speed=150 rpm"``, ``"mass.M2.mass=1.7 lb"``, ``"cam.segments[2].lift=0.4 in"``,
+        ``"element.seat.stiffness=9e6"``, ``"initial.M3.velocity=-0.2 m/s"``. VALUE is read
+        as a TOML value when it parses as one (``3``, ``true``, ``"150 rpm"``), otherwise
+        taken as a string.
+    source : str
+        The machine file's name, for error messages.
+
+    Raises
+    ------
+    MachineFileError
+        A malformed assignment, or a key the schema does not have (with a suggestion), or
+        a mass, element or segment that the document does not contain.
+    """
+    _apply_override(doc, assignment, source)
+
+
+def override_keys(doc: dict) -> list[str]:
+    """List every key of ``doc`` that an override can address.
+
+    Parameters
+    ----------
+    doc : dict
+        A parsed machine document.
+
+    Returns
+    -------
+    list of str
+        Keys in override syntax (``cam.segments[0].lift``, ``mass.M1.mass``,
+        ``element.K12.stiffness``, ``initial.M2.velocity``...), including keys that the
+        schema allows but the file leaves at their default.
+    """
+    keys = ["schema"] + [f"machine.{k}" for k in MACHINE_KEYS]
+    cam = doc.get("cam")
+    keys += [f"cam.{k}" for k in CAM_KEYS if k != "segments"]
+    if isinstance(cam, dict) and isinstance(cam.get("segments"), list):
+        for i, _ in enumerate(cam["segments"]):
+            keys += [f"cam.segments[{i}].{k}" for k in SEGMENT_KEYS]
+    masses = _named_rows(doc.get("mass"))
+    for name in masses:
+        keys += [f"mass.{name}.{k}" for k in MASS_KEYS if k != "name"]
+    for name, row in _named_rows(doc.get("element")).items():
+        kind = row.get("type")
+        extra = ELEMENT_TYPE_KEYS.get(kind, ()) if isinstance(kind, str) else ()
+        keys += [f"element.{name}.{k}" for k in ELEMENT_COMMON_KEYS + extra if k != "name"]
+    keys += [f"simulation.{k}" for k in SIMULATION_KEYS]
+    driven = cam.get("drives") if isinstance(cam, dict) else None
+    for name in masses:
+        if name != driven:
+            keys += [f"initial.{name}.{k}" for k in INITIAL_KEYS]
+    return keys
+
+
+def damping_coefficients(machine: Machine, element: Element) -> dict[str, float]:
+    """Viscous damping coefficient(s) of an element [N·s/m].
+
+    With ``damping_ratio`` ζ, c = 2ζ·√(k·m_ref) (spec §3), m_ref being
+    ``reference_mass`` or the upper node's mass (the lower node's when the upper is
+    ground or the cam).
+
+    Returns
+    -------
+    dict
+        ``{"c": ...}`` for a spring or linear contact, ``{"c_push": ..., "c_pull": ...}``
+        for a preloaded link, ``{}`` for power-law and restitution contacts (which take
+        no viscous damping).
+    """
+    damping = element.damping
+    if isinstance(element, PreloadedLink):
+        stiffnesses = {"c_push": element.push_stiffness, "c_pull": element.pull_stiffness}
+    elif isinstance(element, Spring):
+        stiffnesses = {"c": element.stiffness}
+    elif isinstance(element, Contact) and element.law == "linear":
+        stiffnesses = {"c": element.stiffness}
+    else:
+        return {}
+    if damping.coefficient is not None:
+        return {key: damping.coefficient for key in stiffnesses}
+    if damping.ratio is None:
+        return {key: 0.0 for key in stiffnesses}
+    m_ref = machine.mass_of(reference_mass_of(element))
+    return {key: 2.0 * damping.ratio * math.sqrt(k * m_ref) for key, k in stiffnesses.items()}
+
+
+def reference_mass_of(element: Element) -> str:
+    """Name of the mass whose value sets c = 2ζ√(k·m) for ``element`` (spec §3)."""
+    if element.damping.reference_mass is not None:
+        return element.damping.reference_mass
+    return element.lower if element.upper in FIXED_NODES else element.upper
+
+
+def machine_to_dict(machine: Machine) -> dict[str, Any]:
+    """A JSON-able description of a machine in SI units.
+
+    Returns
+    -------
+    dict
+        ``name``, ``source``, ``units`` (the SI unit of every quantity key used below),
+        ``cam`` (or None), ``masses``, ``elements`` (with the derived damping
+        coefficients ``c`` or ``c_push``/``c_pull``), ``simulation``, ``initial``.
+    """
+    cam = machine.cam
+    cam_dict: dict[str, Any] | None = None
+    if cam is not None:
+        cam_dict = {
+            "speed": cam.speed,
+            "period": cam.period,
+            "ratio": cam.ratio,
+            "arm": cam.arm,
+            "drives": cam.drives,
+            "start_angle": cam.start_angle,
+            "segments": [
+                {"motion": s.motion, "law": s.law, "duration": s.duration, "lift": s.lift}
+                for s in cam.segments
+            ],
+            "table": None,
+        }
+        if cam.table is not None:
+            t = cam.table
+            cam_dict["table"] = {
+                "source": t.source,
+                "angle": list(t.angle),
+                "displacement": list(t.displacement),
+                "velocity": None if t.velocity is None else list(t.velocity),
+                "acceleration": None if t.acceleration is None else list(t.acceleration),
+            }
+    elements = []
+    for e in machine.elements:
+        row: dict[str, Any] = {"name": e.name, "lower": e.lower, "upper": e.upper}
+        if isinstance(e, PreloadedLink):
+            row.update(
+                type="preloaded",
+                push_stiffness=e.push_stiffness,
+                pull_stiffness=e.pull_stiffness,
+                preload=e.preload,
+                separation_deflection=e.separation_deflection,
+            )
+        elif isinstance(e, Spring):
+            row.update(type="spring", stiffness=e.stiffness, preload=e.preload)
+        elif isinstance(e, Contact):
+            row.update(type="contact", law=e.law, gap=e.gap, transducer=e.transducer)
+            if e.law == "linear":
+                row["stiffness"] = e.stiffness
+            elif e.law == "power":
+                row.update(coefficient=e.coefficient, exponent=e.exponent)
+            row["restitution"] = e.restitution
+        row["damping"] = e.damping.coefficient
+        row["damping_ratio"] = e.damping.ratio
+        row["reference_mass"] = (
+            reference_mass_of(e) if e.damping.ratio is not None else e.damping.reference_mass
+        )
+        row.update(damping_coefficients(machine, e))
+        elements.append(row)
+    sim = machine.simulation
+    return {
+        "name": machine.name,
+        "source": machine.source,
+        "units": {
+            "speed": "rad/s",
+            "period": "s",
+            "arm": "m",
+            "start_angle": "rad",
+            "duration": "rad (segments) or s (simulation)",
+            "lift": "m (at the roller)",
+            "angle": "rad",
+            "displacement": "m",
+            "velocity": "m/s",
+            "acceleration": "m/s^2",
+            "mass": "kg",
+            "stiffness": "N/m",
+            "push_stiffness": "N/m",
+            "pull_stiffness": "N/m",
+            "preload": "N",
+            "separation_deflection": "m",
+            "gap": "m",
+            "coefficient": "N/m^exponent",
+            "damping": "N*s/m",
+            "c": "N*s/m",
+            "c_push": "N*s/m",
+            "c_pull": "N*s/m",
+            "sample_rate": "Hz",
+            "gravity": "m/s^2",
+        },
+        "cam": cam_dict,
+        "masses": [
+            {"name": m.name, "mass": m.mass, "driven": cam is not None and cam.drives == m.name}
+            for m in machine.masses
+        ],
+        "elements": elements,
+        "simulation": {
+            "cycles": sim.cycles,
+            "warmup_cycles": sim.warmup_cycles,
+            "sample_rate": sim.sample_rate,
+            "gravity": sim.gravity,
+            "duration": sim.duration,
+        },
+        "initial": [
+            {"mass": i.mass, "displacement": i.displacement, "velocity": i.velocity}
+            for i in machine.initial
+        ],
+    }
+
+
+# --------------------------------------------------------------------------------------
+# Overrides
+# --------------------------------------------------------------------------------------
+_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
+
+
+def _parse_value(text: str) -> Any:
+    """VALUE of ``KEY=VALUE``: a TOML value if it parses as one, else the string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def _suggest(word: str, choices: Sequence[str]) -> str:
+    """``"did you mean 'x'?"`` or a list of the valid choices."""
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    if close:
+        return f"did you mean '{close[0]}'?"
+    return "valid: " + ", ".join(choices) if choices else "there is none"
+
+
+def _named_rows(rows: Any) -> dict[str, dict]:
+    if not isinstance(rows, list):
+        return {}
+    return {r["name"]: r for r in rows if isinstance(r, dict) and isinstance(r.get("name"), str)}
+
+
+def _apply_override(doc: dict, assignment: str, source: str) -> str:
+    """Apply ``assignment``; return the canonical key path it set (for messages)."""
+    if "=" not in assignment:
+        raise MachineFileError(source, assignment, 'override must be KEY=VALUE, e.g. cam.speed="150 rpm"')
+    key, _, raw = assignment.partition("=")
+    key = key.strip()
+    value = _parse_value(raw)
+    parts = key.split(".")
+    matches = [_PART.match(p) for p in parts]
+    if not key or not all(matches):
+        raise MachineFileError(source, key, "malformed override key (write e.g. cam.segments[2].lift)")
+    names = [(m.group(1), None if m.group(2) is None else int(m.group(2))) for m in matches]
+
+    def unknown(valid: Sequence[str], word: str) -> MachineFileError:
+        return MachineFileError(source, key, f"unknown key; {_suggest(word, valid)}")
+
+    head, head_index = names[0]
+    if head not in TOP_KEYS:
+        raise unknown(TOP_KEYS, head)
+    if head == "schema":
+        if len(names) != 1 or head_index is not None:
+            raise MachineFileError(source, key, "schema takes a number: schema=1")
+        doc["schema"] = value
+        return "schema"
+    if len(names) == 1:
+        raise MachineFileError(source, key, f"name a key inside [{head}], e.g. {_example(head)}")
+
+    if head in ("machine", "simulation"):
+        valid = MACHINE_KEYS if head == "machine" else SIMULATION_KEYS
+        (leaf, leaf_index), rest = names[1], names[2:]
+        if head_index is not None or leaf_index is not None or rest or leaf not in valid:
+            raise unknown([f"{head}.{k}" for k in valid], key)
+        _table(doc, head, source)[leaf] = value
+        return f"{head}.{leaf}"
+
+    if head == "cam":
+        (leaf, leaf_index), rest = names[1], names[2:]
+        if head_index is not None or leaf not in CAM_KEYS:
+            raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
+        cam = _table(doc, "cam", source)
+        if leaf != "segments":
+            if leaf_index is not None or rest:
+                raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
+            cam[leaf] = value
+            return f"cam.{leaf}"
+        segments = cam.get("segments")
+        if leaf_index is None or len(rest) != 1 or rest[0][1] is not None:
+            raise MachineFileError(source, key, "address one segment key, e.g. cam.segments[2].lift")
+        if not isinstance(segments, list) or leaf_index >= len(segments):
+            count = len(segments) if isinstance(segments, list) else 0
+            raise MachineFileError(
+                source, key, f"no segment {leaf_index}: the file has {count} (indices start at 0)"
+            )
+        seg_key = rest[0][0]
+        if seg_key not in SEGMENT_KEYS:
+            raise unknown([f"cam.segments[{leaf_index}].{k}" for k in SEGMENT_KEYS], key)
+        if not isinstance(segments[leaf_index], dict):
+            raise MachineFileError(source, key, "that segment is not a table")
+        segments[leaf_index][seg_key] = value
+        return f"cam.segments[{leaf_index}].{seg_key}"
+
+    # mass.<name>.<key>, element.<name>.<key>, initial.<mass>.<key>
+    # (mass[1].mass and element[3].stiffness, as in error messages, are accepted too)
+    if head in ("mass", "element"):
+        rows = doc.get(head)
+        if not isinstance(rows, list):
+            raise MachineFileError(source, key, f"the file has no [[{head}]]")
+        if head_index is not None:
+            if head_index >= len(rows) or not isinstance(rows[head_index], dict):
+                raise MachineFileError(
+                    source, key, f"no {head}[{head_index}]: the file has {len(rows)} (indices start at 0)"
+                )
+            index, rest = head_index, names[1:]
+        else:
+            row_name = names[1][0]
+            by_name = [i for i, r in enumerate(rows) if isinstance(r, dict) and r.get("name") == row_name]
+            if names[1][1] is not None or not by_name:
+                existing = list(_named_rows(rows))
+                raise MachineFileError(
+                    source, key, f"no {head} named '{row_name}'; {_suggest(row_name, existing)}"
+                )
+            index, rest = by_name[0], names[2:]
+        row = rows[index]
+        if head == "mass":
+            valid = MASS_KEYS
+        else:
+            kind = row.get("type")
+            valid = ELEMENT_COMMON_KEYS + (ELEMENT_TYPE_KEYS.get(kind, ()) if isinstance(kind, str) else ())
+        prefix = f"{head}[{index}]" if head_index is not None else f"{head}.{names[1][0]}"
+        if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in valid:
+            word = rest[0][0] if rest else ""
+            raise unknown([f"{prefix}.{k}" for k in valid], f"{prefix}.{word}")
+        row[rest[0][0]] = value
+        return f"{head}[{index}].{rest[0][0]}"
+
+    # initial.<mass>.<key>
+    mass_name = names[1][0]
+    masses = list(_named_rows(doc.get("mass")))
+    if head_index is not None or names[1][1] is not None:
+        raise MachineFileError(source, key, "address initial conditions as initial.<mass>.<key>")
+    if mass_name not in masses:
+        raise MachineFileError(source, key, f"no mass named '{mass_name}'; {_suggest(mass_name, masses)}")
+    rest = names[2:]
+    if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in INITIAL_KEYS:
+        word = rest[0][0] if rest else ""
+        raise unknown([f"initial.{mass_name}.{k}" for k in INITIAL_KEYS], f"initial.{mass_name}.{word}")
+    initial = _table(doc, "initial", source)
+    entry = initial.setdefault(mass_name, {})
+    if not isinstance(entry, dict):
+        raise MachineFileError(source, f"initial.{mass_name}", "expected a table")
+    entry[rest[0][0]] = value
+    return f"initial.{mass_name}.{rest[0][0]}"
+
+
+def _example(head: str) -> str:
+    return {
+        "machine": "machine.name=...",
+        "cam": 'cam.speed="150 rpm"',
+        "mass": 'mass.M2.mass="1.7 lb"',
+        "element": "element.seat.stiffness=9e6",
+        "simulation": "simulation.cycles=3",
+        "initial": 'initial.M3.velocity="-0.2 m/s"',
+    }[head]
+
+
+def _table(doc: dict, name: str, source: str) -> dict:
+    table = doc.setdefault(name, {})
+    if not isinstance(table, dict):
+        raise MachineFileError(source, name, "expected a table")
+    return table
+
+
+def _replace_text(machine: Machine, text: str) -> Machine:
+    import dataclasses
+
+    return dataclasses.replace(machine, text=text)
+
+
+# --------------------------------------------------------------------------------------
+# Validation
+# --------------------------------------------------------------------------------------
+def _fmt(value: Any) -> str:
+    """A value as written in TOML, for messages."""
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)
+
+
+def _si_text(value: float, unit: str) -> str:
+    return f"{value:.6g} {unit}".strip()
+
+
+class _Validator:
+    """Walk a parsed document and build the Machine, raising on the first problem."""
+
+    def __init__(self, source: str, base_dir: Path):
+        self.source = source
+        self.base_dir = base_dir
+
+    # -- helpers ------------------------------------------------------------------
+    def error(self, path: str, message: str) -> MachineFileError:
+        return MachineFileError(self.source, path, message)
+
+    def check_keys(self, table: dict, valid: Sequence[str], path: str, what: str = "") -> None:
+        for key in table:
+            if key not in valid:
+                where = f"{path}.{key}" if path else key
+                suffix = f" {what}" if what else ""
+                raise self.error(where, f"unknown key{suffix}; {_suggest(key, valid)}")
+
+    def table(self, parent: dict, key: str, path: str, required: bool = False) -> dict | None:
+        value = parent.get(key)
+        if value is None:
+            if required:
+                raise self.error(path, f"missing required table [{path}]")
+            return None
+        if not isinstance(value, dict):
+            raise self.error(path, f"expected a table [{path}], got {_fmt(value)}")
+        return value
+
+    def rows(self, parent: dict, key: str, path: str) -> list[dict]:
+        value = parent.get(key)
+        if value is None:
+            return []
+        if not isinstance(value, list) or not all(isinstance(r, dict) for r in value):
+            raise self.error(path, f"expected an array of tables ([[{key}]])")
+        return value
+
+    def quantity(
+        self,
+        table: dict,
+        key: str,
+        path: str,
+        dimension: str,
+        *,
+        required: bool = False,
+        default: float | None = None,
+        bare_unit: str | None = None,
+        minimum: float | None = None,
+        strict: bool = False,
+        example: str = "",
+    ) -> float | None:
+        """Read ``table[key]`` as a quantity of ``dimension`` in SI, checked against a minimum."""
+        where = f"{path}.{key}"
+        if key not in table:
+            if required:
+                hint = f" (e.g. {key} = {example})" if example else ""
+                raise self.error(where, f"missing required key{hint}")
+            return default
+        value = table[key]
+        try:
+            number = to_si(value, dimension, bare_unit=bare_unit)
+        except QuantityError as exc:
+            raise self.error(where, str(exc)) from None
+        self.check_min(number, minimum, strict, where, value)
+        return number
+
+    def number(
+        self,
+        table: dict,
+        key: str,
+        path: str,
+        *,
+        required: bool = False,
+        default: float | None = None,
+        minimum: float | None = None,
+        strict: bool = False,
+        maximum: float | None = None,
+    ) -> float | None:
+        """Read a dimensionless number (int, float or a string such as ``"6 %"``)."""
+        where = f"{path}.{key}"
+        if key not in table:
+            if required:
+                raise self.error(where, "missing required key (a number)")
+            return default
+        value = table[key]
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            number = float(value)
+            if not math.isfinite(number):
+                raise self.error(where, f"expected a finite number, got {_fmt(value)}")
+        else:
+            try:
+                number = to_si(value, "dimensionless")
+            except QuantityError:
+                raise self.error(where, f"expected a number, got {_fmt(value)}") from None
+        self.check_min(number, minimum, strict, where, value)
+        if maximum is not None and number > maximum:
+            raise self.error(where, f"must be at most {maximum:g}, got {_fmt(value)}")
+        return number
+
+    def integer(self, table: dict, key: str, path: str, default: int, minimum: int) -> int:
+        where = f"{path}.{key}"
+        if key not in table:
+            return default
+        value = table[key]
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(where, f"expected a whole number, got {_fmt(value)}")
+        if value < minimum:
+            raise self.error(where, f"must be at least {minimum}, got {value}")
+        return value
+
+    def string(self, table: dict, key: str, path: str, *, required: bool = False) -> str | None:
+        where = f"{path}.{key}"
+        if key not in table:
+            if required:
+                raise self.error(where, "missing required key (a string)")
+            return None
+        value = table[key]
+        if not isinstance(value, str):
+            raise self.error(where, f"expected a string, got {_fmt(value)}")
+        return value
+
+    def choice(self, table: dict, key: str, path: str, choices: Sequence[str], *, required: bool) -> str | None:
+        value = self.string(table, key, path, required=required)
+        if value is not None and value not in choices:
+            raise self.error(f"{path}.{key}", f'unknown {key} "{value}"; {_suggest(value, choices)}')
+        return value
+
+    def check_min(self, number: float, minimum: float | None, strict: bool, where: str, value: Any) -> None:
+        if minimum is None:
+            return
+        if strict and not number > minimum:
+            raise self.error(where, f"must be greater than {minimum:g}, got {_fmt(value)}")
+        if not strict and number < minimum:
+            raise self.error(where, f"must not be negative, got {_fmt(value)}" if minimum == 0
+                             else f"must be at least {minimum:g}, got {_fmt(value)}")
+
+    # -- document -----------------------------------------------------------------
+    def machine(self, doc: dict) -> Machine:
+        self.check_keys(doc, TOP_KEYS, "")
+        if "schema" not in doc:
+            raise self.error("schema", f"missing required key (write schema = {SCHEMA_VERSION} at the top)")
+        schema = doc["schema"]
+        if isinstance(schema, bool) or schema != SCHEMA_VERSION:
+            raise self.error("schema", f"this camsim reads schema {SCHEMA_VERSION}, got {_fmt(schema)}")
+        head = self.table(doc, "machine", "machine", required=True)
+        self.check_keys(head, MACHINE_KEYS, "machine")
+        name = self.string(head, "name", "machine", required=True)
+        if not name.strip():
+            raise self.error("machine.name", "must not be empty")
+        self.string(head, "description", "machine")
+
+        masses = self.masses(doc)
+        mass_names = [m.name for m in masses]
+        cam_table = self.table(doc, "cam", "cam")
+        cam = self.cam(cam_table, mass_names) if cam_table is not None else None
+        elements = self.elements(doc, mass_names, masses, cam)
+        simulation = self.simulation(doc, cam)
+        initial = self.initial(doc, mass_names, cam)
+        self.connectivity(masses, elements, cam)
+        return Machine(
+            name=name,
+            cam=cam,
+            masses=tuple(masses),
+            elements=tuple(elements),
+            simulation=simulation,
+            initial=tuple(initial),
+            source=self.source,
+        )
+
+    # -- cam ----------------------------------------------------------------------
+    def cam(self, table: dict, mass_names: list[str]) -> Cam:
+        self.check_keys(table, CAM_KEYS, "cam")
+        speed = self.quantity(table, "speed", "cam", "angular_speed", required=True, minimum=0.0,
+                              strict=True, example='"120 rpm"')
+        ratio = self.number(table, "ratio", "cam", default=1.0, minimum=0.0, strict=True)
+        arm = self.quantity(table, "arm", "cam", "length", minimum=0.0, strict=True)
+        start = self.quantity(table, "start_angle", "cam", "angle", default=0.0, bare_unit="deg")
+        drives = self.string(table, "drives", "cam")
+        if drives is not None and drives not in mass_names:
+            raise self.error("cam.drives", f'"{drives}" is not a mass; {_suggest(drives, mass_names)}')
+        has_segments, has_table = "segments" in table, "table" in table
+        if has_segments and has_table:
+            raise self.error("cam.table", "give either cam.segments or cam.table, not both")
+        if not has_segments and not has_table:
+            raise self.error("cam.segments", "missing required key: give cam.segments (a segment table) "
+                             "or cam.table (a CSV profile)")
+        segments: tuple[Segment, ...] = ()
+        profile = None
+        if has_segments:
+            segments = self.segments(table["segments"], arm)
+        else:
+            profile = self.cam_table(table["table"], arm)
+        return Cam(speed=speed, segments=segments, table=profile, ratio=ratio, arm=arm,
+                   drives=drives, start_angle=start)
+
+    def lift(self, row: dict, path: str, arm: float | None) -> float:
+        """A lift at the roller [m]: a length, or an angle times the follower arm."""
+        value = row["lift"]
+        where = f"{path}.lift"
+        try:
+            return to_si(value, "length")
+        except QuantityError as length_error:
+            if isinstance(value, str) and not str(length_error).startswith('"mil"'):
+                try:
+                    angle = to_si(value, "angle")
+                except QuantityError:
+                    pass
+                else:
+                    if arm is None:
+                        raise self.error(where, f"an angular lift {_fmt(value)} needs cam.arm "
+                                         "(the follower arm that turns it into arc length)") from None
+                    return arm * angle
+            message = str(length_error)
+            if arm is not None:
+                message = message.replace("expected [length]", "expected [length] or [angle]", 1)
+            raise self.error(where, message) from None
+
+    def segments(self, value: Any, arm: float | None) -> tuple[Segment, ...]:
+        if not isinstance(value, list) or not all(isinstance(r, dict) for r in value):
+            raise self.error("cam.segments", "expected an array of tables "
+                             '([{ motion = "rise", law = "cycloidal", duration = "90 deg", lift = "1 in" }, ...])')
+        if not value:
+            raise self.error("cam.segments", "the segment table is empty")
+        result = []
+        for i, row in enumerate(value):
+            path = f"cam.segments[{i}]"
+            self.check_keys(row, SEGMENT_KEYS, path)
+            motion = self.choice(row, "motion", path, MOTIONS, required=True)
+            if motion == "dwell":
+                if "law" in row:
+                    raise self.error(f"{path}.law", "a dwell has no law; remove it")
+                law = None
+            else:
+                law = self.choice(row, "law", path, LAWS, required=True)
+            duration = self.quantity(row, "duration", path, "angle", required=True, bare_unit="deg",
+                                     minimum=0.0, strict=True, example='"50 deg"')
+            if "lift" in row:
+                lift = self.lift(row, path, arm)
+            elif motion == "dwell":
+                lift = 0.0
+            else:
+                raise self.error(f"{path}.lift", 'missing required key (e.g. lift = "0.5 in")')
+            if motion == "dwell" and lift != 0.0:
+                raise self.error(f"{path}.lift", f"a dwell has no lift, got {_fmt(row['lift'])}")
+            if motion != "dwell" and not lift > 0.0:
+                raise self.error(f"{path}.lift", f"a {motion} needs a positive lift (a fall's lift is the "
+                                 f"distance it descends), got {_fmt(row['lift'])}")
+            result.append(Segment(motion=motion, law=law, duration=duration, lift=lift))
+
+        total_deg = math.degrees(sum(s.duration for s in result))
+        if abs(total_deg - 360.0) > DURATION_TOLERANCE_DEG:
+            raise self.error("cam.segments", f"durations add up to {total_deg:.9g} deg, not 360 deg")
+        rises = [i for i, s in enumerate(result) if s.motion == "rise"]
+        falls = [i for i, s in enumerate(result) if s.motion == "fall"]
+        total_rise = sum(result[i].lift for i in rises)
+        tolerance = LIFT_TOLERANCE * max(total_rise, 1e-3)
+        level = 0.0
+        for i, s in enumerate(result):
+            if s.motion == "rise":
+                level += s.lift
+            elif s.motion == "fall":
+                if s.lift > level + tolerance:
+                    raise self.error(
+                        f"cam.segments[{i}].lift",
+                        f"a fall larger than the preceding lift: it descends {_si_text(s.lift, 'm')} from "
+                        f"{_si_text(level, 'm')} above the base circle (the table starts on the base "
+                        "circle; to start elsewhere rotate the rows and set cam.start_angle)",
+                    )
+                level -= s.lift
+        if abs(level) > tolerance:
+            total_fall = sum(result[i].lift for i in falls)
+            raise self.error(
+                "cam.segments",
+                f"net lift over the cycle is {_si_text(level, 'm')}, not zero: rises (rows "
+                f"{', '.join(map(str, rises))}) total {_si_text(total_rise, 'm')}, falls (rows "
+                f"{', '.join(map(str, falls)) or 'none'}) total {_si_text(total_fall, 'm')}",
+            )
+        return tuple(result)
+
+    def cam_table(self, value: Any, arm: float | None) -> CamTable:
+        where = "cam.table"
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(where, f"expected the path of a CSV file, got {_fmt(value)}")
+        path = Path(value)
+        if not path.is_absolute():
+            path = self.base_dir / path
+        try:
+            text = path.read_text(encoding="utf-8-sig")
+        except FileNotFoundError:
+            raise self.error(where, f"no such file: {path}") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise self.error(where, f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
+        lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1)
+                 if line.strip() and not line.lstrip().startswith("#")]
+        if not lines:
+            raise self.error(where, f"{value}: the file is empty")
+        header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
+        columns: dict[str, tuple[int, str | None]] = {}
+        for index, cell in enumerate(header):
+            match = re.fullmatch(r"\s*([A-Za-z_]+)\s*(?:\[([^\]]*)\])?\s*", cell)
+            name = match.group(1).lower() if match else cell.strip()
+            if not match or name not in _TABLE_COLUMNS:
+                raise self.error(where, f"{value} line {header_line}: unknown column {cell.strip()!r}; "
+                                 f"{_suggest(name, _TABLE_COLUMNS)} (header: angle [deg], displacement [in], "
+                                 "optional velocity, acceleration)")
+            if name in columns:
+                raise self.error(where, f"{value} line {header_line}: column '{name}' appears twice")
+            unit = match.group(2).strip() if match.group(2) is not None else None
+            columns[name] = (index, unit or None)
+        for required in ("angle", "displacement"):
+            if required not in columns:
+                raise self.error(where, f"{value}: missing column '{required}' "
+                                 f"(header has: {', '.join(c.strip() for c in header)})")
+        factors = {name: self.column_factor(name, unit, arm, value) for name, (_, unit) in columns.items()}
+        data: dict[str, list[float]] = {name: [] for name in columns}
+        for line_no, line in lines[1:]:
+            cells = next(csv.reader([line]))
+            if len(cells) != len(header):
+                raise self.error(where, f"{value} line {line_no}: {len(cells)} values, the header has {len(header)}")
+            for name, (index, _) in columns.items():
+                try:
+                    number = float(cells[index])
+                except ValueError:
+                    raise self.error(where, f"{value} line {line_no}: {name} {cells[index].strip()!r} "
+                                     "is not a number") from None
+                if not math.isfinite(number):
+                    raise self.error(where, f"{value} line {line_no}: {name} is not finite")
+                data[name].append(number * factors[name])
+        angles = data["angle"]
+        if len(angles) < 4:
+            raise self.error(where, f"{value}: {len(angles)} data rows; a periodic spline needs at least 4")
+        data_lines = [n for n, _ in lines[1:]]
+        for k in range(1, len(angles)):
+            if not angles[k] > angles[k - 1]:
+                raise self.error(where, f"{value} line {data_lines[k]}: angle {math.degrees(angles[k]):.6g} deg "
+                                 f"does not increase (previous row {math.degrees(angles[k - 1]):.6g} deg); "
+                                 "angles must increase strictly")
+        span = math.degrees(angles[-1] - angles[0])
+        if not span < 360.0:
+            raise self.error(where, f"{value}: angles span {span:.6g} deg; a table covers less than one "
+                             "revolution (leave out the row at 360 deg, the spline is periodic)")
+        return CamTable(
+            angle=tuple(angles),
+            displacement=tuple(data["displacement"]),
+            velocity=tuple(data["velocity"]) if "velocity" in data else None,
+            acceleration=tuple(data["acceleration"]) if "acceleration" in data else None,
+            source=value,
+        )
+
+    def column_factor(self, name: str, unit: str | None, arm: float | None, file: str) -> float:
+        """SI factor of a table column's unit (angle column → rad; others → m, m/s, m/s^2)."""
+        where = "cam.table"
+        if name == "angle":
+            try:
+                return to_si(1.0, "angle", bare_unit=unit or "deg")
+            except Exception:
+                raise self.error(where, f"{file}: column angle [{unit}] is not an angle unit") from None
+        if unit is None:
+            return 1.0
+        linear = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s**2"}[name]
+        angular = {"displacement": "rad", "velocity": "rad/s", "acceleration": "rad/s**2"}[name]
+        if re.search(r"(?<![A-Za-z_])mils?(?![A-Za-z_])", unit):
+            raise self.error(where, f'{file}: column {name} [{unit}]: "mil" is ambiguous (pint reads it '
+                             'as an angle); write "thou" or "0.001 in"')
+        try:
+            quantity = ureg.Quantity(1.0, unit)
+        except Exception:
+            raise self.error(where, f"{file}: column {name} [{unit}]: unknown unit") from None
+        # pint treats the radian as dimensionless: try the length dimension first.
+        try:
+            return float(quantity.to(linear).magnitude)
+        except Exception:
+            pass
+        try:
+            factor = float(quantity.to(angular).magnitude)
+        except Exception:
+            raise self.error(where, f"{file}: column {name} [{unit}] is not a {linear} unit "
+                             f"(or {angular} with cam.arm)") from None
+        if arm is None:
+            raise self.error(where, f"{file}: column {name} [{unit}] is angular; set cam.arm (the "
+                             "follower arm) to turn it into arc length")
+        return factor * arm
+
+    # -- masses -------------------------------------------------------------------
+    def masses(self, doc: dict) -> list[Mass]:
+        rows = self.rows(doc, "mass", "mass")
+        if not rows:
+            raise self.error("mass", 'the machine has no masses: add [[mass]] tables (name = "M1", mass = "2 kg")')
+        result: list[Mass] = []
+        for i, row in enumerate(rows):
+            path = f"mass[{i}]"
+            self.check_keys(row, MASS_KEYS, path)
+            name = self.string(row, "name", path, required=True)
+            if not name.strip():
+                raise self.error(f"{path}.name", "must not be empty")
+            if name in FIXED_NODES:
+                raise self.error(f"{path}.name", f'"{name}" is a reserved node name (ground, cam)')
+            if any(m.name == name for m in result):
+                raise self.error(f"{path}.name", f'duplicate mass name "{name}"')
+            mass = self.quantity(row, "mass", path, "mass", required=True, minimum=0.0, strict=True,
+                                 example='"1.6388 lb"')
+            result.append(Mass(name=name, mass=mass))
+        return result
+
+    # -- elements -----------------------------------------------------------------
+    def elements(self, doc: dict, mass_names: list[str], masses: list[Mass], cam: Cam | None) -> list[Element]:
+        rows = self.rows(doc, "element", "element")
+        nodes = [GROUND, CAM, *mass_names]
+        driven = cam.drives if cam is not None else None
+        result: list[Element] = []
+        for i, row in enumerate(rows):
+            path = f"element[{i}]"
+            name = self.string(row, "name", path, required=True)
+            if not name.strip():
+                raise self.error(f"{path}.name", "must not be empty")
+            if any(e.name == name for e in result):
+                raise self.error(f"{path}.name", f'duplicate element name "{name}"')
+            kind = self.choice(row, "type", path, ELEMENT_TYPES, required=True)
+            self.check_keys(row, ELEMENT_COMMON_KEYS + ELEMENT_TYPE_KEYS[kind], path, f"for a {kind} element")
+            lower, upper = self.between(row, path, nodes)
+            if kind == "contact":
+                law = self.choice(row, "law", path, CONTACT_LAWS, required=False) or "linear"
+                key_laws = self.contact_key_laws()
+                for key in row:
+                    if key in key_laws and law not in key_laws[key]:
+                        takes = " or ".join(f'law = "{x}"' for x in key_laws[key])
+                        hint = ("; a power-law contact is damped through restitution (Hunt-Crossley)"
+                                if key.startswith("damping") and law == "power" else "")
+                        raise self.error(f"{path}.{key}",
+                                         f'not used by a contact with law = "{law}" (only {takes}){hint}')
+            damping = self.damping(row, path, lower, upper, mass_names)
+            common = dict(name=name, lower=lower, upper=upper, damping=damping)
+            if kind == "spring":
+                k = self.quantity(row, "stiffness", path, "stiffness", required=True, minimum=0.0,
+                                  example='"9051 lbf/in"')
+                preload = self.quantity(row, "preload", path, "force", default=0.0)
+                if k == 0.0 and not (damping.coefficient or 0.0) > 0.0:
+                    raise self.error(f"{path}.stiffness", "a spring with zero stiffness needs a positive "
+                                     "damping coefficient (damping = ...), else it does nothing")
+                element: Element = Spring(**common, stiffness=k, preload=preload)
+            elif kind == "preloaded":
+                push = self.quantity(row, "push_stiffness", path, "stiffness", required=True, minimum=0.0,
+                                     strict=True, example='"8144 lbf/in"')
+                pull = self.quantity(row, "pull_stiffness", path, "stiffness", required=True, minimum=0.0,
+                                     strict=True, example='"219 lbf/in"')
+                preload = self.quantity(row, "preload", path, "force", required=True, minimum=0.0,
+                                        strict=True, example='"28.12 lbf"')
+                element = PreloadedLink(**common, push_stiffness=push, pull_stiffness=pull, preload=preload)
+            else:
+                element = self.contact(row, path, common, driven)
+            if damping.ratio is not None and isinstance(element, Spring) and element.stiffness == 0.0:
+                raise self.error(f"{path}.damping_ratio", "a damping ratio needs stiffness > 0; give damping "
+                                 "(a coefficient) instead")
+            if driven is not None and CAM in (lower, upper) and driven in (lower, upper):
+                raise self.error(f"{path}.between", f"{driven} is driven by the cam (cam.drives), so an "
+                                 f"element between it and the cam never deflects")
+            result.append(element)
+        return result
+
+    @staticmethod
+    def contact_key_laws() -> dict[str, tuple[str, ...]]:
+        """For each law-specific contact key, the laws that take it."""
+        table: dict[str, list[str]] = {}
+        for law, keys in _CONTACT_LAW_KEYS.items():
+            for key in keys:
+                table.setdefault(key, []).append(law)
+        return {k: tuple(v) for k, v in table.items()}
+
+    def between(self, row: dict, path: str, nodes: list[str]) -> tuple[str, str]:
+        where = f"{path}.between"
+        if "between" not in row:
+            raise self.error(where, 'missing required key (e.g. between = ["M2", "M3"], lower node first)')
+        value = row["between"]
+        if not (isinstance(value, list) and len(value) == 2 and all(isinstance(v, str) for v in value)):
+            raise self.error(where, f'expected two node names, [lower, upper], got {_fmt(value)}')
+        for node in value:
+            if node not in nodes:
+                raise self.error(where, f'unknown node "{node}"; {_suggest(node, nodes)} '
+                                 "(nodes are ground, cam and the mass names)")
+        lower, upper = value
+        if lower == upper:
+            raise self.error(where, f'an element joins two different nodes, got "{lower}" twice')
+        if lower in FIXED_NODES and upper in FIXED_NODES:
+            raise self.error(where, f'joins "{lower}" and "{upper}": at least one end must be a mass')
+        return lower, upper
+
+    def damping(self, row: dict, path: str, lower: str, upper: str, mass_names: list[str]) -> Damping:
+        if "damping" in row and "damping_ratio" in row:
+            raise self.error(f"{path}.damping_ratio", "give damping (a coefficient) or damping_ratio, not both")
+        coefficient = self.quantity(row, "damping", path, "damping", minimum=0.0)
+        ratio = self.number(row, "damping_ratio", path, minimum=0.0)
+        reference = self.string(row, "reference_mass", path)
+        if reference is not None:
+            if reference not in mass_names:
+                raise self.error(f"{path}.reference_mass", f'"{reference}" is not a mass; '
+                                 f"{_suggest(reference, mass_names)}")
+            if ratio is None:
+                raise self.error(f"{path}.reference_mass", "only used with damping_ratio")
+        return Damping(coefficient=coefficient, ratio=ratio, reference_mass=reference)
+
+    def contact(self, row: dict, path: str, common: dict, driven: str | None) -> Contact:
+        law = row.get("law", "linear")
+        gap = self.quantity(row, "gap", path, "length", default=0.0, minimum=0.0)
+        transducer = row.get("transducer", False)
+        if not isinstance(transducer, bool):
+            raise self.error(f"{path}.transducer", f"expected true or false, got {_fmt(transducer)}")
+        extra: dict[str, Any] = {}
+        if law == "linear":
+            extra["stiffness"] = self.quantity(row, "stiffness", path, "stiffness", required=True,
+                                               minimum=0.0, strict=True, example='"8597740 N/m"')
+        elif law == "power":
+            exponent = self.number(row, "exponent", path, required=True, minimum=0.0, strict=True)
+            extra["exponent"] = exponent
+            extra["coefficient"] = self.quantity(
+                row, "coefficient", path, f"power_coefficient:{exponent!r}", required=True, minimum=0.0,
+                strict=True, example='"1.11e7 lbf/in**1.425"')
+            extra["restitution"] = self.number(row, "restitution", path, minimum=0.0, maximum=1.0)
+        else:
+            extra["restitution"] = self.number(row, "restitution", path, required=True, minimum=0.0,
+                                               maximum=1.0)
+        lower, upper = common["lower"], common["upper"]
+        if driven is not None and driven in (lower, upper):
+            other = upper if lower == driven else lower
+            if other in FIXED_NODES:
+                raise self.error(f"{path}.between", f"{driven} is driven by the cam (cam.drives): its motion "
+                                 f"is prescribed, so a contact with {other} could never close or open; "
+                                 "remove cam.drives to let the follower separate")
+        return Contact(**common, gap=gap, law=law, transducer=transducer, **extra)
+
+    # -- simulation and initial state -------------------------------------------------
+    def simulation(self, doc: dict, cam: Cam | None) -> Simulation:
+        table = self.table(doc, "simulation", "simulation") or {}
+        self.check_keys(table, SIMULATION_KEYS, "simulation")
+        cycles = self.integer(table, "cycles", "simulation", 1, 1)
+        warmup = self.integer(table, "warmup_cycles", "simulation", 1, 0)
+        rate = self.quantity(table, "sample_rate", "simulation", "frequency", default=50_000.0,
+                             minimum=0.0, strict=True)
+        gravity_value = table.get("gravity", False)
+        if isinstance(gravity_value, bool):
+            gravity = STANDARD_GRAVITY if gravity_value else 0.0
+        else:
+            gravity = self.quantity(table, "gravity", "simulation", "acceleration", minimum=0.0)
+        duration = self.quantity(table, "duration", "simulation", "time", minimum=0.0, strict=True)
+        if duration is not None and "cycles" in table:
+            raise self.error("simulation.duration", "give cycles or duration, not both")
+        if cam is None and duration is None:
+            raise self.error("simulation.duration", 'missing required key: a machine without [cam] has no '
+                             'cycle, give the recorded time (e.g. duration = "5 ms")')
+        return Simulation(cycles=cycles, warmup_cycles=warmup, sample_rate=rate, gravity=gravity,
+                          duration=duration)
+
+    def initial(self, doc: dict, mass_names: list[str], cam: Cam | None) -> list[InitialCondition]:
+        table = self.table(doc, "initial", "initial")
+        if table is None:
+            return []
+        driven = cam.drives if cam is not None else None
+        result = []
+        for name, entry in table.items():
+            path = f"initial.{name}"
+            if name not in mass_names:
+                raise self.error(path, f'"{name}" is not a mass; {_suggest(name, mass_names)}')
+            if name == driven:
+                raise self.error(path, f"{name} is driven by the cam (cam.drives): its motion is prescribed, "
+                                 "so it takes no initial condition")
+            if not isinstance(entry, dict):
+                raise self.error(path, f"expected a table [initial.{name}], got {_fmt(entry)}")
+            self.check_keys(entry, INITIAL_KEYS, path)
+            if not entry:
+                raise self.error(path, "empty: give displacement and/or velocity")
+            result.append(InitialCondition(
+                mass=name,
+                displacement=self.quantity(entry, "displacement", path, "length"),
+                velocity=self.quantity(entry, "velocity", path, "velocity"),
+            ))
+        return result
+
+    def connectivity(self, masses: list[Mass], elements: list[Element], cam: Cam | None) -> None:
+        driven = cam.drives if cam is not None else None
+        for i, m in enumerate(masses):
+            if m.name == driven:
+                continue
+            if not any(m.name in e.nodes for e in elements):
+                raise self.error(f"mass[{i}]", f"{m.name} is connected to no element: a free mass needs at "
+                                 "least one element (spring, link or contact)")
