@@ -14,6 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import typer
+from rich import box
+from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from camsim import __version__
@@ -78,50 +81,49 @@ def write_cam_csv(path: str | os.PathLike[str], program: CamProgram, points: int
     """
     data = sample_revolution(program, points)
     header = ",".join(["time [s]", "angle [deg]"] + [f"{name} [{units}]" for name, units, _ in TRACES])
-    columns = np.column_stack([data["time"], data["angle"]] + [data[name] for name, _, _ in TRACES])
+    columns = np.column_stack([data["time"], data["angle"]] + [data[name] for name, _, _ in TRACES]) + 0.0  # no "-0"
     with atomic_path(path) as tmp:
         np.savetxt(tmp, columns, fmt="%.12g", delimiter=",", header=header, comments="")
     return Path(path)
 
 
-def _fmt(value: float, angle: float | None) -> str:
-    if angle is None:
-        return "0"
-    return f"{value:.4g} @ {angle:.4g}°"
+def _num(value: float | None, fmt: str = ".4g") -> str:
+    return "-" if value is None else format(value, fmt)
 
 
 def _print_table(machine, program: CamProgram, peaks: list[dict]) -> None:
     rpm = program.speed * 60.0 / (2.0 * math.pi)
     title = (
         f"{machine.name}: cam at {rpm:.6g} rpm, ratio {program.ratio:.6g}, "
-        f"start angle {math.degrees(program.start_angle):.6g} deg (model axis, SI)"
+        f"start angle {math.degrees(program.start_angle):.6g} deg; model axis, SI; "
+        "@ = cam angle of the peak"
     )
-    table = Table(title=title, title_justify="left")
-    for header in (
-        "#",
-        "motion",
-        "law",
-        "start [deg]",
-        "duration [deg]",
-        "lift [mm]",
-        "peak |v| [m/s] @ deg",
-        "peak |a| [m/s^2] @ deg",
-        "peak |j| [m/s^3] @ deg",
-    ):
-        table.add_column(header, justify="left" if header in ("motion", "law") else "right")
+    table = Table(title=escape(title), title_justify="left", box=box.SIMPLE_HEAD, pad_edge=False)
+    headers = (
+        "#", "segment", "cam angle [deg]", "lift [mm]",
+        "|v| [m/s]", "@ [deg]", "|a| [m/s^2]", "@ [deg]", "|j| [m/s^3]", "@ [deg]",
+    )  # fmt: skip
+    for header in headers:
+        table.add_column(escape(header), justify="left" if header == "segment" else "right")
     for p in peaks:
+        name = p["motion"] if p["law"] is None else f"{p['motion']} {p['law']}"
+        end = p["start_deg"] + p["duration_deg"]
+        moving = p["peak_velocity_deg"] is not None
         table.add_row(
             str(p["index"]),
-            p["motion"],
-            p["law"] or "-",
-            f"{p['start_deg']:.6g}",
-            f"{p['duration_deg']:.6g}",
-            f"{1e3 * p['lift_m']:.6g}",
-            _fmt(p["peak_velocity"], p["peak_velocity_deg"]),
-            _fmt(p["peak_acceleration"], p["peak_acceleration_deg"]),
-            _fmt(p["peak_jerk"], p["peak_jerk_deg"]),
+            name,
+            f"{p['start_deg']:.5g}-{end:.5g}",
+            f"{1e3 * p['lift_m']:.5g}" if moving else "-",
+            _num(p["peak_velocity"] if moving else None),
+            _num(p["peak_velocity_deg"], ".5g"),
+            _num(p["peak_acceleration"] if moving else None),
+            _num(p["peak_acceleration_deg"], ".5g"),
+            _num(p["peak_jerk"] if moving else None),
+            _num(p["peak_jerk_deg"], ".5g"),
         )
-    err_console.print(table)
+    # Off a terminal (a log, a pipe) do not squeeze the table into 80 columns.
+    console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
+    console.print(table)
 
 
 @app.command("cam")
@@ -138,6 +140,12 @@ def cam_command(
     ),
     points: int = typer.Option(3600, "--points", min=2, help="Samples over the revolution written by -o."),
     as_json: bool = typer.Option(False, "--json", help="Print the peaks and warnings as JSON on stdout."),
+    overrides: list[str] = typer.Option(
+        [],
+        "--set",
+        metavar="KEY=VALUE",
+        help='Override a machine-file value, units as in the file, e.g. --set cam.speed="150 rpm". Repeatable.',
+    ),
 ) -> None:
     """Show the cam program: per segment its law, duration, lift and peak |v|, |a|, |j|.
 
@@ -158,7 +166,7 @@ def cam_command(
             check_writable(output)
         from camsim.loader import load_machine
 
-        machine = load_machine(machine_file)
+        machine = load_machine(machine_file, overrides=overrides)
         if machine.cam is None:
             raise MachineFileError(str(machine_file), "cam", "the machine has no cam")
         try:
