@@ -1,0 +1,59 @@
+"""``camsim plot``: figures from a result file (run, compare or sweep)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from camsim.cli.app import app, print_json, user_errors
+
+
+@app.command("plot")
+def plot_command(
+    file: Path = typer.Argument(..., metavar="FILE.h5", help="A camsim result file (.h5): a run, a comparison or a sweep."),
+    what: list[str] = typer.Option(
+        None,
+        "--what",
+        metavar="KINDS",
+        help=(
+            "Which plots (comma-separated or repeated): svaj (cam s, v, a, j against cam angle [deg]), "
+            "masses (displacement [m], velocity [m/s], acceleration [m/s^2] of each mass against time [s], "
+            "impacts marked), forces (element, cam-contact and transducer forces [N]; a negative cam-contact "
+            "force, i.e. jump, is shaded), compare (impact vs no-impact with the % difference), sweep (peaks "
+            "against the swept parameter). Default: all that the file holds."
+        ),
+    ),
+    mass: list[str] = typer.Option(None, "--mass", metavar="NAME", help="Plot only this mass (repeatable). Default: all masses."),
+    quantity: list[str] = typer.Option(
+        None, "--quantity", metavar="QUANTITY", help="displacement, velocity or acceleration (repeatable). Default: all three."
+    ),
+    time: str = typer.Option(None, "--time", metavar="T0:T1", help="Time window [s], e.g. 0.1:0.3 (an end may be left out)."),
+    angle: str = typer.Option(
+        None, "--angle", metavar="A0:A1", help="Cam-angle window [deg] of the continuing angle, e.g. 90:180."
+    ),
+    fmt: str = typer.Option("png", "--format", metavar="FORMAT", help="Image format: png, svg or pdf."),
+    out: Path = typer.Option(
+        None, "-o", "--output-dir", metavar="DIR", help="Directory for the images (created). Default: <input stem>_plots next to the input."
+    ),
+    dpi: float = typer.Option(150.0, "--dpi", metavar="DPI", help="Resolution of png images [dots per inch]."),
+    json_: bool = typer.Option(False, "--json", help="Print the written paths as a JSON list on stdout."),
+) -> None:
+    """Plot a result file: one image per figure, named <stem>_<what>.<format>; prints the paths."""
+    with user_errors():
+        from camsim import plot  # matplotlib is imported only by this command
+
+        figures = plot.make_plots(
+            file,
+            what=what,
+            masses=mass,
+            quantities=quantity,
+            time_window=plot.parse_window(time, "--time"),
+            angle_window=plot.parse_window(angle, "--angle"),
+        )
+        written = plot.save_figures(figures, out if out is not None else plot.default_output_dir(file), fmt, dpi)
+    if json_:
+        print_json([str(p) for p in written])
+    else:
+        for p in written:
+            typer.echo(str(p))

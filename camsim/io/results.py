@@ -1,0 +1,273 @@
+"""Reading camsim result files: open and validate, find the traces, read the events.
+
+A camsim result file is HDF5 with root attributes ``camsim_version`` and ``schema``
+(spec §7). Its ``file_kind`` attribute says which layout it holds:
+
+``run``
+    one simulation: ``/time`` and the traces on it, ``/events``.
+``compare``
+    ``/impact`` and ``/no_impact`` (each in the run layout) and ``/difference`` (percent).
+``sweep``
+    ``/sweep/summary``, a table with one row per parameter point.
+``cam``
+    the cam program alone (``/cam/...``).
+
+Everything here only reads; the files are opened read-only.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from camsim.errors import ResultFileError
+from camsim.io.hdf5 import read_table
+
+#: Result-file schema versions this version of camsim reads.
+SUPPORTED_SCHEMAS = (1,)
+
+#: The values of the root attribute ``file_kind``.
+FILE_KINDS = ("run", "compare", "sweep", "cam")
+
+
+def open_result(path: str | os.PathLike[str]) -> h5py.File:
+    """Open a camsim result file read-only, after checking that it is one.
+
+    Parameters
+    ----------
+    path : path
+        The ``.h5`` file.
+
+    Returns
+    -------
+    h5py.File
+        Open read-only; the caller closes it (use it as a context manager).
+
+    Raises
+    ------
+    ResultFileError
+        With a one-line message naming the file: missing, not HDF5, not a camsim file
+        (no ``camsim_version``/``schema`` attributes) or a schema this version cannot read.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise ResultFileError(f"{p}: no such file")
+    if p.is_dir():
+        raise ResultFileError(f"{p}: is a directory, not a result file")
+    try:
+        is_hdf5 = h5py.is_hdf5(p)
+    except OSError as exc:
+        raise ResultFileError(f"{p}: cannot be read ({exc.strerror or exc})") from None
+    if not is_hdf5:
+        raise ResultFileError(f"{p}: not an HDF5 file")
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        raise ResultFileError(f"{p}: cannot be opened as HDF5 ({exc})") from None
+    try:
+        attrs = f.attrs
+        if "camsim_version" not in attrs or "schema" not in attrs:
+            raise ResultFileError(f"{p}: not a camsim result file (no camsim_version/schema attributes)")
+        try:
+            schema = int(np.asarray(attrs["schema"]).item())
+        except (TypeError, ValueError):
+            raise ResultFileError(f"{p}: schema: not an integer: {attrs['schema']!r}") from None
+        if schema not in SUPPORTED_SCHEMAS:
+            supported = ", ".join(str(s) for s in SUPPORTED_SCHEMAS)
+            raise ResultFileError(
+                f"{p}: schema: version {schema} is not supported by this camsim (reads {supported})"
+            )
+    except BaseException:
+        f.close()
+        raise
+    return f
+
+
+def _text(value: object) -> str:
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, np.ndarray) and value.shape == ():
+        return _text(value.item())
+    return str(value)
+
+
+def attr_text(obj: h5py.HLObject, name: str, default: str = "") -> str:
+    """An attribute as ``str`` (decoding bytes), or ``default`` when absent."""
+    if name not in obj.attrs:
+        return default
+    return _text(obj.attrs[name])
+
+
+def file_kind(f: h5py.File) -> str:
+    """The layout of a result file: ``"run"``, ``"compare"``, ``"sweep"`` or ``"cam"``.
+
+    Read from the root attribute ``file_kind``; files without it are recognised by their
+    groups (``/impact`` + ``/no_impact`` is a comparison, ``/sweep`` a sweep, ``/time`` a run,
+    ``/cam`` alone a cam file).
+
+    Raises
+    ------
+    ResultFileError
+        If the attribute holds an unknown kind or nothing recognisable is in the file.
+    """
+    kind = attr_text(f, "file_kind")
+    if kind:
+        if kind not in FILE_KINDS:
+            raise ResultFileError(f"{f.filename}: file_kind: unknown kind {kind!r} (expected one of {', '.join(FILE_KINDS)})")
+        return kind
+    if "impact" in f and "no_impact" in f:
+        return "compare"
+    if "sweep" in f:
+        return "sweep"
+    if "time" in f:
+        return "run"
+    if "cam" in f:
+        return "cam"
+    raise ResultFileError(f"{f.filename}: file_kind: missing and the layout is not recognisable")
+
+
+def units_of(dset: h5py.Dataset) -> str:
+    """The ``units`` attribute of a dataset ('' when absent)."""
+    return attr_text(dset, "units")
+
+
+def long_name_of(dset: h5py.Dataset) -> str:
+    """The ``long_name`` attribute of a dataset (its last path component when absent)."""
+    return attr_text(dset, "long_name", dset.name.rsplit("/", 1)[-1])
+
+
+def _is_attached(dset: h5py.Dataset, scale: h5py.Dataset) -> bool:
+    try:
+        return bool(h5py.h5ds.is_attached(dset.id, scale.id, 0))
+    except Exception:  # noqa: BLE001 - h5py raises various errors for non-scale datasets
+        return False
+
+
+def list_traces(group: h5py.Group, time_name: str = "time") -> dict[str, h5py.Dataset]:
+    """All 1-D traces on the time base of ``group``, keyed by path relative to ``group``.
+
+    The time base is ``group[time_name]``; it comes first (key ``"time"``), then every
+    1-D floating-point dataset below ``group`` that has it attached as dimension scale,
+    in file order. Subgroups with their own time base (e.g. ``/impact`` in a comparison
+    file) are not entered.
+
+    Returns
+    -------
+    dict
+        ``{"time": ds, "cam/angle": ds, "masses/M2/velocity": ds, ...}``; empty if
+        ``group`` has no time base.
+    """
+    if time_name not in group or not isinstance(group[time_name], h5py.Dataset):
+        return {}
+    time = group[time_name]
+    out: dict[str, h5py.Dataset] = {time_name: time}
+    prefix = len(group.name.rstrip("/")) + 1
+
+    def walk(g: h5py.Group) -> None:
+        for name, item in g.items():
+            if isinstance(item, h5py.Group):
+                if time_name in item:  # a subgroup with its own time base
+                    continue
+                walk(item)
+            elif (
+                isinstance(item, h5py.Dataset)
+                and item.ndim == 1
+                and item.dtype.kind == "f"
+                and item.name != time.name
+                and item.shape == time.shape
+                and _is_attached(item, time)
+            ):
+                out[item.name[prefix:]] = item
+
+    walk(group)
+    return _canonical_order(out)
+
+
+#: Order of the quantities of one object in listings (then alphabetical).
+_LEAF_RANK = {"time": 0, "angle": 1, "displacement": 2, "velocity": 3, "acceleration": 4, "jerk": 5, "force": 6}
+
+
+def _canonical_order(traces: dict[str, h5py.Dataset]) -> dict[str, h5py.Dataset]:
+    """Keep groups in file order, quantities within a group as angle, s, v, a, j, force."""
+    first_seen: dict[str, int] = {}
+    for key in traces:
+        first_seen.setdefault(key.rpartition("/")[0], len(first_seen))
+
+    def rank(key: str) -> tuple[int, int, str]:
+        parent, _, leaf = key.rpartition("/")
+        return (first_seen[parent], _LEAF_RANK.get(leaf, 99), leaf)
+
+    return {k: traces[k] for k in sorted(traces, key=rank)}
+
+
+def time_bases(f: h5py.File) -> dict[str, h5py.Group]:
+    """Every group holding a ``time`` dataset, keyed by its path without the leading slash.
+
+    A run file gives ``{"": f}``; a comparison file ``{"impact": ..., "no_impact": ...,
+    "difference": ...}``.
+    """
+    out: dict[str, h5py.Group] = {}
+
+    def visit(name: str, item: object) -> None:
+        if isinstance(item, h5py.Group) and "time" in item and isinstance(item["time"], h5py.Dataset):
+            out[name] = item
+
+    if "time" in f and isinstance(f["time"], h5py.Dataset):
+        out[""] = f
+    f.visititems(visit)
+    return out
+
+
+def all_datasets(f: h5py.File) -> dict[str, h5py.Dataset]:
+    """Every dataset in the file, keyed by path without the leading slash, in file order."""
+    out: dict[str, h5py.Dataset] = {}
+
+    def visit(name: str, item: object) -> None:
+        if isinstance(item, h5py.Dataset):
+            out[name] = item
+
+    f.visititems(visit)
+    return out
+
+
+def read_events(group: h5py.Group) -> dict[str, np.ndarray] | None:
+    """The ``events`` table of a run layout as columns, or ``None`` when there is none.
+
+    Columns (spec §7): ``time`` [s], ``angle_deg`` [deg], ``element``, ``kind``,
+    ``masses``, ``relative_velocity`` [m/s], ``johnson_lower`` / ``johnson_upper`` /
+    ``peak_force`` [N], ``contact_duration`` [s]; NaN where not applicable.
+    """
+    if "events" not in group:
+        return None
+    return read_table(group["events"])
+
+
+def table_units(dset: h5py.Dataset) -> dict[str, str]:
+    """Units of each column of a table written by :func:`camsim.io.hdf5.write_table`."""
+    return {name: attr_text(dset, f"units:{name}") for name in dset.dtype.names or ()}
+
+
+def require(group: h5py.Group, path: str, what: str = "") -> h5py.Dataset:
+    """``group[path]`` as a dataset, or :class:`ResultFileError` naming file and path."""
+    if path not in group or not isinstance(group[path], h5py.Dataset):
+        where = group.name.rstrip("/") + "/" + path
+        extra = f" ({what})" if what else ""
+        raise ResultFileError(f"{group.file.filename}: {where}: not in the file{extra}")
+    return group[path]
+
+
+def names_under(group: h5py.Group, path: str) -> list[str]:
+    """Names of the subgroups of ``group[path]`` (e.g. the masses), [] if absent."""
+    if path not in group or not isinstance(group[path], h5py.Group):
+        return []
+    return [k for k, v in group[path].items() if isinstance(v, h5py.Group)]
+
+
+def names_with(group: h5py.Group, path: str, leaf: str) -> list[str]:
+    """Names ``n`` of subgroups of ``group[path]`` that hold a dataset ``leaf``."""
+    if path not in group or not isinstance(group[path], h5py.Group):
+        return []
+    return [k for k, v in group[path].items() if isinstance(v, h5py.Group) and leaf in v]
