@@ -1,0 +1,557 @@
+"""``camsim impact``: closed-form impact-force estimates, and ``camsim impact fit``.
+
+A thin layer over :func:`camsim.impact.estimate_impact` and
+:func:`camsim.impact.fit_power_law`; every value is a string with its unit, parsed by
+:func:`camsim.units.to_si`.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.table import Table
+
+from camsim import impact
+from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.errors import InputError
+from camsim.units import QuantityError, to_si, ureg
+
+LBF = float(ureg.Quantity(1.0, "lbf").to("N").magnitude)
+
+impact_app = typer.Typer(
+    name="impact",
+    invoke_without_command=True,
+    no_args_is_help=True,
+    add_completion=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
+    rich_markup_mode=None,
+    help=(
+        "Estimate the peak force of a striking impact (Johnson's common-velocity bounds, "
+        "Burr's deflection and correction factor, Burr's wave method; thesis §3.3), or fit "
+        "a power-law contact to force-deflection data with 'camsim impact fit'. "
+        "Values are quantities with their units, quoted; results in N and lbf."
+    ),
+    epilog=(
+        "\b\nExample (thesis appendix C, table 6: a 0.375 in steel ball dropped 1 in on the hard stop):\n"
+        '  camsim impact --mass "2.029e-5 lbf*s**2/in" --drop-height "1 in" \\\n'
+        '      --sphere-diameter "0.375 in" --modulus "2.9e7 psi" --stiffness "60800 lbf/in"\n'
+        "See docs/impact.md for the formulas and their sources."
+    ),
+)
+app.add_typer(impact_app, name="impact")
+
+_UNITS_HELP = 'a quantity with its unit, e.g. '
+
+# Calculator options and their defaults, to tell whether any was given with 'fit'.
+_CALCULATOR_DEFAULTS: dict[str, Any] = {
+    "mass": None,
+    "velocity": None,
+    "drop_height": None,
+    "target_mass": None,
+    "stiffness": None,
+    "coefficient": None,
+    "exponent": None,
+    "sphere_diameter": None,
+    "bar_area": None,
+    "bar_length": None,
+    "modulus": None,
+    "density": None,
+    "eta": None,
+    "gravity": None,
+}
+
+
+def _quantity(option: str, value: str | None, dimension: str) -> float | None:
+    if value is None:
+        return None
+    try:
+        return to_si(value, dimension)
+    except QuantityError as exc:
+        raise InputError(f"{option}: {exc}") from None
+
+
+def _positive(option: str, value: float | None, text: str | None, what: str = "") -> None:
+    if value is not None and not value > 0:
+        raise InputError(f'{option} must be positive{what}, got "{text}"')
+
+
+def _number(option: str, text: str | None) -> float | None:
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f'{option}: expected a number, got "{text}"') from None
+    if not math.isfinite(value):
+        raise InputError(f'{option}: expected a finite number, got "{text}"')
+    return value
+
+
+@impact_app.callback()
+def impact_command(
+    ctx: typer.Context,
+    mass: str = typer.Option(
+        None, "--mass", metavar="QTY", help=_UNITS_HELP + '"0.0079 lb", "2.029e-5 lbf*s**2/in": the striking mass.'
+    ),
+    velocity: str = typer.Option(
+        None,
+        "--velocity",
+        metavar="QTY",
+        help=_UNITS_HELP + '"1.2 m/s", "70 in/s": approach speed towards the target (> 0).',
+    ),
+    drop_height: str = typer.Option(
+        None,
+        "--drop-height",
+        metavar="QTY",
+        help=_UNITS_HELP + '"1 in": drop from rest; v = sqrt(2 g h). Instead of --velocity.',
+    ),
+    target_mass: str = typer.Option(
+        None,
+        "--target-mass",
+        metavar="QTY",
+        help=_UNITS_HELP + '"2 kg". Default: a fixed target (infinite mass).',
+    ),
+    stiffness: str = typer.Option(
+        None,
+        "--stiffness",
+        metavar="QTY",
+        help=_UNITS_HELP + '"60800 lbf/in": linear contact rate (Johnson linear, Burr).',
+    ),
+    coefficient: str = typer.Option(
+        None,
+        "--coefficient",
+        metavar="QTY",
+        help=_UNITS_HELP + '"1.11e7 lbf/in**1.425": C of a power-law contact F = C*d^a '
+        "(Johnson power law); needs --exponent.",
+    ),
+    exponent: str = typer.Option(
+        None, "--exponent", metavar="NUMBER", help='a of F = C*d^a, a number > 0, e.g. "1.425".'
+    ),
+    sphere_diameter: str = typer.Option(
+        None,
+        "--sphere-diameter",
+        metavar="QTY",
+        help=_UNITS_HELP + '"0.375 in": a sphere on a flat of the same material (nu ~ 0.3); '
+        "sets C = 0.518 E sqrt(D), a = 1.5 from --modulus, instead of --coefficient/--exponent.",
+    ),
+    bar_area: str = typer.Option(
+        None, "--bar-area", metavar="QTY", help=_UNITS_HELP + '"0.0276 in**2": struck bar cross-section (wave).'
+    ),
+    bar_length: str = typer.Option(
+        None, "--bar-length", metavar="QTY", help=_UNITS_HELP + '"0.4 in": struck bar length, fixed at the far end (wave).'
+    ),
+    modulus: str = typer.Option(
+        None, "--modulus", metavar="QTY", help=_UNITS_HELP + '"2.9e7 psi": Young\'s modulus (wave, --sphere-diameter).'
+    ),
+    density: str = typer.Option(
+        None, "--density", metavar="QTY", help=_UNITS_HELP + '"7850 kg/m**3", "0.284 lb/in**3": bar density (wave).'
+    ),
+    eta: str = typer.Option(
+        None,
+        "--eta",
+        metavar="NUMBER",
+        help="Burr's correction factor, a number in (0, 1]. Default: 1 for a fixed target, "
+        "else m/(m + M/3) with M the target mass.",
+    ),
+    gravity: str = typer.Option(
+        None,
+        "--gravity",
+        metavar="QTY",
+        help=_UNITS_HELP + '"386.4 in/s**2": for --drop-height and Burr\'s weight. Default 9.80665 m/s**2.',
+    ),
+    json_out: bool = typer.Option(False, "--json", help="Print the estimates as JSON on stdout."),
+) -> None:
+    """Estimate the peak force of a striking impact.
+
+    Prints every estimate the inputs allow, in N and lbf: Johnson's lower and upper bounds
+    (--stiffness, or --coefficient/--exponent, or --sphere-diameter with --modulus),
+    Burr's deflection and correction factor (--stiffness) and Burr's wave method (--bar-area,
+    --bar-length, --modulus, --density). Values are quantities with units, in quotes.
+    See docs/impact.md.
+    """
+    given = {
+        "mass": mass,
+        "velocity": velocity,
+        "drop_height": drop_height,
+        "target_mass": target_mass,
+        "stiffness": stiffness,
+        "coefficient": coefficient,
+        "exponent": exponent,
+        "sphere_diameter": sphere_diameter,
+        "bar_area": bar_area,
+        "bar_length": bar_length,
+        "modulus": modulus,
+        "density": density,
+        "eta": eta,
+        "gravity": gravity,
+    }
+    if ctx.invoked_subcommand is not None:
+        extra = [name for name, value in given.items() if value != _CALCULATOR_DEFAULTS[name]]
+        if extra:
+            raise fail(
+                f"--{extra[0].replace('_', '-')} is a calculator option; "
+                f"'camsim impact {ctx.invoked_subcommand}' does not take it"
+            )
+        ctx.obj = {"json": json_out}
+        return
+    with user_errors():
+        inputs, estimates = _calculate(**given)
+    if json_out:
+        print_json(_payload(inputs, estimates))
+    else:
+        _print_table(inputs, estimates)
+
+
+def _calculate(**given: str | None) -> tuple[dict[str, Any], impact.ImpactEstimates]:
+    """Parse and check the options, then call :func:`camsim.impact.estimate_impact`."""
+    if given["mass"] is None:
+        raise InputError("--mass is required (the striking mass, e.g. --mass \"0.0079 lb\")")
+    if (given["velocity"] is None) == (given["drop_height"] is None):
+        raise InputError("give exactly one of --velocity and --drop-height")
+    si = {
+        "mass": _quantity("--mass", given["mass"], "mass"),
+        "velocity": _quantity("--velocity", given["velocity"], "velocity"),
+        "drop_height": _quantity("--drop-height", given["drop_height"], "length"),
+        "target_mass": _quantity("--target-mass", given["target_mass"], "mass"),
+        "stiffness": _quantity("--stiffness", given["stiffness"], "stiffness"),
+        "sphere_diameter": _quantity("--sphere-diameter", given["sphere_diameter"], "length"),
+        "bar_area": _quantity("--bar-area", given["bar_area"], "area"),
+        "bar_length": _quantity("--bar-length", given["bar_length"], "length"),
+        "modulus": _quantity("--modulus", given["modulus"], "pressure"),
+        "density": _quantity("--density", given["density"], "density"),
+        "gravity": _quantity("--gravity", given["gravity"], "acceleration"),
+        "exponent": _number("--exponent", given["exponent"]),
+        "eta": _number("--eta", given["eta"]),
+    }
+    for key, what in (
+        ("mass", ""),
+        ("velocity", " (the approach speed of the striking mass towards the target)"),
+        ("drop_height", ""),
+        ("target_mass", ""),
+        ("stiffness", ""),
+        ("sphere_diameter", ""),
+        ("bar_area", ""),
+        ("bar_length", ""),
+        ("modulus", ""),
+        ("density", ""),
+        ("gravity", ""),
+        ("exponent", ""),
+    ):
+        _positive("--" + key.replace("_", "-"), si[key], given[key], what)
+    if si["eta"] is not None and not 0 < si["eta"] <= 1:
+        raise InputError(f'--eta must be in (0, 1], got "{given["eta"]}"')
+    if si["eta"] is not None and si["stiffness"] is None:
+        raise InputError("--eta applies to the Burr estimate, which needs --stiffness")
+
+    if given["sphere_diameter"] is not None:
+        if given["coefficient"] is not None or given["exponent"] is not None:
+            raise InputError("give either --sphere-diameter or --coefficient/--exponent, not both")
+        if si["modulus"] is None:
+            raise InputError("--sphere-diameter needs --modulus (C = 0.518 E sqrt(D))")
+        si["exponent"] = impact.HERTZ_SPHERE_EXPONENT
+        si["coefficient"] = float(impact.hertz_sphere_coefficient(si["modulus"], si["sphere_diameter"]))
+    elif (given["coefficient"] is None) != (given["exponent"] is None):
+        raise InputError(
+            "--coefficient needs --exponent" if given["exponent"] is None else "--exponent needs --coefficient"
+        )
+    elif given["coefficient"] is not None:
+        si["coefficient"] = _quantity(
+            "--coefficient", given["coefficient"], f"power_coefficient:{si['exponent']!r}"
+        )
+        _positive("--coefficient", si["coefficient"], given["coefficient"])
+    else:
+        si["coefficient"] = None
+
+    bar_options = ("bar_area", "bar_length", "density") + (
+        ("modulus",) if given["sphere_diameter"] is None else ()
+    )
+    bar_given = [key for key in ("bar_area", "bar_length", "modulus", "density") if given[key] is not None]
+    if any(given[key] is not None for key in bar_options):
+        absent = [key for key in ("bar_area", "bar_length", "modulus", "density") if given[key] is None]
+        if absent:
+            raise InputError(
+                "the wave estimate needs " + ", ".join("--" + k.replace("_", "-") for k in absent)
+            )
+        wave_inputs = {key: si[key] for key in bar_given}
+    else:
+        wave_inputs = {}
+
+    if si["stiffness"] is None and si["coefficient"] is None and not wave_inputs:
+        raise InputError(
+            "no estimate possible: give --stiffness (Johnson linear, Burr), --coefficient and "
+            "--exponent or --sphere-diameter (Johnson power law), or --bar-area, --bar-length, "
+            "--modulus, --density (wave)"
+        )
+    estimates = impact.estimate_impact(
+        si["mass"],
+        si["velocity"],
+        drop_height=si["drop_height"],
+        target_mass=math.inf if si["target_mass"] is None else si["target_mass"],
+        stiffness=si["stiffness"],
+        coefficient=si["coefficient"],
+        exponent=si["exponent"] if si["coefficient"] is not None else None,
+        eta=si["eta"],
+        gravity=impact.STANDARD_GRAVITY if si["gravity"] is None else si["gravity"],
+        **wave_inputs,
+    )
+    inputs = {
+        "mass_kg": si["mass"],
+        "velocity_m_per_s": estimates.velocity,
+        "drop_height_m": si["drop_height"],
+        "target_mass_kg": si["target_mass"],  # null: fixed target
+        "stiffness_N_per_m": si["stiffness"],
+        "coefficient_N_per_m_pow_a": si["coefficient"],
+        "exponent": si["exponent"] if si["coefficient"] is not None else None,
+        "sphere_diameter_m": si["sphere_diameter"],
+        "bar_area_m2": si["bar_area"],
+        "bar_length_m": si["bar_length"],
+        "modulus_Pa": si["modulus"],
+        "density_kg_per_m3": si["density"],
+        "eta": estimates.eta,
+        "gravity_m_per_s2": impact.STANDARD_GRAVITY if si["gravity"] is None else si["gravity"],
+    }
+    return inputs, estimates
+
+
+def _lbf(value: float | None) -> float | None:
+    return None if value is None else value / LBF
+
+
+def _payload(inputs: dict[str, Any], est: impact.ImpactEstimates) -> dict[str, Any]:
+    forces = {
+        "johnson_lower": est.johnson_lower,
+        "johnson_upper": est.johnson_upper,
+        "burr": est.burr,
+        "wave": est.wave,
+    }
+    payload: dict[str, Any] = {f"{key}_N": value for key, value in forces.items()}
+    payload.update({f"{key}_lbf": _lbf(value) for key, value in forces.items()})
+    payload["johnson_law"] = est.johnson_law
+    payload["inputs"] = inputs
+    return payload
+
+
+_OPTION_OF = {
+    "stiffness": "--stiffness",
+    "coefficient": "--coefficient",
+    "exponent": "--exponent",
+    "bar_area": "--bar-area",
+    "bar_length": "--bar-length",
+    "modulus": "--modulus",
+    "density": "--density",
+}
+
+
+def _needs(est: impact.ImpactEstimates, key: str, inputs: dict[str, Any]) -> str:
+    if key == "johnson":
+        return "needs --stiffness, or --coefficient and --exponent"
+    given = {"modulus"} if inputs["modulus_Pa"] is not None else set()
+    return "needs " + ", ".join(_OPTION_OF[name] for name in est.missing[key] if name not in given)
+
+
+def _print_table(inputs: dict[str, Any], est: impact.ImpactEstimates) -> None:
+    law = {"linear": "linear k", "power": "power law C*d^a", None: ""}[est.johnson_law]
+    target = (
+        "fixed target"
+        if inputs["target_mass_kg"] is None
+        else f"target {inputs['target_mass_kg']:.6g} kg"
+    )
+    table = Table(
+        title=(
+            f"Impact of {inputs['mass_kg']:.6g} kg at {est.velocity:.6g} m/s "
+            f"({est.velocity / 0.0254:.6g} in/s) on a {target}"
+        ),
+        title_justify="left",
+    )
+    table.add_column("estimate")
+    table.add_column("source")
+    table.add_column("force [N]", justify="right")
+    table.add_column("force [lbf]", justify="right")
+    rows = [
+        ("Johnson lower (finite mass)", f"thesis eq. 3.27/3.34, {law}", est.johnson_lower, "johnson"),
+        ("Johnson upper (infinite mass)", f"thesis eq. 3.29/3.35, {law}", est.johnson_upper, "johnson"),
+        (
+            "Burr deflection & correction",
+            "thesis eq. 3.16/3.23" + (f", eta = {est.eta:.4g}" if est.eta is not None else ""),
+            est.burr,
+            "burr",
+        ),
+        ("Burr wave method", "thesis eq. 3.49, bar fixed at far end", est.wave, "wave"),
+    ]
+    for name, source, value, key in rows:
+        if value is None:
+            table.add_row(name, _needs(est, key, inputs), "-", "-")
+        else:
+            table.add_row(name, source, f"{value:.6g}", f"{value / LBF:.6g}")
+    err_console.print(table)
+
+
+# ------------------------------------------------------------------------------ fit
+
+_HEADER = re.compile(r"^\s*(?P<name>[A-Za-z_ ]*?)\s*\[(?P<unit>[^\]]*)\]\s*$")
+
+
+@dataclass(frozen=True)
+class ForceDeflectionData:
+    """Samples read by :func:`read_force_deflection_csv`, in SI.
+
+    Attributes
+    ----------
+    deflection : list of float
+        Deflections [m].
+    force : list of float
+        Forces [N].
+    deflection_unit, force_unit : str
+        The units written in the file's header.
+    lines : list of int
+        The file line of each sample (for messages).
+    """
+
+    deflection: list[float]
+    force: list[float]
+    deflection_unit: str
+    force_unit: str
+    lines: list[int]
+
+
+def read_force_deflection_csv(path: str | Path) -> ForceDeflectionData:
+    """Read a force-deflection CSV with units in its header, e.g. ``deflection [in],force [lbf]``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file: a header naming a ``deflection`` and a ``force`` column, each with
+        its unit in brackets, then one sample per line.
+
+    Returns
+    -------
+    ForceDeflectionData
+        Deflections [m], forces [N], the units of the file and the line of each sample.
+
+    Raises
+    ------
+    InputError
+        ``file: header: ...`` or ``file: line N: ...`` for a file that cannot be read.
+    """
+    name = str(path)
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            reader = csv.reader(handle)
+            rows = []
+            lines = []
+            for row in reader:
+                if row and any(cell.strip() for cell in row):
+                    rows.append(row)
+                    lines.append(reader.line_num)
+    except OSError as exc:
+        raise InputError(f"{name}: cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{name}: not a text CSV file") from None
+    if not rows:
+        raise InputError(f"{name}: empty file")
+    columns: dict[str, tuple[int, str]] = {}
+    for index, cell in enumerate(rows[0]):
+        match = _HEADER.match(cell)
+        label = (match.group("name") if match else cell).strip().lower()
+        if label in ("deflection", "force"):
+            if not match:
+                raise InputError(
+                    f'{name}: header: column "{cell.strip()}" needs its unit in brackets, '
+                    f'e.g. "{label} [{"in" if label == "deflection" else "lbf"}]"'
+                )
+            columns[label] = (index, match.group("unit").strip())
+    for label, example in (("deflection", "deflection [in]"), ("force", "force [lbf]")):
+        if label not in columns:
+            raise InputError(f'{name}: header: no "{label}" column (expected e.g. "{example}")')
+    scale = {}
+    for label, dimension in (("deflection", "length"), ("force", "force")):
+        unit = columns[label][1]
+        try:
+            scale[label] = to_si(f"1 {unit}", dimension)
+        except QuantityError as exc:
+            raise InputError(f"{name}: header: {label} unit: {exc}") from None
+    deflection: list[float] = []
+    force: list[float] = []
+    for line_number, row in zip(lines[1:], rows[1:]):
+        values = {}
+        for label in ("deflection", "force"):
+            index = columns[label][0]
+            if index >= len(row):
+                raise InputError(f"{name}: line {line_number}: no {label} value")
+            try:
+                values[label] = float(row[index])
+            except ValueError:
+                raise InputError(
+                    f'{name}: line {line_number}: {label}: expected a number, got "{row[index].strip()}"'
+                ) from None
+        deflection.append(values["deflection"] * scale["deflection"])
+        force.append(values["force"] * scale["force"])
+    return ForceDeflectionData(deflection, force, columns["deflection"][1], columns["force"][1], lines[1:])
+
+
+@impact_app.command("fit")
+def fit_command(
+    ctx: typer.Context,
+    data: Path = typer.Argument(
+        ...,
+        metavar="DATA",
+        help='Force-deflection samples; header with units in brackets, e.g. "deflection [in],force [lbf]".',
+    ),
+    json_out: bool = typer.Option(False, "--json", help="Print C, a and R^2 as JSON on stdout."),
+) -> None:
+    """Fit a power-law contact F = C*d^a to force-deflection data (log-log least squares).
+
+    Prints C in N/m^a and in the file's units, the exponent a and R^2 of the log-log fit.
+    At least 3 samples, all positive.
+    """
+    json_out = json_out or bool((ctx.obj or {}).get("json"))
+    with user_errors():
+        samples = read_force_deflection_csv(data)
+        deflection, force = samples.deflection, samples.force
+        length_unit, force_unit = samples.deflection_unit, samples.force_unit
+        for label, values, unit in (("deflection", deflection, length_unit), ("force", force, force_unit)):
+            scale = to_si(f"1 {unit}", "force" if label == "force" else "length")
+            for number, value in zip(samples.lines, values):
+                if not value > 0:
+                    raise InputError(
+                        f"{data}: line {number}: {label} must be positive for a log-log fit, "
+                        f"got {value / scale:g} {unit}"
+                    )
+        try:
+            fit = impact.fit_power_law(deflection, force)
+        except InputError as exc:
+            raise InputError(f"{data}: {exc}") from None
+    # C in the file's units: C_file = C_SI * (1 length_unit in m)^a / (1 force_unit in N)
+    file_coefficient = (
+        fit.coefficient
+        * to_si(f"1 {length_unit}", "length") ** fit.exponent
+        / to_si(f"1 {force_unit}", "force")
+    )
+    file_unit = f"{force_unit}/{length_unit}**{fit.exponent:.6g}"
+    if json_out:
+        print_json(
+            {
+                "coefficient_N_per_m_pow_a": fit.coefficient,
+                "exponent": fit.exponent,
+                "r_squared": fit.r_squared,
+                "coefficient_in_file_units": file_coefficient,
+                "file_coefficient_unit": file_unit,
+                "points": len(force),
+            }
+        )
+        return
+    table = Table(title=f"Power-law fit F = C*d^a of {data} ({len(force)} points)", title_justify="left")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_column("unit")
+    table.add_row("C", f"{fit.coefficient:.6g}", f"N/m**{fit.exponent:.6g}")
+    table.add_row("C", f"{file_coefficient:.6g}", file_unit)
+    table.add_row("a", f"{fit.exponent:.6g}", "-")
+    table.add_row("R^2 (log-log)", f"{fit.r_squared:.6f}", "-")
+    err_console.print(table)
