@@ -60,8 +60,8 @@ class TableSpline:
         acceleration = None if table.acceleration is None else np.asarray(table.acceleration, dtype=float)
         if angle.ndim != 1 or angle.shape != lift.shape:
             raise ValueError("cam table: angle and displacement columns must have the same length")
-        if angle.size < 6:
-            raise ValueError("cam table: at least 6 points are needed for a quintic spline")
+        if angle.size < 4:
+            raise ValueError("cam table: at least 4 points are needed for a periodic spline")
         if not np.all(np.diff(angle) > 0):
             raise ValueError("cam table: angles must be strictly increasing")
         span = angle[-1] - angle[0]
