@@ -183,6 +183,11 @@ class LumpResult:
         The parts file, for messages and the header of the written file.
     units : str
         ``"us"`` or ``"si"``: how the computed values are written.
+    base_dir : Path
+        The parts file's directory (a relative cam ``table`` path is relative to it).
+    checked : bool
+        True when :mod:`camsim.loader` validated the whole machine (pass-through sections
+        included); False when no loader was available.
     """
 
     machine: dict[str, Any]
@@ -190,6 +195,8 @@ class LumpResult:
     parts: dict[str, PartValue]
     source: str = "<string>"
     units: str = "us"
+    base_dir: Path = Path(".")
+    checked: bool = False
     _comments: dict[tuple[str, ...], list[str]] = field(default_factory=dict, repr=False)
 
     def to_toml(self) -> str:
@@ -266,23 +273,37 @@ def load_parts(path: str | Path, *, units: str = "us") -> LumpResult:
         raise InputError(f"{name}: no such file") from None
     except OSError as exc:
         raise InputError(f"{name}: cannot read: {exc.strerror}") from None
-    return lump_text(text, file=name, units=units)
+    return lump_text(text, file=name, units=units, base_dir=Path(path).parent)
 
 
-def lump_text(text: str, *, file: str = "<string>", units: str = "us") -> LumpResult:
-    """Reduce the parts file given as TOML text (see :func:`load_parts`)."""
+def lump_text(
+    text: str, *, file: str = "<string>", units: str = "us", base_dir: str | Path = "."
+) -> LumpResult:
+    """Reduce the parts file given as TOML text (see :func:`load_parts`).
+
+    ``base_dir`` is the directory a relative cam ``table`` path is relative to.
+    """
     try:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise MachineFileError(file, "", f"not valid TOML: {exc}") from None
-    return lump(document, file=file, units=units)
+    return lump(document, file=file, units=units, base_dir=base_dir)
 
 
-def lump(document: dict[str, Any], *, file: str = "<string>", units: str = "us") -> LumpResult:
-    """Reduce a parsed parts file to a machine (see :func:`load_parts`)."""
+def lump(
+    document: dict[str, Any], *, file: str = "<string>", units: str = "us", base_dir: str | Path = "."
+) -> LumpResult:
+    """Reduce a parsed parts file to a machine (see :func:`load_parts`).
+
+    The machine is then validated with :func:`camsim.loader.load_machine_text` when that
+    loader exists (errors name the parts file and the same key path).
+    """
     if units not in UNIT_SYSTEMS:
         raise InputError(f"units must be one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
-    return _Lumper(document, file, units).run()
+    result = _Lumper(document, file, units).run()
+    result.base_dir = Path(base_dir)
+    result.checked = _validate_text(result, result.to_toml(), result.base_dir)
+    return result
 
 
 def write_machine(result: LumpResult, target: str | Path, *, validate: bool = True) -> Path:
@@ -302,8 +323,15 @@ def write_machine(result: LumpResult, target: str | Path, *, validate: bool = Tr
     Path
         ``target``.
     """
+    import os
+
     from camsim.io.atomic import atomic_path
 
+    table = result.machine.get("cam", {}).get("table")
+    if isinstance(table, str) and not Path(table).is_absolute():
+        # keep a relative CSV path pointing at the same file from the output's directory
+        where = Path(os.path.relpath(result.base_dir / table, Path(target).parent or Path(".")))
+        result.machine["cam"]["table"] = where.as_posix()
     text = result.to_toml()
     with atomic_path(target) as tmp:
         tmp.write_text(text, encoding="utf-8")
@@ -325,12 +353,17 @@ def check_with_loader(result: LumpResult, machine_path: str | Path) -> bool:
     MachineFileError
         The loader rejected the machine; the message names the parts file and the key.
     """
+    path = Path(machine_path)
+    return _validate_text(result, path.read_text(encoding="utf-8"), path.parent)
+
+
+def _validate_text(result: LumpResult, text: str, base_dir: Path) -> bool:
     try:
-        from camsim.loader import load_machine
-    except ImportError:
+        from camsim.loader import load_machine_text
+    except ImportError:  # the loader is optional for lumping
         return False
     try:
-        load_machine(machine_path)
+        load_machine_text(text, source=result.source, base_dir=base_dir)
     except MachineFileError as exc:
         raise MachineFileError(result.source, exc.key, f"{exc.message} (in the lumped machine)") from None
     except InputError as exc:

@@ -119,6 +119,8 @@ to_arm = "1 m"
 name = "A"
 {mass}
 {element}
+[simulation]
+duration = "5 ms"
 """
 
 
@@ -200,7 +202,9 @@ def test_load_deflection_inertia_and_levers_hand():
         '[part.t]\ntype = "transfer"\nof = "i"\nlever = "l"\n',
         mass='parts = ["i"]\n[[mass]]\nname = "B"\nparts = ["t"]\n[[mass]]\nname = "C"\nparts = ["i"]\nlever = ["l", "l"]',
     ).replace("[cam]", "")
-    text += '[cam]\nspeed = "1 rpm"\nratio = { lever = "l" }\n'
+    for lower, upper in (("ground", "A"), ("A", "B"), ("B", "C")):
+        text += f'[[element]]\nname = "k{upper}"\ntype = "spring"\nbetween = ["{lower}", "{upper}"]\nstiffness = 1.0\n'
+    text += '[cam]\nspeed = "1 rpm"\nratio = { lever = "l" }\nsegments = [{ motion = "dwell", duration = "360 deg" }]\n'
     result = lump_text(text, units="si")
     assert _value(result, "mass.A.mass") == pytest.approx(8.0, rel=1e-12)
     assert _value(result, "mass.B.mass") == pytest.approx(32.0, rel=1e-12)
@@ -306,3 +310,13 @@ def test_written_names_are_thesis_units_by_default(cdtm):
     assert texts["element.K12.stiffness"].endswith(" lbf/in")
     assert texts["element.K01.preload"].endswith(" lbf")
     assert math.isclose(_lbf_in(to_si(texts["element.K12.stiffness"], "stiffness")), 9050.97, abs_tol=0.005)
+
+
+def test_pass_through_sections_are_validated_by_the_loader():
+    """A misspelt key in a passed-through section is an error naming the parts file and key."""
+    pytest.importorskip("camsim.loader", reason="camsim.loader (load_machine) not available yet")
+    text = CDTM_PARTS.read_text().replace("warmup_cycles = 1", "warmup_cycle = 1")
+    with pytest.raises(MachineFileError) as info:
+        lump_text(text, file="p.toml")
+    assert str(info.value).startswith("p.toml: simulation.warmup_cycle: ")
+    assert "\n" not in str(info.value)
