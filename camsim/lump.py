@@ -854,7 +854,7 @@ def _inertia_to_si(value: Any) -> float:
         return float(value)
     if not isinstance(value, str):
         raise QuantityError(f"expected [mass]*[length]^2, got {value!r}")
-    # dimension check through the shared registry, with to_si's own parsing of the text
+    # parsed by the shared registry; the conversion to kg*m^2 checks the dimension
     try:
         quantity = ureg.Quantity(value.strip())
         return float(quantity.to("kg*m**2").magnitude)

@@ -17,6 +17,7 @@ def lump_command(
         help="Parts file (TOML): components, levers and the groups that become M1, K12, ... "
         "See docs/lumping.md.",
         show_default=False,
+        metavar="PARTS",
     ),
     output: Path | None = typer.Option(
         None,
