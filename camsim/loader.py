@@ -580,6 +580,28 @@ def _si_text(value: float, unit: str) -> str:
     return f"{value:.6g} {unit}".strip()
 
 
+def _has_unit(value: Any) -> bool:
+    """True if ``value`` is a string that carries a unit (``"4.4 deg"``; not ``"50"``)."""
+    if not isinstance(value, str):
+        return False
+    try:
+        quantity = ureg.Quantity(value.strip())
+    except Exception:  # not parsable: let to_si produce the message
+        return True
+    return not getattr(quantity, "unitless", True)
+
+
+def _angle_to_si(value: Any) -> float:
+    """An angle [rad]; a bare number (or a number in a string) means degrees.
+
+    Works around pint treating the radian as dimensionless: ``"3.1 rad"`` must stay
+    radians rather than be re-read as degrees.
+    """
+    if _has_unit(value):
+        return to_si(value, "angle")
+    return to_si(value, "angle", bare_unit="deg")
+
+
 class _Validator:
     """Walk a parsed document and build the Machine, raising on the first problem."""
 
@@ -639,7 +661,10 @@ class _Validator:
             return default
         value = table[key]
         try:
-            number = to_si(value, dimension, bare_unit=bare_unit)
+            if dimension == "angle" and bare_unit == "deg":
+                number = _angle_to_si(value)
+            else:
+                number = to_si(value, dimension, bare_unit=bare_unit)
         except QuantityError as exc:
             raise self.error(where, str(exc)) from None
         self.check_min(number, minimum, strict, where, value)
@@ -781,7 +806,7 @@ class _Validator:
         try:
             return to_si(value, "length")
         except QuantityError as length_error:
-            if isinstance(value, str) and not str(length_error).startswith('"mil"'):
+            if _has_unit(value) and not str(length_error).startswith('"mil"'):
                 try:
                     angle = to_si(value, "angle")
                 except QuantityError:
