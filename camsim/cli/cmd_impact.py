@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from camsim import impact
@@ -144,7 +145,10 @@ def impact_command(
         None, "--bar-area", metavar="QTY", help=_UNITS_HELP + '"0.0276 in**2": struck bar cross-section (wave).'
     ),
     bar_length: str = typer.Option(
-        None, "--bar-length", metavar="QTY", help=_UNITS_HELP + '"0.4 in": struck bar length, fixed at the far end (wave).'
+        None,
+        "--bar-length",
+        metavar="QTY",
+        help=_UNITS_HELP + '"0.4 in": struck bar length, fixed at the far end (wave).',
     ),
     modulus: str = typer.Option(
         None, "--modulus", metavar="QTY", help=_UNITS_HELP + '"2.9e7 psi": Young\'s modulus (wave, --sphere-diameter).'
@@ -371,8 +375,8 @@ def _print_table(inputs: dict[str, Any], est: impact.ImpactEstimates) -> None:
     )
     table.add_column("estimate")
     table.add_column("source")
-    table.add_column("force [N]", justify="right")
-    table.add_column("force [lbf]", justify="right")
+    table.add_column(escape("force [N]"), justify="right")
+    table.add_column(escape("force [lbf]"), justify="right")
     rows = [
         ("Johnson lower (finite mass)", f"thesis eq. 3.27/3.34, {law}", est.johnson_lower, "johnson"),
         ("Johnson upper (infinite mass)", f"thesis eq. 3.29/3.35, {law}", est.johnson_upper, "johnson"),
@@ -546,12 +550,12 @@ def fit_command(
             }
         )
         return
-    table = Table(title=f"Power-law fit F = C*d^a of {data} ({len(force)} points)", title_justify="left")
+    table = Table(title=escape(f"Power-law fit F = C*d^a of {data} ({len(force)} points)"), title_justify="left")
     table.add_column("quantity")
     table.add_column("value", justify="right")
     table.add_column("unit")
     table.add_row("C", f"{fit.coefficient:.6g}", f"N/m**{fit.exponent:.6g}")
-    table.add_row("C", f"{file_coefficient:.6g}", file_unit)
+    table.add_row("C", f"{file_coefficient:.6g}", escape(file_unit))
     table.add_row("a", f"{fit.exponent:.6g}", "-")
     table.add_row("R^2 (log-log)", f"{fit.r_squared:.6f}", "-")
     err_console.print(table)

@@ -99,6 +99,7 @@ def test_human_table_on_stderr_only():
     assert result.exit_code == 0
     assert result.stdout == ""
     assert "Johnson upper" in result.stderr
+    assert "[lbf]" in result.stderr  # the unit in the header is not eaten as rich markup
     assert "57.6" in result.stderr  # lbf column
     assert "needs --bar-area" in result.stderr and "--density" in result.stderr
 
