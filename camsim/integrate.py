@@ -1,0 +1,835 @@
+"""The event-driven integrator: exact between events, events located on the exact solution.
+
+Between events a configuration is linear time-invariant with a cam input
+(ż = A·z + B·u(t) + b, see :mod:`camsim.model`). Over each step the cam input is
+replaced by the degree-7 Hermite polynomial that matches s, ṡ, s̈, s⃛ at both ends
+(error ~ (h/β)^8, far below 1e-9 relative; steps are split at cam segment joins, where
+derivatives jump), and the step map is then exact:
+
+    z(t+h) = Φ·z(t) + Σ_j Γ_j·E_j,    Φ = e^{Ah},  Γ_j = ∫₀ʰ e^{A(h−σ)} σ^j/j! dσ
+
+with Φ and Γ_j from one matrix exponential of a block chain (Van Loan 1978), cached per
+configuration. The recurrence over a uniform grid runs in modal coordinates through
+``scipy.signal.lfilter`` (C speed, no Python loop per step).
+
+Event guards are affine in (z, u); their values and time derivatives are known exactly
+at every grid point, so a cubic Hermite interpolant per step reveals crossings that sign
+changes alone miss (a graze that crosses and re-crosses inside one step). Candidate
+roots are then polished by Newton's method on the exact solution to ~1e-15 s.
+
+Configurations with a closed power-law contact are nonlinear; they are integrated by
+``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-11) with terminal events.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+from scipy.integrate import solve_ivp
+from scipy.signal import lfilter
+
+from camsim.errors import InputError, SimulationError, ZenoError
+from camsim.machine import Contact, PreloadedLink
+from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
+
+#: Degree of the per-step Hermite representation of the cam input.
+HERMITE_DEGREE = 7
+_P = HERMITE_DEGREE
+_FACT = np.array([math.factorial(j) for j in range(_P + 4)], dtype=float)
+
+#: Guard tolerances: a guard within this of zero at the start of a stretch counts as
+#: "just crossed" and is not detected again at the same instant.
+LENGTH_TOL = 1e-13  # [m]
+FORCE_TOL = 1e-9  # [N]
+#: A rigid contact sticks when the predicted remaining chatter time is below this [s].
+ZENO_TIME = 1e-11
+#: More events than this at one instant (within TIME_EPS) is a failure to resolve.
+MAX_EVENTS_PER_INSTANT = 64
+TIME_EPS = 1e-13
+
+
+def expm_balanced(M: np.ndarray) -> np.ndarray:
+    """e^M after a diagonal balancing by powers of two (exact similarity).
+
+    Mechanical state matrices are badly scaled in first-order form (ω²·h beside h); the
+    balanced matrix has a norm near ω·h, so ``expm`` needs fewer squarings and keeps more
+    digits.
+    """
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        balanced, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
+    if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
+        return scipy.linalg.expm(M)
+    return (scale[:, None] * scipy.linalg.expm(balanced)) / scale[None, :]
+
+
+def _hermite_matrix() -> np.ndarray:
+    """Map [f(0), f'(0), f''(0), f'''(0), f(1), f'(1), f''(1), f'''(1)] → monomial coefficients."""
+    n = _P + 1
+    M = np.zeros((n, n))
+    for k in range(4):
+        M[k, k] = math.factorial(k)
+        for j in range(k, n):
+            M[4 + k, j] = math.factorial(j) / math.factorial(j - k)
+    return np.linalg.inv(M)
+
+
+_HERMITE = _hermite_matrix()
+
+
+def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Derivatives D_j (j = 0..7) of the cam displacement at step starts.
+
+    Parameters
+    ----------
+    u0, u1 : ndarray (K, 4)
+        [s, ṡ, s̈, s⃛] at the start and end of each step [SI].
+    h : ndarray (K,)
+        Step lengths [s].
+
+    Returns
+    -------
+    ndarray (K, 8)
+        d^j s/dt^j at each step start for the degree-7 Hermite interpolant.
+    """
+    h = np.asarray(h, dtype=float).reshape(-1, 1)
+    powers = h ** np.arange(4)
+    data = np.hstack([u0 * powers, u1 * powers])  # scaled derivatives wrt σ = τ/h
+    a = data @ _HERMITE.T  # coefficients in σ
+    hp = h ** np.arange(_P + 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        D = a * _FACT[: _P + 1] / hp
+    D[:, :4] = u0  # exact where known
+    D[~np.isfinite(D)] = 0.0
+    return D
+
+
+def forcing_coefficients(config: Configuration, D: np.ndarray) -> np.ndarray:
+    """E_j = B·[D_j, D_{j+1}, D_{j+2}, D_{j+3}] (+ b for j = 0): (K, 8, m)."""
+    K = D.shape[0]
+    Dp = np.concatenate([D, np.zeros((K, 3))], axis=1)
+    # stacked[k, j, c] = D_{j+c}
+    idx = np.arange(_P + 1)[:, None] + np.arange(N_INPUT)[None, :]
+    stacked = Dp[:, idx]
+    E = stacked @ config.B.T  # (K, 8, m)
+    E[:, 0, :] += config.b
+    return E
+
+
+def input_at(D: np.ndarray, tau: float) -> np.ndarray:
+    """[s, ṡ, s̈, s⃛] at τ into a step from its Taylor derivatives D (8,)."""
+    out = np.empty(N_INPUT)
+    for c in range(N_INPUT):
+        terms = D[c:]
+        out[c] = np.sum(terms * tau ** np.arange(terms.size) / _FACT[: terms.size])
+    return out
+
+
+class StepMaps:
+    """Cached exact step maps of one linear configuration for a fixed step h."""
+
+    def __init__(self, config: Configuration, h: float):
+        m = config.dim
+        self.h = h
+        nb = _P + 2
+        big = np.zeros((m * nb, m * nb))
+        big[:m, :m] = config.A
+        for j in range(nb - 1):
+            big[m * j : m * (j + 1), m * (j + 1) : m * (j + 2)] = np.eye(m) if j else np.eye(m)
+        if m:
+            expo = expm_balanced(big * h)
+        else:
+            expo = np.zeros((0, 0))
+        self.Phi = expo[:m, :m]
+        self.Gamma = np.stack([expo[:m, m * (j + 1) : m * (j + 2)] for j in range(_P + 1)]) if m else np.zeros((_P + 1, 0, 0))
+        # Modal form for the recurrence.
+        self.modal = False
+        if m:
+            lam, V = np.linalg.eig(self.Phi)
+            cond = np.linalg.cond(V)
+            if np.isfinite(cond) and cond < 1e7:
+                self.modal = True
+                self.mu = lam
+                self.V = V
+                self.Vinv = np.linalg.inv(V)
+
+    def propagate(self, z0: np.ndarray, E: np.ndarray) -> np.ndarray:
+        """States after each full step: z_{k+1} = Φ z_k + Σ_j Γ_j E_kj; returns (K, m)."""
+        K = E.shape[0]
+        m = z0.size
+        if m == 0:
+            return np.zeros((K, 0))
+        g = np.einsum("jab,kjb->ka", self.Gamma, E)
+        if self.modal:
+            gm = g @ self.Vinv.T  # (K, m) modal forcing
+            w0 = self.Vinv @ z0
+            W = np.empty((K, m), dtype=complex)
+            for i in range(m):
+                W[:, i] = lfilter([1.0], [1.0, -self.mu[i]], gm[:, i], zi=[self.mu[i] * w0[i]])[0]
+            return np.real(W @ self.V.T)
+        out = np.empty((K, m))
+        z = z0
+        for k in range(K):
+            z = self.Phi @ z + g[k]
+            out[k] = z
+        return out
+
+
+def exact_partial(config: Configuration, z0: np.ndarray, E: np.ndarray, tau: float) -> np.ndarray:
+    """Exact state after τ from z0 under the polynomial forcing Σ E_j σ^j/j! (E: (8, m)).
+
+    The augmented matrix is built in the scaled time σ/τ so that its norm stays near
+    ‖A‖·τ (the raw forcing coefficients reach 1e13 for stiff contacts, and ``expm`` would
+    square its way through them).
+    """
+    m = config.dim
+    if m == 0:
+        return np.zeros(0)
+    n_aug = m + _P + 1
+    M = np.zeros((n_aug, n_aug))
+    M[:m, :m] = config.A * tau
+    M[:m, m:] = (E * (tau ** np.arange(1, _P + 2))[:, None]).T
+    for j in range(1, _P + 1):
+        M[m + j, m + j - 1] = 1.0
+    start = np.zeros(n_aug)
+    start[:m] = z0
+    start[m] = 1.0
+    return (expm_balanced(M) @ start)[:m]
+
+
+@dataclass
+class Guard:
+    """A scalar condition that keeps the configuration valid while it is > 0."""
+
+    element: int
+    kind: str  # separate, rejoin, close, release, unlift
+    value: Affine  # one row
+    tol: float
+    rate: Affine | None = None  # time derivative (linear configurations)
+
+
+@dataclass
+class Event:
+    """One event of a run (times on the simulation clock until shifted for output)."""
+
+    time: float
+    element: str
+    kind: str
+    relative_velocity: float = float("nan")
+    angle_deg: float = float("nan")
+    masses: str = ""
+    johnson_lower: float = float("nan")
+    johnson_upper: float = float("nan")
+    peak_force: float = float("nan")
+    contact_duration: float = float("nan")
+    element_index: int = -1
+
+
+@dataclass
+class Stretch:
+    """Samples of one configuration on the output grid."""
+
+    branches: tuple[Branch, ...]
+    config: Configuration
+    t: np.ndarray
+    z: np.ndarray
+    u: np.ndarray
+    fn: np.ndarray
+    v_impacts: dict[int, float] = field(default_factory=dict)
+
+
+@dataclass
+class State:
+    """Full state of the machine at one instant."""
+
+    t: float
+    x: np.ndarray
+    v: np.ndarray
+    branches: tuple[Branch, ...]
+    v_impacts: dict[int, float]
+
+
+class Integrator:
+    """Event-driven integration of a :class:`Model` driven by a cam program.
+
+    Parameters
+    ----------
+    model : Model
+    cam : CamProgram
+        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+    step : float
+        Internal grid step h [s]; the grid is t_ref + k·h.
+    t_ref : float
+        A time on the grid [s].
+    """
+
+    def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
+        self.model = model
+        self.cam = cam
+        self.h = step
+        self.t_ref = t_ref
+        self.events: list[Event] = []
+        self._maps: dict[tuple[Branch, ...], StepMaps] = {}
+        self._instant_count = 0
+        self._instant_time = -math.inf
+        self.rtol_nonlinear = 1e-11
+
+    # ------------------------------------------------------------------ inputs
+    def inputs(self, t: np.ndarray) -> np.ndarray:
+        s, v, a, j = self.cam.svaj(np.asarray(t, dtype=float))
+        return np.stack([s, v, a, j], axis=-1)
+
+    def maps(self, config: Configuration) -> StepMaps:
+        maps = self._maps.get(config.branches)
+        if maps is None:
+            maps = StepMaps(config, self.h)
+            self._maps[config.branches] = maps
+        return maps
+
+    # ------------------------------------------------------------------ guards
+    def _deflection(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
+        """Deflection d = x_upper − x_lower of element i and its rate, as affine maps."""
+        geo = self.model.geometry[i]
+        G = geo.G.reshape(1, -1)
+        du = np.zeros((1, N_INPUT))
+        du[0, 0] = geo.g_s
+        d = Affine.combine([(G, config.x)], const=np.zeros(1), du=du)
+        du = np.zeros((1, N_INPUT))
+        du[0, 1] = geo.g_s
+        rate = Affine.combine([(G, config.v)], const=np.zeros(1), du=du)
+        return d, rate
+
+    def _delta(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
+        """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps."""
+        d, rate = self._deflection(config, i)
+        gap = self.model.elements[i].gap
+        return Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
+
+    def guards(self, state: State, config: Configuration) -> list[Guard]:
+        """Guards of the configuration at ``state`` (open contacts choose by penetration)."""
+        model = self.model
+        out: list[Guard] = []
+        for pos, i in enumerate(model.switching):
+            branch = state.branches[pos]
+            element = model.elements[i]
+            if isinstance(element, PreloadedLink):
+                d, _ = self._deflection(config, i)
+                dsep = element.separation_deflection
+                if branch == Branch.JOINED:
+                    g = Affine(-d.Cz, -d.Du, -d.Fn, dsep - d.e)
+                    out.append(Guard(i, "separate", g, LENGTH_TOL))
+                elif branch == Branch.SEPARATED:
+                    g = Affine(d.Cz, d.Du, d.Fn, d.e - dsep)
+                    out.append(Guard(i, "rejoin", g, LENGTH_TOL))
+                continue
+            if not isinstance(element, Contact) or branch == Branch.BILATERAL:
+                continue
+            delta, rate = self._delta(config, i)
+            if branch == Branch.STUCK:
+                k = config.stuck_contacts.index(i)
+                lam = config.lam.rows(slice(k, k + 1))
+                g = Affine(lam.Cz, lam.Du, lam.Fn, lam.e + FORCE_TOL)
+                out.append(Guard(i, "release", g, FORCE_TOL))
+                continue
+            if branch == Branch.CLOSED:
+                if element.law == "linear":
+                    k_, c_, _ = model.linear_branch(i, branch)
+                    force = Affine.combine([(np.array([[k_]]), delta), (np.array([[c_]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
+                    out.append(Guard(i, "release", force, FORCE_TOL))
+                else:  # power law: δ > 0 and the Hunt–Crossley factor > 0
+                    out.append(Guard(i, "release", delta, LENGTH_TOL))
+                    factor = self._hc_factor(i, rate, state.v_impacts.get(i))
+                    if factor is not None:
+                        out.append(Guard(i, "release", factor, 1e-12))
+                continue
+            # OPEN: approaching (δ ≤ 0) or lifted (δ > 0 but the law would pull)
+            z = config.state_from_full(state.x, state.v, *self.inputs(np.array([state.t]))[0, :2])
+            u = self.inputs(np.array([state.t]))
+            delta_now = float(delta(z[None, :], u)[0, 0])
+            if element.law == "restitution" or delta_now <= LENGTH_TOL:
+                g = Affine(-delta.Cz, -delta.Du, -delta.Fn, -delta.e)
+                out.append(Guard(i, "close", g, LENGTH_TOL))
+                continue
+            if element.law == "linear":
+                k_, c_, _ = model.linear_branch(i, Branch.CLOSED)
+                law = Affine.combine([(np.array([[-k_]]), delta), (np.array([[-c_]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
+                out.append(Guard(i, "close", law, FORCE_TOL))
+            else:
+                factor = self._hc_factor(i, rate, state.v_impacts.get(i))
+                if factor is not None:
+                    out.append(Guard(i, "close", Affine(-factor.Cz, -factor.Du, -factor.Fn, -factor.e), 1e-12))
+            out.append(Guard(i, "unlift", delta, LENGTH_TOL))
+        if config.linear:
+            for guard in out:
+                guard.rate = self._rate(config, guard.value)
+        return out
+
+    def _hc_factor(self, i: int, rate: Affine, v_impact: float | None) -> Affine | None:
+        element = self.model.elements[i]
+        if element.restitution is None or not v_impact:
+            return None
+        beta = 0.75 * (1.0 - element.restitution**2) / v_impact
+        return Affine(beta * rate.Cz, beta * rate.Du, beta * rate.Fn, 1.0 + beta * rate.e)
+
+    @staticmethod
+    def _rate(config: Configuration, g: Affine) -> Affine:
+        """d/dt of an affine guard in a linear configuration."""
+        Du = g.Cz @ config.B
+        Du[:, 1:] += g.Du[:, :-1]
+        if np.any(g.Du[:, -1]):
+            raise AssertionError("guards may not depend on the jerk")
+        return Affine(g.Cz @ config.A, Du, np.zeros_like(g.Fn), g.Cz @ config.b)
+
+    # ------------------------------------------------------------------ grid helpers
+    def grid_between(self, t0: float, t1: float) -> np.ndarray:
+        """Grid points in [t0, t1) (tolerant to rounding)."""
+        k0 = math.ceil((t0 - self.t_ref) / self.h - 1e-7)
+        k1 = math.ceil((t1 - self.t_ref) / self.h - 1e-7)
+        if k1 <= k0:
+            return np.zeros(0)
+        return self.t_ref + np.arange(k0, k1) * self.h
+
+    # ------------------------------------------------------------------ advancing
+    def advance(self, state: State, t_stop: float, record: bool) -> tuple[State, Stretch | None, Guard | None]:
+        """Integrate one configuration from ``state`` until an event or ``t_stop``.
+
+        Returns the state at the end, the recorded samples (grid points in
+        [state.t, end)), and the guard that fired (None when ``t_stop`` was reached).
+        """
+        config = self.model.configuration(state.branches)
+        guards = self.guards(state, config)
+        u0 = self.inputs(np.array([state.t]))[0]
+        z0 = config.state_from_full(state.x, state.v, u0[0], u0[1])
+        if config.linear:
+            return self._advance_linear(state, config, z0, guards, t_stop, record)
+        return self._advance_nonlinear(state, config, z0, guards, t_stop, record)
+
+    def _advance_linear(self, state, config, z0, guards, t_stop, record):
+        maps = self.maps(config)
+        h = self.h
+        t0 = state.t
+        chunk = 256
+        collected_t, collected_z, collected_u = [], [], []
+        first_chunk = True
+        z_start = z0
+        t_start = t0
+        while True:
+            t_chunk_end = min(t_stop, t_start + chunk * h)
+            grid = self.grid_between(t_start, t_chunk_end)
+            # Nodes: the start, the interior grid points, the end.
+            interior = grid[grid > t_start + TIME_EPS]
+            nodes = np.concatenate([[t_start], interior, [t_chunk_end]])
+            if nodes[-1] - nodes[-2] <= TIME_EPS:
+                nodes = np.delete(nodes, -2) if nodes.size > 2 else nodes
+            U = self.inputs(nodes)
+            steps = np.diff(nodes)
+            D = step_input_derivatives(U[:-1], U[1:], steps)
+            E = forcing_coefficients(config, D)
+            Z = np.empty((nodes.size, config.dim))
+            Z[0] = z_start
+            full = np.abs(steps - h) <= 1e-9 * h
+            # Steps are full except possibly the first and the last.
+            k = 0
+            while k < steps.size:
+                if full[k]:
+                    k_end = k
+                    while k_end < steps.size and full[k_end]:
+                        k_end += 1
+                    Z[k + 1 : k_end + 1] = maps.propagate(Z[k], E[k:k_end])
+                    k = k_end
+                else:
+                    Z[k + 1] = exact_partial(config, Z[k], E[k], steps[k])
+                    k += 1
+            hit = self._first_crossing(config, guards, nodes, Z, U, D, E, first_chunk)
+            if hit is not None:
+                t_event, z_event, guard, index = hit
+                keep = nodes[: index + 1]
+                mask = self._on_grid(keep)
+                if record:
+                    collected_t.append(keep[mask])
+                    collected_z.append(Z[: index + 1][mask])
+                    collected_u.append(U[: index + 1][mask])
+                end = self._state_from(config, z_event, t_event, state)
+                return end, self._stretch(state, config, collected_t, collected_z, collected_u), guard
+            mask = self._on_grid(nodes[:-1])
+            if record:
+                collected_t.append(nodes[:-1][mask])
+                collected_z.append(Z[:-1][mask])
+                collected_u.append(U[:-1][mask])
+            t_start, z_start = nodes[-1], Z[-1]
+            first_chunk = False
+            if t_start >= t_stop - TIME_EPS:
+                end = self._state_from(config, z_start, t_stop, state)
+                return end, self._stretch(state, config, collected_t, collected_z, collected_u), None
+            chunk = min(chunk * 2, 8192)
+
+    def _on_grid(self, t: np.ndarray) -> np.ndarray:
+        k = (t - self.t_ref) / self.h
+        return np.abs(k - np.round(k)) < 1e-7
+
+    def _stretch(self, state, config, ts, zs, us) -> Stretch | None:
+        if not ts:
+            return None
+        t = np.concatenate(ts)
+        if t.size == 0:
+            return None
+        z = np.concatenate(zs)
+        u = np.concatenate(us)
+        fn = self.nonlinear_forces(config, z, u, state.v_impacts)
+        return Stretch(state.branches, config, t, z, u, fn, dict(state.v_impacts))
+
+    def _state_from(self, config: Configuration, z: np.ndarray, t: float, previous: State) -> State:
+        u = self.inputs(np.array([t]))
+        fn = self.nonlinear_forces(config, z[None, :], u, previous.v_impacts)
+        x = config.x(z[None, :], u, fn)[0]
+        v = config.v(z[None, :], u, fn)[0]
+        return State(t, x, v, previous.branches, dict(previous.v_impacts))
+
+    def nonlinear_forces(self, config: Configuration, z: np.ndarray, u: np.ndarray, v_impacts) -> np.ndarray:
+        """Forces of closed power-law contacts on samples (N, p)."""
+        if not config.power_contacts:
+            return np.zeros((z.shape[0], 0))
+        out = np.empty((z.shape[0], len(config.power_contacts)))
+        for k, i in enumerate(config.power_contacts):
+            delta, rate = self._delta(config, i)
+            out[:, k] = self.model.power_force(i, delta(z, u)[:, 0], rate(z, u)[:, 0], v_impacts.get(i))
+        return out
+
+    # ------------------------------------------------------------------ crossings
+    def _first_crossing(self, config, guards, nodes, Z, U, D, E, first_chunk):
+        """Earliest guard crossing in the chunk: (t, z, guard, step index) or None."""
+        if not guards:
+            return None
+        steps = np.diff(nodes)
+        candidates = []
+        Udot = np.concatenate([U[:, 1:], np.zeros((U.shape[0], 1))], axis=1)
+        for guard in guards:
+            g = guard.value(Z, U)[:, 0]
+            gd = guard.rate(Z, U)[:, 0]
+            g0 = g[:-1].copy()
+            if first_chunk and abs(g0[0]) <= guard.tol:
+                g0[0] = max(g0[0], guard.tol)  # just crossed: do not find it again
+            if first_chunk and g0[0] < -guard.tol:
+                candidates.append((nodes[0], 0, guard, "now"))
+                continue
+            g1 = g[1:]
+            d0 = gd[:-1] * steps
+            d1 = gd[1:] * steps
+            crossing = g1 <= 0.0
+            # Interior minimum of the cubic Hermite interpolant.
+            c2 = 3 * (g1 - g0) - 2 * d0 - d1
+            c3 = 2 * (g0 - g1) + d0 + d1
+            qa, qb, qc = 3 * c3, 2 * c2, d0
+            disc = qb * qb - 4 * qa * qc
+            dip = np.zeros_like(crossing)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                sq = np.sqrt(np.maximum(disc, 0.0))
+                for sign in (-1.0, 1.0):
+                    sig = np.where(np.abs(qa) > 1e-300, (-qb + sign * sq) / (2 * qa), -qc / qb)
+                    ok = (disc >= 0) & (sig > 0) & (sig < 1) & np.isfinite(sig)
+                    val = g0 + d0 * sig + c2 * sig**2 + c3 * sig**3
+                    dip |= ok & (val <= 0.0)
+            idx = np.flatnonzero(crossing | dip)
+            for k in idx[:4]:  # the earliest few; false alarms are rare
+                candidates.append((nodes[k], int(k), guard, "scan"))
+        if not candidates:
+            return None
+        candidates.sort(key=lambda c: (c[0], c[1]))
+        for t_k, k, guard, how in candidates:
+            if how == "now":
+                return nodes[0], Z[0], guard, 0
+            root = self._refine(config, guard, Z[k], D[k], E[k], steps[k], first_chunk and k == 0)
+            if root is not None:
+                tau, z = root
+                return nodes[k] + tau, z, guard, k
+        return None
+
+    def _refine(self, config, guard, z0, Dk, Ek, hk, just_started):
+        """Locate the first root of the guard in one step on the exact solution."""
+
+        def evaluate(tau):
+            z = exact_partial(config, z0, Ek, tau) if tau > 0 else z0
+            u = input_at(Dk, tau)
+            g = guard.value(z[None, :], u[None, :])[0, 0]
+            gd = guard.rate(z[None, :], u[None, :])[0, 0]
+            return g, gd, z
+
+        samples = np.linspace(0.0, hk, 9)
+        values = []
+        for tau in samples:
+            g, gd, z = evaluate(tau)
+            values.append((tau, g, gd, z))
+        if just_started:
+            values[0] = (0.0, max(values[0][1], guard.tol), values[0][2], values[0][3])
+        lo = hi = None
+        for a, b in zip(values[:-1], values[1:]):
+            if a[1] > 0 and b[1] <= 0:
+                lo, hi = a, b
+                break
+        if lo is None:
+            # Grazing dip: find the minimum of the exact guard.
+            from scipy.optimize import minimize_scalar
+
+            best = min(values, key=lambda v: v[1])
+            res = minimize_scalar(lambda t: evaluate(t)[0], bounds=(0.0, hk), method="bounded", options={"xatol": hk * 1e-10})
+            if res.fun > 0:
+                return None
+            t_min = float(res.x)
+            left = [v for v in values if v[0] < t_min and v[1] > 0]
+            if not left:
+                return None
+            lo = left[-1]
+            g, gd, z = evaluate(t_min)
+            hi = (t_min, g, gd, z)
+            del best
+        # Safeguarded Newton between lo (g > 0) and hi (g <= 0): the result is the point
+        # where the exact guard is zero to rounding; the bracket keeps it in the step.
+        a_t, a_g = lo[0], lo[1]
+        b_t, b_g = hi[0], hi[1]
+        t = b_t - b_g * (b_t - a_t) / (b_g - a_g) if b_g != a_g else 0.5 * (a_t + b_t)
+        z = hi[3]
+        for _ in range(60):
+            g, gd, z = evaluate(t)
+            if g > 0:
+                a_t, a_g = t, g
+            else:
+                b_t, b_g = t, g
+            if g == 0 or b_t - a_t <= 1e-15:
+                break
+            t_new = t - g / gd if gd != 0 else 0.5 * (a_t + b_t)
+            if not (a_t < t_new < b_t):
+                t_new = 0.5 * (a_t + b_t)
+            if abs(t_new - t) <= 1e-16 + 1e-15 * hk:
+                t = t_new
+                g, gd, z = evaluate(t)
+                break
+            t = t_new
+        return t, z
+
+    # ------------------------------------------------------------------ nonlinear
+    def _advance_nonlinear(self, state, config, z0, guards, t_stop, record):
+        model = self.model
+        v_imp = state.v_impacts
+        lengths = np.concatenate([np.full(config.dim // 2, 1e-13), np.full(config.dim // 2, 1e-10)])
+        deltas = [self._delta(config, i) for i in config.power_contacts]
+
+        def rhs(t, z):
+            u = self.inputs(np.array([t]))
+            fn = self.nonlinear_forces(config, z[None, :], u, v_imp)[0]
+            return config.A @ z + config.B @ u[0] + config.b + config.L @ fn
+
+        events = []
+        for guard in guards:
+            def ev(t, z, guard=guard):
+                u = self.inputs(np.array([t]))
+                return float(guard.value(z[None, :], u)[0, 0])
+
+            ev.terminal = True
+            ev.direction = -1
+            events.append(ev)
+        del deltas, model
+        t0 = state.t
+        sol = solve_ivp(
+            rhs, (t0, t_stop), z0, method="DOP853", rtol=self.rtol_nonlinear, atol=lengths,
+            events=events or None, dense_output=True, max_step=max(self.h * 4, 1e-6),
+        )
+        if sol.status == -1:
+            raise SimulationError(f"nonlinear contact phase failed at t = {sol.t[-1]:.9g} s: {sol.message}")
+        fired = None
+        t_end = t_stop
+        if sol.status == 1:
+            for guard, te in zip(guards, sol.t_events):
+                if te.size and (fired is None or te[0] < t_end):
+                    # ignore a root at the very start (the guard that was just crossed)
+                    if te[0] <= t0 + TIME_EPS:
+                        continue
+                    fired, t_end = guard, float(te[0])
+            if fired is None:
+                t_end = float(sol.t[-1])
+        z_end = sol.sol(t_end)
+        grid = self.grid_between(t0, t_end)
+        stretch = None
+        if record and grid.size:
+            Zs = sol.sol(grid).T
+            Us = self.inputs(grid)
+            fn = self.nonlinear_forces(config, Zs, Us, v_imp)
+            stretch = Stretch(state.branches, config, grid, Zs, Us, fn, dict(v_imp))
+        end = self._state_from(config, z_end, t_end, state)
+        return end, stretch, fired
+
+    # ------------------------------------------------------------------ events
+    def relative_rate(self, state: State, i: int) -> tuple[float, float]:
+        """(δ, δ̇) of element i at a full state."""
+        geo = self.model.geometry[i]
+        u = self.inputs(np.array([state.t]))[0]
+        d = state.x @ geo.G + geo.g_s * u[0]
+        dd = state.v @ geo.G + geo.g_s * u[1]
+        return getattr(self.model.elements[i], "gap", 0.0) - d, -dd
+
+    def handle(self, state: State, guard: Guard) -> State:
+        """Apply the event of ``guard`` at ``state``; returns the state after it."""
+        if abs(state.t - self._instant_time) <= 1e-12:
+            self._instant_count += 1
+            if self._instant_count > MAX_EVENTS_PER_INSTANT:
+                raise ZenoError(
+                    f"events pile up at t = {state.t:.12g} s on element "
+                    f"{self.model.elements[guard.element].name} without resolving (chatter)"
+                )
+        else:
+            self._instant_time = state.t
+            self._instant_count = 0
+        model = self.model
+        i = guard.element
+        element = model.elements[i]
+        pos = model.switching.index(i)
+        branches = list(state.branches)
+        v_imp = dict(state.v_impacts)
+        delta, rate = self.relative_rate(state, i)
+        x, v = state.x.copy(), state.v.copy()
+        kind = guard.kind
+        if kind == "unlift":
+            return State(state.t, x, v, tuple(branches), v_imp)
+        if isinstance(element, PreloadedLink):
+            if kind == "separate":
+                branches[pos] = Branch.SEPARATED
+                self._record(state.t, i, "separation", -rate)
+            else:
+                branches[pos] = Branch.JOINED
+                self._record(state.t, i, "rejoin", rate)
+            return State(state.t, x, v, tuple(branches), v_imp)
+        if kind == "release":
+            branches[pos] = Branch.OPEN
+            self._record(state.t, i, "release", rate)
+            return State(state.t, x, v, tuple(branches), v_imp)
+        # closing
+        self._record(state.t, i, "impact", rate)
+        if element.law != "restitution":
+            branches[pos] = Branch.CLOSED
+            if element.law == "power" and element.restitution is not None:
+                v_imp[i] = max(rate, 1e-12)
+            return State(state.t, x, v, tuple(branches), v_imp)
+        return self._rigid_impact(state, i, pos, branches, v_imp, rate)
+
+    def _rigid_impact(self, state, i, pos, branches, v_imp, approach):
+        """Newton's impact law on a rigid contact; stick when the chatter would not end."""
+        model = self.model
+        e = model.elements[i].restitution or 0.0
+        t = state.t
+        u = self.inputs(np.array([t]))[0]
+        # Active constraints: the already-stuck contacts keep zero relative velocity.
+        rows = [model.geometry[k].G for k, b in zip(model.switching, branches) if b == Branch.STUCK and k != i]
+        rows.append(model.geometry[i].G)
+        J = np.array(rows)
+        Minv = np.diag(1.0 / model.mass)
+        target = np.zeros(len(rows))
+
+        def velocity_after(restitution):
+            target[-1] = (1.0 + restitution) * approach  # G·Δv for the impacting row
+            W = J @ Minv @ J.T
+            lam = np.linalg.solve(W, target)
+            return state.v + Minv @ J.T @ lam
+
+        v_new = velocity_after(e)
+        branches_open = tuple(branches)
+        after = State(t, state.x, v_new, branches_open, v_imp)
+        # Relative acceleration in the open configuration decides whether it can stick.
+        config = model.configuration(branches_open)
+        z = config.state_from_full(state.x, v_new, u[0], u[1])
+        acc = config.a(z[None, :], u[None, :], self.nonlinear_forces(config, z[None, :], u[None, :], v_imp))[0]
+        geo = model.geometry[i]
+        delta_acc = -(acc @ geo.G + geo.g_s * u[2])
+        rebound = e * approach
+        stick = False
+        if delta_acc > 0:
+            if e <= 0.0 or e >= 1.0:
+                stick = e <= 0.0
+            else:
+                remaining = 2.0 * rebound / (delta_acc * (1.0 - e))
+                stick = remaining < ZENO_TIME
+        elif rebound <= 0.0:
+            stick = False
+        if stick:
+            v_stuck = velocity_after(0.0)
+            branches[pos] = Branch.STUCK
+            stuck = State(t, state.x, v_stuck, tuple(branches), v_imp)
+            self._record(t, i, "stick", 0.0)
+            return stuck
+        return after
+
+    def _record(self, t: float, i: int, kind: str, relative_velocity: float) -> None:
+        element = self.model.elements[i]
+        self.events.append(
+            Event(
+                time=t, element=element.name, kind=kind, relative_velocity=float(relative_velocity),
+                masses=f"{element.lower}/{element.upper}", element_index=i,
+            )
+        )
+
+    def violated(self, state: State) -> Guard | None:
+        """A guard of the state's configuration that is already violated, if any."""
+        config = self.model.configuration(state.branches)
+        u = self.inputs(np.array([state.t]))
+        z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
+        fn = self.nonlinear_forces(config, z[None, :], u, state.v_impacts)
+        for guard in self.guards(state, config):
+            if guard.kind == "unlift":
+                continue
+            if guard.value(z[None, :], u, fn)[0, 0] < -guard.tol:
+                return guard
+        return None
+
+    def settle(self, state: State) -> State:
+        """Resolve every guard violated at one instant (cascading events)."""
+        for _ in range(MAX_EVENTS_PER_INSTANT):
+            guard = self.violated(state)
+            if guard is None:
+                return state
+            state = self.handle(state, guard)
+        raise ZenoError(f"cannot find a consistent contact state at t = {state.t:.12g} s")
+
+    # ------------------------------------------------------------------ driver
+    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None):
+        """Integrate from ``state`` to ``t_end``; yield stretches recorded from ``record_from``.
+
+        ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
+        e.g. the start of a cycle for the periodicity residual.
+        """
+        stretches: list[Stretch] = []
+        state = self.settle(state)
+        if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
+            on_stop(state)
+        boundaries = list(self.cam.boundary_times(state.t, t_end)) + [s for s in stops if state.t < s < t_end]
+        boundaries = sorted(set(boundaries)) + [t_end]
+        bi = 0
+        max_stretches = 10_000_000
+        count = 0
+        while state.t < t_end - TIME_EPS:
+            while bi < len(boundaries) and boundaries[bi] <= state.t + TIME_EPS:
+                if on_stop and boundaries[bi] in stops and abs(boundaries[bi] - state.t) <= TIME_EPS:
+                    on_stop(state)
+                bi += 1
+            t_stop = boundaries[bi] if bi < len(boundaries) else t_end
+            record = t_stop > record_from - TIME_EPS
+            new_state, stretch, guard = self.advance(state, t_stop, record)
+            if stretch is not None:
+                keep = stretch.t >= record_from - 1e-7 * self.h
+                if np.any(keep):
+                    stretches.append(Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts))
+            if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):
+                raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
+            state = new_state
+            if guard is not None:
+                state = self.handle(state, guard)
+                state = self.settle(state)
+            if progress is not None:
+                progress(state.t)
+            count += 1
+            if count > max_stretches:
+                raise ZenoError("too many events; the run does not progress")
+        if on_stop and any(abs(s - t_end) <= TIME_EPS for s in stops):
+            on_stop(state)
+        return state, stretches

@@ -1,0 +1,120 @@
+"""Writing run and comparison results to HDF5 (spec §7).
+
+Layout of a run (at the file root, or inside ``/impact`` and ``/no_impact`` of a
+comparison)::
+
+    time, cam/{angle,displacement,velocity,acceleration,jerk,boundaries_deg},
+    masses/<name>/{displacement,velocity,acceleration}, elements/<name>/force,
+    cam_contact/force, transducer/force, events
+
+Every trace has ``units`` and ``long_name`` attributes and ``time`` attached as its
+dimension scale. Files are written atomically and deterministically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from collections.abc import Sequence
+
+import h5py
+import numpy as np
+
+from camsim import __version__
+from camsim.integrate import Event
+from camsim.io.atomic import atomic_path
+from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
+from camsim.machine import Contact, Machine
+
+#: Result-file schema written by this version.
+SCHEMA = 1
+
+_QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
+
+#: Event-table columns and their units.
+EVENT_COLUMNS = (
+    ("time", "s"),
+    ("angle_deg", "deg"),
+    ("element", ""),
+    ("kind", ""),
+    ("masses", ""),
+    ("relative_velocity", "m/s"),
+    ("johnson_lower", "N"),
+    ("johnson_upper", "N"),
+    ("peak_force", "N"),
+    ("contact_duration", "s"),
+)
+
+
+def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> None:
+    """Root attributes every camsim file carries (spec §7)."""
+    f.attrs["camsim_version"] = __version__
+    f.attrs["schema"] = SCHEMA
+    f.attrs["file_kind"] = file_kind
+    f.attrs["machine_name"] = machine.name
+    f.attrs["machine_toml"] = machine.text
+    f.attrs["machine_sha256"] = hashlib.sha256(machine.text.encode()).hexdigest()
+    f.attrs["units_system"] = "SI"
+
+
+def write_events(group: h5py.Group, events: Sequence[Event]) -> None:
+    """The event table as a compound dataset (NaN where a column does not apply)."""
+    columns = {}
+    for name, units in EVENT_COLUMNS:
+        values = [getattr(e, name) for e in events]
+        if name in ("element", "kind", "masses"):
+            columns[name] = (np.array(values, dtype=object), units)
+        else:
+            columns[name] = (np.array(values, dtype=float), units)
+    write_table(group, "events", columns)
+
+
+def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
+    """Write one :class:`~camsim.simulate.RunResult` into ``group``; returns its time scale."""
+    time = write_time(group, result.time)
+    cam = result.cam
+    write_trace(group, "cam/angle", cam["angle"], "deg", "cam angle θ0 + ω·t", time)
+    for quantity in ("displacement", "velocity", "acceleration", "jerk"):
+        write_trace(group, f"cam/{quantity}", cam[quantity], _QUANTITY_UNITS[quantity], f"cam {quantity} on the model axis", time)
+    group.create_dataset("cam/boundaries_deg", data=np.asarray(result.boundaries_deg, dtype=float)).attrs["units"] = "deg"
+    for name, traces in result.masses.items():
+        for quantity in ("displacement", "velocity", "acceleration"):
+            write_trace(group, f"masses/{name}/{quantity}", traces[quantity], _QUANTITY_UNITS[quantity], f"{quantity} of {name}", time)
+    for element in result.machine.elements:
+        if element.name not in result.elements:
+            continue
+        sense = "compressive-positive" if isinstance(element, Contact) else "tension-positive"
+        write_trace(group, f"elements/{element.name}/force", result.elements[element.name], "N", f"force of {element.name} ({sense})", time)
+    if result.cam_contact_force is not None:
+        write_trace(group, "cam_contact/force", result.cam_contact_force, "N", "force of the cam on the driven mass", time)
+    if result.transducer_force is not None:
+        write_trace(group, "transducer/force", result.transducer_force, "N", "force read by the transducer", time)
+    write_events(group, result.events)
+    group.attrs["no_impact"] = bool(result.no_impact)
+    group.attrs["sample_rate"] = float(result.sample_rate)
+    residual = result.periodicity_residual
+    group.attrs["periodicity_residual"] = float(residual) if not math.isnan(residual) else float("nan")
+    return time
+
+
+def write_run(result, path: str | os.PathLike[str]) -> None:
+    """Write a run result to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, result.machine, "run")
+            write_run_group(f, result)
+
+
+def write_comparison(comparison, path: str | os.PathLike[str]) -> None:
+    """Write a :class:`~camsim.compare.Comparison` (impact, no-impact, difference) atomically."""
+    with atomic_path(path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, comparison.impact.machine, "compare")
+            write_run_group(f.create_group("impact", track_order=True), comparison.impact)
+            write_run_group(f.create_group("no_impact", track_order=True), comparison.no_impact)
+            diff = f.create_group("difference", track_order=True)
+            time = write_time(diff, comparison.time)
+            for name, quantities in comparison.difference.items():
+                for quantity, data in quantities.items():
+                    write_trace(diff, f"masses/{name}/{quantity}", data, "%", f"{quantity} of {name}: 100·(impact − no impact)/max|impact|", time)
