@@ -92,7 +92,7 @@ def write_csv(target: str | os.PathLike[str], columns: dict[str, np.ndarray], un
             cells.append(values.astype(np.float64).tolist())  # Python floats: csv writes repr()
     with atomic_path(target) as tmp:
         with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh, lineterminator="\n")
+            writer = csv.writer(fh, lineterminator="\r\n")  # RFC 4180; quotes text holding \r or \n
             writer.writerow([header_cell(n, units.get(n)) for n in names])
             writer.writerows(zip(*cells))
     return Path(target)

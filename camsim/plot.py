@@ -259,9 +259,13 @@ def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str
     boundaries = group["cam/boundaries_deg"][()] if "cam/boundaries_deg" in group else np.array([])
     marks = np.array([])
     if boundaries.size and x.size:
-        cycles = np.arange(np.floor(x.min() / 360.0), np.floor(x.max() / 360.0) + 1)
+        lo, hi = float(x.min()), float(x.max())
+        if angle_window is not None:  # joins at the window's edges are drawn too
+            lo = angle_window[0] if angle_window[0] is not None else lo
+            hi = angle_window[1] if angle_window[1] is not None else hi
+        cycles = np.arange(np.floor(lo / 360.0), np.floor(hi / 360.0) + 1)
         marks = (boundaries[None, :] + 360.0 * cycles[:, None]).ravel()
-        marks = np.unique(marks[(marks >= x.min()) & (marks <= x.max())])
+        marks = np.unique(marks[(marks >= lo) & (marks <= hi)])
     with matplotlib.rc_context(_STYLE):
         fig, axes = _new_figure(8.0, 4)
         for ax, q, ds in zip(axes, names, dsets):
