@@ -19,7 +19,6 @@ See ``docs/machine-file.md`` for the full reference.
 
 from __future__ import annotations
 
-import copy
 import csv
 import difflib
 import math
@@ -591,6 +590,14 @@ def _has_unit(value: Any) -> bool:
     return not getattr(quantity, "unitless", True)
 
 
+def _is_angular(value: str) -> bool:
+    """True if the unit of ``value`` contains an angle (rpm, rad/s, deg/s; not Hz, 1/s)."""
+    try:
+        return "radian" in dict(ureg.Quantity(value.strip()).to_root_units()._units)
+    except Exception:  # unparsable: to_si reports it
+        return True
+
+
 def _angle_to_si(value: Any) -> float:
     """An angle [rad]; a bare number (or a number in a string) means degrees.
 
@@ -778,6 +785,11 @@ class _Validator:
         self.check_keys(table, CAM_KEYS, "cam")
         speed = self.quantity(table, "speed", "cam", "angular_speed", required=True, minimum=0.0,
                               strict=True, example='"120 rpm"')
+        value = table.get("speed")
+        if _has_unit(value) and not _is_angular(value):
+            raise self.error("cam.speed", f'expected an angular speed such as "120 rpm" or "12.57 rad/s", '
+                             f"got {_fmt(value)} (a frequency without an angle unit is ambiguous: "
+                             "pint would read 1 Hz as 1 rad/s)")
         ratio = self.number(table, "ratio", "cam", default=1.0, minimum=0.0, strict=True)
         arm = self.quantity(table, "arm", "cam", "length", minimum=0.0, strict=True)
         start = self.quantity(table, "start_angle", "cam", "angle", default=0.0, bare_unit="deg")

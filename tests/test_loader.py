@@ -262,6 +262,12 @@ def test_wrong_dimension():
     assert str(exc) == 'm.toml: element[0].stiffness: expected [force]/[length], got "25 lbf"'
 
 
+@pytest.mark.parametrize("speed", ['"2 Hz"', '"2 1/s"'])
+def test_speed_without_angle_unit_rejected(speed):
+    """pint treats the radian as dimensionless: "2 Hz" would silently become 2 rad/s."""
+    _check(_error(BASE.replace('speed = "120 rpm"', f"speed = {speed}")), "cam.speed", "angular speed")
+
+
 def test_mil_rejected_for_a_length():
     exc = _error(BASE.replace('gap = "1 mm"', 'gap = "40 mil"'))
     _check(exc, "element[1].gap", '"mil" is ambiguous')
