@@ -111,10 +111,10 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
         quantity = ureg.Quantity(text)
     except Exception:  # pint raises several unrelated types for unparsable text
         raise QuantityError(f'expected {shown}, got "{value}" (not a quantity)') from None
-    if not isinstance(quantity, ureg.Quantity):  # a plain number in a string
-        quantity = ureg.Quantity(float(quantity), bare_unit or "")
-    elif quantity.dimensionless and bare_unit is not None and dimension != "dimensionless":
-        quantity = ureg.Quantity(float(quantity.magnitude), bare_unit)
+    if not isinstance(quantity, ureg.Quantity) or quantity.units == ureg.dimensionless:
+        # A number without a unit, even inside a string: the bare unit, or SI.
+        number = float(quantity.magnitude if isinstance(quantity, ureg.Quantity) else quantity)
+        return to_si(number, dimension, bare_unit=bare_unit)
     try:
         number = float(quantity.to(target).magnitude)
     except pint.DimensionalityError:

@@ -7,6 +7,15 @@
 
 from camsim.cam.laws import LAWS, NORTON_PEAKS, evaluate_law, fall, rise
 from camsim.cam.program import CamProgram, law_peaks, sample_revolution
-from camsim.cam.spline import TableSpline
+
+
+def __getattr__(name: str):
+    # TableSpline pulls in scipy.interpolate; load it only when a table cam needs it.
+    if name == "TableSpline":
+        from camsim.cam.spline import TableSpline
+
+        return TableSpline
+    raise AttributeError(name)
+
 
 __all__ = ["LAWS", "NORTON_PEAKS", "CamProgram", "TableSpline", "evaluate_law", "fall", "law_peaks", "rise", "sample_revolution"]

@@ -26,10 +26,8 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from camsim.cam.laws import rise
-from camsim.cam.spline import TableSpline
 from camsim.machine import Cam
 
 __all__ = ["CamProgram", "law_peaks", "sample_revolution"]
@@ -63,6 +61,8 @@ def _refine_peak(func, lo: float, hi: float, samples: int) -> tuple[float, float
     k = int(np.argmax(f >= top * (1.0 - 1e-9)))
     best_x, best_f = float(x[k]), float(f[k])
     a, b = x[max(k - 1, 0)], x[min(k + 1, samples - 1)]
+    from scipy.optimize import minimize_scalar  # only for the peaks table; keeps start-up light
+
     res = minimize_scalar(
         lambda z: -abs(float(func(np.array([z]))[0])),
         bounds=(a, b),
@@ -123,7 +123,7 @@ class CamProgram:
     def __init__(self, cam: Cam | None):
         self.cam = cam
         self.warnings: list[str] = []
-        self._table: TableSpline | None = None
+        self._table = None  # a TableSpline for table cams
         if cam is None:
             self.kind = "none"
             self.speed = 0.0
@@ -137,6 +137,8 @@ class CamProgram:
         self.start_angle = float(cam.start_angle)
         self.ratio = float(cam.ratio)
         if cam.table is not None:
+            from camsim.cam.spline import TableSpline
+
             self.kind = "table"
             self._table = TableSpline(cam.table, self.speed)
             self._starts = np.zeros(0)
