@@ -23,8 +23,10 @@ from rich.console import Console
 from camsim import __version__
 from camsim.errors import InputError, SimulationError
 
-#: Human output: stderr, colours only on a terminal.
+#: Human output: stderr, colours only on a terminal; wide enough for the tables in logs.
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+if not err_console.is_terminal:
+    err_console.width = 140
 
 app = typer.Typer(
     name="camsim",

@@ -1,0 +1,51 @@
+"""``camsim modes``: natural frequencies, damping ratios and stiffness ratio per configuration."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from camsim.cli.app import app, err_console, print_json, user_errors
+
+
+@app.command("modes")
+def modes_command(
+    machine: Path = typer.Argument(..., help="Machine file (TOML)."),
+    set_: list[str] = typer.Option([], "--set", help="Override a machine key (repeatable)."),
+    json_: bool = typer.Option(False, "--json", help="Print the modes as JSON on stdout."),
+) -> None:
+    """Natural frequencies [Hz] and damping ratios of every branch configuration.
+
+    One row per combination of over-travel links (joined/separated) and contacts
+    (open/closed/stuck). The stiffness ratio is the highest over the lowest natural
+    frequency (thesis §7.2.1: above ~200 the system is stiff). Configurations with a
+    closed power-law contact list only their linear part (marked nonlinear).
+    """
+    from camsim.loader import load_machine
+    from camsim.modes import machine_modes, modes_to_dict
+
+    with user_errors():
+        loaded = load_machine(machine, overrides=set_)
+        modes = machine_modes(loaded)
+    if json_:
+        print_json(modes_to_dict(modes))
+        return
+    table = Table(title=f"{loaded.name}: modes per configuration", title_justify="left")
+    table.add_column("configuration")
+    table.add_column("natural frequencies [Hz]", justify="right")
+    table.add_column("damping ratios", justify="right")
+    table.add_column("stiffness ratio", justify="right")
+    for m in modes:
+        label = ", ".join(f"{k} {v}" for k, v in m.branches.items()) or "(no contacts or links)"
+        if m.nonlinear:
+            label += " (nonlinear)"
+        table.add_row(
+            label,
+            ", ".join(f"{f:.4g}" for f in m.frequencies) or "–",
+            ", ".join("–" if math.isnan(z) else f"{z:.3g}" for z in m.damping_ratios) or "–",
+            f"{m.stiffness_ratio:.3g}" if m.stiffness_ratio else "–",
+        )
+    err_console.print(table)
