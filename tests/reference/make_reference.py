@@ -1,0 +1,96 @@
+"""Generate the engine reference data in ``tests/data/reference/`` (not run by the tests).
+
+For each reference machine (``machines/cdtm.toml``, ``machines/dynacam-2mass.toml``) this
+runs the independent solver of :mod:`reference_solver` (scipy ``solve_ivp``, DOP853,
+rtol 1e-12, atol 1e-15 m / 1e-12 m/s, every branch change a terminal event) with the
+machine's own warm-up (1 cycle) and recorded cycles (1), sampled at 10 kHz on camsim's
+grid t_rec + k/10 kHz, and writes ``tests/data/reference/<machine>.npz`` holding
+
+- ``time`` [s] (0 at the start of the recorded cycle);
+- ``<mass>/displacement`` [m], ``<mass>/velocity`` [m/s], ``<mass>/acceleration`` [m/s^2]
+  for every mass (the driven one too);
+- ``event_time`` [s], ``event_element``, ``event_kind``, ``event_rate`` [m/s] (δ̇ for a
+  contact, ḋ for a preloaded link) of the recorded cycle;
+- ``meta`` (a JSON string: solver, method, rtol, atol, sample rate, cycles, the machine
+  file's SHA-256; no date, so that regenerating gives the same file).
+
+Regenerate (from the repository root)::
+
+    python tests/reference/make_reference.py            # both machines, about 15-50 s
+    python tests/reference/make_reference.py cdtm       # one machine
+
+Run times on one core: cdtm 14-50 s (machine load), dynacam-2mass about 1 s. The tests that read
+these files are in ``tests/test_engine_reference.py``; they re-run camsim, never this
+script.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+sys.path.insert(0, str(HERE))
+
+from reference_solver import ATOL_V, ATOL_X, ReferenceSolver  # noqa: E402
+
+from camsim.loader import load_machine  # noqa: E402
+
+#: Machines and their reference settings.
+MACHINES = ("cdtm", "dynacam-2mass")
+RTOL = 1e-12
+METHOD = "DOP853"
+SAMPLE_RATE = 10_000.0  # [Hz]
+OUT_DIR = ROOT / "tests" / "data" / "reference"
+
+
+def make(name: str) -> Path:
+    """Compute and write the reference of ``machines/<name>.toml``; return the file path."""
+    path = ROOT / "machines" / f"{name}.toml"
+    machine = load_machine(path)
+    t_start = time.perf_counter()
+    ref = ReferenceSolver(machine, rtol=RTOL, method=METHOD).run(sample_rate=SAMPLE_RATE)
+    elapsed = time.perf_counter() - t_start
+    arrays: dict[str, np.ndarray] = {"time": ref.time}
+    for mass, traces in ref.masses.items():
+        for quantity, values in traces.items():
+            arrays[f"{mass}/{quantity}"] = np.asarray(values, dtype=float)
+    arrays["event_time"] = np.array([e[0] for e in ref.events], dtype=float)
+    arrays["event_element"] = np.array([e[1] for e in ref.events], dtype="U32")
+    arrays["event_kind"] = np.array([e[2] for e in ref.events], dtype="U16")
+    arrays["event_rate"] = np.array([e[3] for e in ref.events], dtype=float)
+    meta = {
+        "machine": f"machines/{name}.toml",
+        "machine_sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+        "solver": "tests/reference/reference_solver.py (scipy.integrate.solve_ivp, terminal events)",
+        "method": METHOD,
+        "rtol": RTOL,
+        "atol_displacement_m": ATOL_X,
+        "atol_velocity_m_per_s": ATOL_V,
+        "sample_rate_hz": SAMPLE_RATE,
+        "warmup_cycles": machine.simulation.warmup_cycles,
+        "cycles": machine.simulation.cycles,
+        "masses": [m.name for m in machine.masses],
+    }
+    arrays["meta"] = np.array(json.dumps(meta, sort_keys=True))
+    OUT_DIR.mkdir(parents=True, exist_ok=True)
+    out = OUT_DIR / f"{name}.npz"
+    np.savez_compressed(out, **arrays)
+    print(f"{out.relative_to(ROOT)}: {len(ref.time)} samples, {len(ref.events)} events, "
+          f"{out.stat().st_size / 1e3:.0f} kB, {elapsed:.1f} s", file=sys.stderr)
+    return out
+
+
+def main(argv: list[str]) -> None:
+    for name in argv or MACHINES:
+        make(name)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
