@@ -129,6 +129,28 @@ def input_at(D: np.ndarray, tau: float) -> np.ndarray:
     return out
 
 
+def _cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:
+    """Root in (0, 1] of the cubic Hermite p with p(0)=g0 > 0, p(1)=g1 ≤ 0, p'(0)=d0, p'(1)=d1."""
+    c2 = 3 * (g1 - g0) - 2 * d0 - d1
+    c3 = 2 * (g0 - g1) + d0 + d1
+    a, b = 0.0, 1.0
+    x = g0 / (g0 - g1) if g0 != g1 else 0.5
+    for _ in range(40):
+        p = g0 + x * (d0 + x * (c2 + x * c3))
+        if p > 0:
+            a = x
+        else:
+            b = x
+        dp = d0 + x * (2 * c2 + 3 * x * c3)
+        x_new = x - p / dp if dp != 0 else 0.5 * (a + b)
+        if not (a < x_new < b):
+            x_new = 0.5 * (a + b)
+        if abs(x_new - x) < 1e-15:
+            return x_new
+        x = x_new
+    return x
+
+
 class StepMaps:
     """Cached exact step maps of one linear configuration for a fixed step h."""
 
@@ -146,6 +168,14 @@ class StepMaps:
             expo = np.zeros((0, 0))
         self.Phi = expo[:m, :m]
         self.Gamma = np.stack([expo[:m, m * (j + 1) : m * (j + 2)] for j in range(_P + 1)]) if m else np.zeros((_P + 1, 0, 0))
+        # The step's input term Σ_j Γ_j·E_j with E_j = B·[D_j..D_{j+3}] (+ b for j = 0)
+        # regrouped by input derivative: g = D·W + g0, one small matrix product per chunk.
+        self.W = np.zeros((_P + 1, m))
+        for i in range(_P + 1):
+            for c in range(N_INPUT):
+                if 0 <= i - c <= _P:
+                    self.W[i] += self.Gamma[i - c] @ config.B[:, c]
+        self.g0 = self.Gamma[0] @ config.b if m else np.zeros(0)
         # Modal form for the recurrence; of each complex-conjugate pair of modes only one
         # is run (the state is real, so the other is its conjugate).
         self.modal = False
@@ -172,13 +202,16 @@ class StepMaps:
                     keep.append(i)
                 self.keep = np.array(keep, dtype=int)
 
-    def propagate(self, z0: np.ndarray, E: np.ndarray) -> np.ndarray:
-        """States after each full step: z_{k+1} = Φ z_k + Σ_j Γ_j E_kj; returns (K, m)."""
-        K = E.shape[0]
+    def propagate(self, z0: np.ndarray, D: np.ndarray) -> np.ndarray:
+        """States after each full step: z_{k+1} = Φ z_k + Σ_j Γ_j E_kj; returns (K, m).
+
+        ``D`` (K, 8) holds the cam-input derivatives at each step start.
+        """
+        K = D.shape[0]
         m = z0.size
         if m == 0:
             return np.zeros((K, 0))
-        g = np.einsum("jab,kjb->ka", self.Gamma, E)
+        g = D @ self.W + self.g0
         if self.modal:
             keep = self.keep
             gm = g @ self.Vinv[keep].T  # (K, modes kept) modal forcing
@@ -200,21 +233,31 @@ def exact_partial(config: Configuration, z0: np.ndarray, E: np.ndarray, tau: flo
 
     The augmented matrix is built in the scaled time σ/τ so that its norm stays near
     ‖A‖·τ (the raw forcing coefficients reach 1e13 for stiff contacts, and ``expm`` would
-    square its way through them).
+    square its way through them), and the state block is balanced with the
+    configuration's cached diagonal scaling (positions against velocities).
     """
     m = config.dim
     if m == 0:
         return np.zeros(0)
+    scale = config.cache.get("balance")
+    if scale is None:
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            _, (scale, _) = scipy.linalg.matrix_balance(config.A, permute=False, separate=True)
+        if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
+            scale = np.ones(m)
+        config.cache["balance"] = scale
     n_aug = m + _P + 1
     M = np.zeros((n_aug, n_aug))
-    M[:m, :m] = config.A * tau
-    M[:m, m:] = (E * (tau ** np.arange(1, _P + 2))[:, None]).T
+    # D⁻¹·M·D with D = diag(scale, 1, …, 1): exact similarity by powers of two.
+    M[:m, :m] = config.A * tau * (scale[None, :] / scale[:, None])
+    M[:m, m:] = (E * (tau ** np.arange(1, _P + 2))[:, None]).T / scale[:, None]
     for j in range(1, _P + 1):
         M[m + j, m + j - 1] = 1.0
     start = np.zeros(n_aug)
-    start[:m] = z0
+    start[:m] = z0 / scale
     start[m] = 1.0
-    return (expm_balanced(M) @ start)[:m]
+    return (scipy.linalg.expm(M) @ start)[:m] * scale
 
 
 @dataclass
@@ -294,10 +337,23 @@ class Integrator:
         self._instant_time = -math.inf
         self.rtol_nonlinear = 1e-11
         self._chunk = 512
+        self._input_cache: dict[float, np.ndarray] = {}
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
-        s, v, a, j = self.cam.svaj(np.asarray(t, dtype=float))
+        """[s, ṡ, s̈, s⃛] at times t: (N, 4). Single instants are cached (events ask repeatedly)."""
+        t = np.asarray(t, dtype=float)
+        if t.size == 1:
+            key = float(t.reshape(-1)[0])
+            hit = self._input_cache.get(key)
+            if hit is None:
+                s, v, a, j = self.cam.svaj(t.reshape(1))
+                hit = np.stack([s, v, a, j], axis=-1)
+                if len(self._input_cache) > 64:
+                    self._input_cache.clear()
+                self._input_cache[key] = hit
+            return hit.copy()
+        s, v, a, j = self.cam.svaj(t)
         return np.stack([s, v, a, j], axis=-1)
 
     def maps(self, config: Configuration) -> StepMaps:
@@ -443,9 +499,12 @@ class Integrator:
             if nodes[-1] - nodes[-2] <= TIME_EPS:
                 nodes = np.delete(nodes, -2) if nodes.size > 2 else nodes
             U = self.inputs(nodes)
+            # The last step ends at the chunk's end, maybe a cam segment join: its end
+            # values are the limits from the left (acceleration or jerk may jump there).
+            s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
+            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
             steps = np.diff(nodes)
             D = step_input_derivatives(U[:-1], U[1:], steps)
-            E = forcing_coefficients(config, D)
             Z = np.empty((nodes.size, config.dim))
             Z[0] = z_start
             full = np.abs(steps - h) <= 1e-9 * h
@@ -456,12 +515,12 @@ class Integrator:
                     k_end = k
                     while k_end < steps.size and full[k_end]:
                         k_end += 1
-                    Z[k + 1 : k_end + 1] = maps.propagate(Z[k], E[k:k_end])
+                    Z[k + 1 : k_end + 1] = maps.propagate(Z[k], D[k:k_end])
                     k = k_end
                 else:
-                    Z[k + 1] = exact_partial(config, Z[k], E[k], steps[k])
+                    Z[k + 1] = exact_partial(config, Z[k], forcing_coefficients(config, D[k : k + 1])[0], steps[k])
                     k += 1
-            hit = self._first_crossing(config, guards, nodes, Z, U, D, E, first_chunk)
+            hit = self._first_crossing(config, guards, nodes, Z, U, D, first_chunk)
             if hit is not None:
                 self._chunk = 512  # events come in clusters: look ahead a little after one
                 t_event, z_event, guard, index = hit
@@ -519,56 +578,71 @@ class Integrator:
         return out
 
     # ------------------------------------------------------------------ crossings
-    def _first_crossing(self, config, guards, nodes, Z, U, D, E, first_chunk):
+    def _first_crossing(self, config, guards, nodes, Z, U, D, first_chunk):
         """Earliest guard crossing in the chunk: (t, z, guard, step index) or None."""
         if not guards:
             return None
-        steps = np.diff(nodes)
-        candidates = []
-        Udot = np.concatenate([U[:, 1:], np.zeros((U.shape[0], 1))], axis=1)
-        for guard in guards:
-            g = guard.value(Z, U)[:, 0]
-            gd = guard.rate(Z, U)[:, 0]
-            g0 = g[:-1].copy()
-            if first_chunk and abs(g0[0]) <= guard.tol:
-                g0[0] = max(g0[0], guard.tol)  # just crossed: do not find it again
-            if first_chunk and g0[0] < -guard.tol:
-                candidates.append((nodes[0], 0, guard, "now"))
-                continue
-            g1 = g[1:]
-            d0 = gd[:-1] * steps
-            d1 = gd[1:] * steps
-            crossing = g1 <= 0.0
-            # Interior minimum of the cubic Hermite interpolant.
-            c2 = 3 * (g1 - g0) - 2 * d0 - d1
-            c3 = 2 * (g0 - g1) + d0 + d1
-            qa, qb, qc = 3 * c3, 2 * c2, d0
+        steps = np.diff(nodes)[:, None]
+        # All guards at once: values and exact time derivatives at every node.
+        G = Z @ np.vstack([g.value.Cz for g in guards]).T + U @ np.vstack([g.value.Du for g in guards]).T
+        G += np.concatenate([g.value.e for g in guards])
+        Gd = Z @ np.vstack([g.rate.Cz for g in guards]).T + U @ np.vstack([g.rate.Du for g in guards]).T
+        Gd += np.concatenate([g.rate.e for g in guards])
+        tol = np.array([g.tol for g in guards])
+        g0 = G[:-1].copy()
+        g1 = G[1:]
+        if first_chunk:
+            now = np.flatnonzero(g0[0] < -tol)
+            if now.size:
+                return nodes[0], Z[0], guards[int(now[0])], 0
+            just = np.abs(g0[0]) <= tol
+            g0[0, just] = tol[just]  # just crossed: do not find it again
+        d0 = Gd[:-1] * steps
+        d1 = Gd[1:] * steps
+        crossing = (g1 <= 0.0) & (g0 > 0.0)
+        # A cubic Hermite interpolant stays above min(g0, g1) − 4/27·(|d0| + |d1|): only
+        # the steps where that bound is not positive can hide a dip below zero.
+        maybe = ~crossing & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
+        dip = np.zeros_like(crossing)
+        if np.any(maybe):
+            k_idx, j_idx = np.nonzero(maybe)
+            a0, a1, b0, b1 = g0[k_idx, j_idx], g1[k_idx, j_idx], d0[k_idx, j_idx], d1[k_idx, j_idx]
+            c2 = 3 * (a1 - a0) - 2 * b0 - b1
+            c3 = 2 * (a0 - a1) + b0 + b1
+            qa, qb, qc = 3 * c3, 2 * c2, b0
             disc = qb * qb - 4 * qa * qc
-            dip = np.zeros_like(crossing)
+            found = np.zeros(k_idx.size, dtype=bool)
             with np.errstate(divide="ignore", invalid="ignore"):
                 sq = np.sqrt(np.maximum(disc, 0.0))
                 for sign in (-1.0, 1.0):
                     sig = np.where(np.abs(qa) > 1e-300, (-qb + sign * sq) / (2 * qa), -qc / qb)
                     ok = (disc >= 0) & (sig > 0) & (sig < 1) & np.isfinite(sig)
-                    val = g0 + d0 * sig + c2 * sig**2 + c3 * sig**3
-                    dip |= ok & (val <= 0.0)
-            idx = np.flatnonzero(crossing | dip)
-            for k in idx[:4]:  # the earliest few; false alarms are rare
-                candidates.append((nodes[k], int(k), guard, "scan"))
+                    val = a0 + b0 * sig + c2 * sig**2 + c3 * sig**3
+                    found |= ok & (val <= 0.0)
+            dip[k_idx[found], j_idx[found]] = True
+        candidates = []
+        hits = crossing | dip
+        for j, guard in enumerate(guards):
+            for k in np.flatnonzero(hits[:, j])[:4]:  # the earliest few; false alarms are rare
+                candidates.append((nodes[k], int(k), guard, "scan", (g0[k, j], g1[k, j], Gd[k, j], Gd[k + 1, j])))
         if not candidates:
             return None
         candidates.sort(key=lambda c: (c[0], c[1]))
-        for t_k, k, guard, how in candidates:
-            if how == "now":
-                return nodes[0], Z[0], guard, 0
-            root = self._refine(config, guard, Z[k], D[k], E[k], steps[k], first_chunk and k == 0)
+        for t_k, k, guard, how, ends in candidates:
+            Ek = forcing_coefficients(config, D[k : k + 1])[0]
+            root = self._refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
             if root is not None:
                 tau, z = root
                 return nodes[k] + tau, z, guard, k
         return None
 
-    def _refine(self, config, guard, z0, Dk, Ek, hk, just_started):
-        """Locate the first root of the guard in one step on the exact solution."""
+    def _refine(self, config, guard, z0, Dk, Ek, hk, just_started, ends=None):
+        """Locate the first root of the guard in one step on the exact solution.
+
+        ``ends`` = (g0, g1, ġ0, ġ1), the exact guard values and rates at the step's ends,
+        when known: a sign change then brackets the root, and the root of their cubic
+        Hermite interpolant starts Newton's iteration one or two digits from the answer.
+        """
 
         def evaluate(tau):
             z = exact_partial(config, z0, Ek, tau) if tau > 0 else z0
@@ -577,6 +651,16 @@ class Integrator:
             gd = guard.rate(z[None, :], u[None, :])[0, 0]
             return g, gd, z
 
+        lo = hi = None
+        if ends is not None:
+            g0, g1, d0, d1 = ends
+            if just_started:
+                g0 = max(g0, guard.tol)
+            if g0 > 0 and g1 <= 0:
+                sigma = _cubic_root(g0, g1, d0 * hk, d1 * hk)
+                lo = (0.0, g0, d0, z0)
+                hi = (hk, g1, d1, None)
+                return self._newton(evaluate, lo, hi, sigma * hk, hk)
         samples = np.linspace(0.0, hk, 9)
         values = []
         for tau in samples:
@@ -584,7 +668,6 @@ class Integrator:
             values.append((tau, g, gd, z))
         if just_started:
             values[0] = (0.0, max(values[0][1], guard.tol), values[0][2], values[0][3])
-        lo = hi = None
         for a, b in zip(values[:-1], values[1:]):
             if a[1] > 0 and b[1] <= 0:
                 lo, hi = a, b
@@ -605,18 +688,28 @@ class Integrator:
             g, gd, z = evaluate(t_min)
             hi = (t_min, g, gd, z)
             del best
-        # Safeguarded Newton between lo (g > 0) and hi (g <= 0): the result is the point
-        # where the exact guard is zero to rounding; the bracket keeps it in the step.
         a_t, a_g = lo[0], lo[1]
         b_t, b_g = hi[0], hi[1]
-        t = b_t - b_g * (b_t - a_t) / (b_g - a_g) if b_g != a_g else 0.5 * (a_t + b_t)
-        z = hi[3]
+        guess = b_t - b_g * (b_t - a_t) / (b_g - a_g) if b_g != a_g else 0.5 * (a_t + b_t)
+        return self._newton(evaluate, lo, hi, guess, hk)
+
+    @staticmethod
+    def _newton(evaluate, lo, hi, t, hk):
+        """Safeguarded Newton between lo (g > 0) and hi (g ≤ 0) on the exact guard.
+
+        Returns the instant where the guard is zero to rounding, and the state there.
+        """
+        a_t = lo[0]
+        b_t = hi[0]
+        z = lo[3]
+        if not (a_t < t < b_t):
+            t = 0.5 * (a_t + b_t)
         for _ in range(60):
             g, gd, z = evaluate(t)
             if g > 0:
-                a_t, a_g = t, g
+                a_t = t
             else:
-                b_t, b_g = t, g
+                b_t = t
             if g == 0 or b_t - a_t <= 1e-15:
                 break
             t_new = t - g / gd if gd != 0 else 0.5 * (a_t + b_t)

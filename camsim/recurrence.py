@@ -63,9 +63,7 @@ def linear_recurrence(mu: complex, f: np.ndarray, w0: complex) -> np.ndarray:
     padded = np.zeros(nb * L, dtype=complex)
     padded[:K] = f
     blocks = padded.reshape(nb, L)
-    i = np.arange(L)
-    up = mu ** i  # μ^i
-    down = mu ** (-i.astype(float)) if r != 0 else None  # μ^(−i)
+    up, down, up1 = _powers(complex(mu), L)
     local = np.cumsum(blocks * down, axis=1) * up  # response to the block's own forcing
     # Chain the block ends: e[b] = μ^L·e[b−1] + local[b, L−1].
     muL = mu**L
@@ -76,5 +74,22 @@ def linear_recurrence(mu: complex, f: np.ndarray, w0: complex) -> np.ndarray:
         prev = muL * prev + last[b]
         ends[b] = prev
     starts = np.concatenate([[w0], ends[:-1]])
-    out = local + starts[:, None] * (mu ** (i + 1))
+    out = local + starts[:, None] * up1
     return out.reshape(-1)[:K]
+
+
+_POWERS: dict[tuple[complex, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _powers(mu: complex, L: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """μ^i, μ^(−i) and μ^(i+1) for i < L, cached (the same modes recur chunk after chunk)."""
+    key = (mu, L)
+    hit = _POWERS.get(key)
+    if hit is None:
+        i = np.arange(L, dtype=float)
+        up = mu**i
+        hit = (up, 1.0 / up, up * mu)
+        if len(_POWERS) > 256:
+            _POWERS.clear()
+        _POWERS[key] = hit
+    return hit

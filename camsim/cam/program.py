@@ -182,7 +182,7 @@ class CamProgram:
         t_arr = np.asarray(t, dtype=float)
         return self.start_angle + self.speed * t_arr
 
-    def lift(self, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def lift(self, theta, side: str = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Roller lift and its derivatives with respect to cam angle.
 
         Parameters
@@ -190,6 +190,10 @@ class CamProgram:
         theta : array_like
             Cam angle [rad], any value (wrapped modulo 2π). At a segment boundary (to
             within rounding of θ) the segment that starts there is used.
+        side : {"right", "left"}
+            ``"left"`` takes the limit from below at a segment boundary (the segment
+            that ends there, at u = 1): the integrator needs it for a step that ends at
+            a join where the acceleration or jerk jumps.
 
         Returns
         -------
@@ -206,10 +210,14 @@ class CamProgram:
         shape = theta.shape
         th = theta.reshape(-1)
         phi = np.mod(th, _TWO_PI)
-        # Rounding of θ = θ0 + ω·t must not put a boundary sample in the segment before.
+        # Rounding of θ = θ0 + ω·t must not put a boundary sample in the wrong segment.
         tol = 64.0 * _EPS * np.maximum(np.abs(th), _TWO_PI)
-        phi = np.where(phi > _TWO_PI - tol, phi - _TWO_PI, phi)
-        idx = np.searchsorted(self._starts, phi + tol, side="right") - 1
+        if side == "left":
+            phi = np.where(phi < tol, phi + _TWO_PI, phi)
+            idx = np.searchsorted(self._starts, phi - tol, side="left") - 1
+        else:
+            phi = np.where(phi > _TWO_PI - tol, phi - _TWO_PI, phi)
+            idx = np.searchsorted(self._starts, phi + tol, side="right") - 1
         np.clip(idx, 0, len(self._starts) - 1, out=idx)
         u = np.clip((phi - self._starts[idx]) / self._betas[idx], 0.0, 1.0)
         y = np.zeros((4, th.size))
@@ -228,20 +236,22 @@ class CamProgram:
         )
         return tuple(o.reshape(shape) for o in out)  # type: ignore[return-value]
 
-    def svaj(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def svaj(self, t, side: str = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Displacement, velocity, acceleration and jerk of the cam on the model axis.
 
         Parameters
         ----------
         t : array_like
             Times [s] (θ = θ0 + ω·t).
+        side : {"right", "left"}
+            Which limit to take at a segment boundary (see :meth:`lift`).
 
         Returns
         -------
         s, v, a, j : ndarray
             [m], [m/s], [m/s^2], [m/s^3], shaped like ``t``; zeros without a cam.
         """
-        lift, d1, d2, d3 = self.lift(self.angle(t))
+        lift, d1, d2, d3 = self.lift(self.angle(t), side=side)
         w, r = self.speed, self.ratio
         return r * lift, (r * w) * d1, (r * w * w) * d2, (r * w**3) * d3
 

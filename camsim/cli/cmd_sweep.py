@@ -1,0 +1,194 @@
+"""``camsim sweep``: run a machine over a grid of parameter values, one summary row each."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from camsim.cli.app import app, err_console, fail, print_json, user_errors
+
+
+def _default_output(machine: Path) -> Path:
+    """``machines/cdtm.toml`` → ``machines/cdtm_sweep.h5``."""
+    return machine.with_name(machine.stem + "_sweep.h5")
+
+
+class _ProgressBar:
+    """A rich progress bar on stderr, only when stderr is a terminal."""
+
+    def __init__(self) -> None:
+        self.progress = None
+        self.task = None
+
+    def start(self, total: int, executor: str) -> None:
+        if not err_console.is_terminal:
+            return
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self.progress = Progress(
+            TextColumn("sweep ({task.fields[executor]})"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeRemainingColumn(),
+            console=err_console,
+            transient=True,
+        )
+        self.progress.start()
+        self.task = self.progress.add_task("sweep", total=total, executor=executor)
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.progress is not None:
+            self.progress.update(self.task, completed=done, total=total)
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+            self.progress = None
+
+
+def _render(result, err) -> None:
+    from rich.table import Table
+    from rich.text import Text
+
+    rows = result.rows
+    params = [name for name, _ in result.columns if name.startswith("param:")]
+    units = dict(result.columns)
+    if len(rows) <= 40:
+        table = Table(show_edge=False, pad_edge=False)
+        shown = params + ["peak_transducer_force", "min_cam_contact_force", "jump", "impacts", "status"]
+        for name in shown:
+            unit = units.get(name, "")
+            table.add_column(Text(f"{name.removeprefix('param:')}" + (f" [{unit}]" if unit else "")), overflow="fold")
+        for row in rows:
+            table.add_row(*[Text(_cell(row[name])) for name in shown])
+        err.print(table)
+    ok = sum(r["status"] == "ok" for r in rows)
+    cancelled = sum(r["status"] == "cancelled" for r in rows)
+    failed = len(rows) - ok - cancelled
+    line = f"{len(rows)} variants ({result.executor}): {ok} ok"
+    if failed:
+        line += f", {failed} failed (see the status column)"
+    if cancelled:
+        line += f", {cancelled} cancelled"
+    err.print(line, markup=False)
+    if "param:cam.speed" in params:
+        if result.first_jump_rpm is None:
+            err.print("the follower does not jump at any swept speed", markup=False)
+        else:
+            err.print(f"lowest swept speed at which the follower jumps: {result.first_jump_rpm:.6g} rpm", markup=False)
+        if result.jump_onset_rpm is not None:
+            lo, hi = result.jump_bracket_rpm
+            err.print(
+                f"jump onset (bisection): {result.jump_onset_rpm:.1f} rpm (no jump at {lo:.3f}, jump at {hi:.3f} rpm)",
+                markup=False,
+            )
+    for note in result.notes:
+        err.print(f"note: {note}", markup=False)
+
+
+def _cell(value) -> str:
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return "—" if math.isnan(value) else f"{value:.5g}"
+    return str(value)
+
+
+@app.command("sweep")
+def sweep_command(
+    machine: Path = typer.Argument(..., help="Machine file (TOML)."),
+    vary: list[str] = typer.Option(
+        [],
+        "--vary",
+        metavar="KEY=START:STOP:STEP[UNIT]",
+        help=(
+            "A range of one machine key, e.g. cam.speed=60:600:10rpm or "
+            "element.seat.stiffness=1e6:4e6:1e6N/m (STOP included when on the grid; a bare "
+            "number is SI). Repeatable: the grid is all combinations."
+        ),
+    ),
+    values: list[str] = typer.Option(
+        [],
+        "--values",
+        metavar="KEY=v1,v2,...",
+        help='A list of values of one key, e.g. cam.speed=100rpm,250rpm or mass.M2.mass=0.5,0.7,0.9kg (a unit after the last bare number applies to all). Repeatable.',
+    ),
+    output: Path = typer.Option(
+        None, "-o", "--output", help="Sweep file (HDF5, table /sweep/summary); a CSV with the same stem is written beside it. Default: <machine>_sweep.h5 next to the machine file."
+    ),
+    workers: int = typer.Option(None, "--workers", min=1, help="Local worker processes (default: the number of cores; 1 runs serially)."),
+    scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run the variants on this running Dask scheduler (needs camsim[dask], and camsim on the workers)."),
+    dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N single-threaded worker processes on 127.0.0.1 for the sweep."),
+    keep_traces: bool = typer.Option(False, "--keep-traces", help="Also store each variant's traces under /sweep/variants/<k>/ (run layout; k = row index from 0)."),
+    refine_jump: bool = typer.Option(False, "--refine-jump", help="For a sweep of cam.speed alone: bisect the jump onset to 0.1 rpm (stored as attribute jump_onset_rpm)."),
+    max_variants: int = typer.Option(1000, "--max-variants", min=1, help="Refuse grids with more variants than this unless --yes is given."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run a grid larger than --max-variants."),
+    json_: bool = typer.Option(False, "--json", help='Print {"rows": [...], "jump_onset_rpm": ...} as JSON on stdout (and nothing else there).'),
+    set_: list[str] = typer.Option([], "--set", help='Override a machine key for every variant, e.g. --set element.seat.stiffness="9e6 N/m" (repeatable).'),
+    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per variant (overrides simulation.cycles)."),
+    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first (overrides simulation.warmup_cycles)."),
+    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare number: Hz). Default: the machine file\'s. Peaks are taken over the samples.'),
+) -> None:
+    """Run MACHINE for every combination of the varied keys; one summary row per variant.
+
+    Columns (SI): param:<key> per varied key; peak_displacement:<mass>,
+    peak_velocity:<mass>, peak_acceleration:<mass> per mass; peak_transducer_force,
+    max_cam_contact_force, min_cam_contact_force [N]; jump; impacts;
+    max_impact_velocity [m/s]; periodicity_residual; status ("ok" or the error of a
+    variant that failed; the sweep goes on). For a cam.speed sweep the lowest swept
+    speed at which the follower jumps is reported. Exit 0 when the sweep ran (failed
+    variants are in the table), 2 on bad input, 130 after Ctrl-C (finished rows are
+    written, the rest marked "cancelled").
+    """
+    from camsim.cli.cmd_run import parse_sample_rate
+    from camsim.io.atomic import check_writable
+    from camsim.sweep import csv_path_for, jsonable_rows, run_sweep, write_sweep
+
+    rate = parse_sample_rate(sample_rate)
+    bar = _ProgressBar()
+    with user_errors():
+        target = output if output is not None else _default_output(machine)
+        check_writable(target)
+        check_writable(csv_path_for(target))
+        try:
+            result = run_sweep(
+                machine,
+                vary,
+                values,
+                fixed=set_,
+                workers=workers,
+                scheduler=scheduler,
+                dask_local=dask_local,
+                keep_traces=keep_traces,
+                refine_jump=refine_jump,
+                cycles=cycles,
+                warmup_cycles=warmup,
+                sample_rate=rate,
+                max_variants=None if yes else max_variants,
+                progress=bar,
+                on_start=bar.start,
+            )
+        finally:
+            bar.close()
+        h5_path, csv_path = write_sweep(result, target)
+        if json_:
+            print_json(
+                {
+                    "rows": jsonable_rows(result),
+                    "jump_onset_rpm": result.jump_onset_rpm,
+                    "first_jump_rpm": result.first_jump_rpm,
+                    "output": str(h5_path),
+                    "csv": str(csv_path),
+                }
+            )
+        else:
+            _render(result, err_console)
+            err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
+        if result.interrupted:
+            done = sum(r["status"] != "cancelled" for r in result.rows)
+            raise fail(
+                f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled')",
+                130,
+            )

@@ -1,0 +1,1047 @@
+"""Parameter and speed sweeps: one machine run over a grid of overridden values.
+
+A sweep is the grid of all combinations of a few varied machine keys (``--vary
+cam.speed=60:600:10rpm``, ``--values element.seat.stiffness=1e6,2e6``). Every variant is
+an ordinary run of the machine with ``KEY=VALUE`` overrides applied by the loader, so
+each value gets the loader's unit and dimension checks. Each run is reduced to one
+summary row (SI) with fixed column names (see :data:`FIXED_COLUMNS`):
+
+``param:<key>`` for each varied key, then ``peak_displacement:<mass>``,
+``peak_velocity:<mass>``, ``peak_acceleration:<mass>`` for every mass,
+``peak_transducer_force``, ``max_cam_contact_force``, ``min_cam_contact_force``,
+``jump``, ``impacts``, ``max_impact_velocity``, ``periodicity_residual``, ``status``.
+
+Variants run serially, in a local process pool, or on a Dask cluster; the task is the
+module-level function :func:`run_variant` (one variant per task), so the rows are the
+same numbers whichever executor ran them, and they are put back in grid order.
+
+For a sweep of ``cam.speed`` the lowest swept speed at which the follower jumps is
+reported, and :func:`run_sweep` with ``refine_jump=True`` bisects between the last
+speed below it (which does not jump) and it, until the bracket is 0.1 rpm wide.
+
+See ``docs/sweeps.md``.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+import os
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from decimal import Decimal, InvalidOperation
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from camsim.errors import InputError, MachineFileError
+
+__all__ = [
+    "FIXED_COLUMNS",
+    "MachineSource",
+    "SweepSettings",
+    "SweepResult",
+    "parse_vary",
+    "parse_values",
+    "build_grid",
+    "run_variant",
+    "run_sweep",
+    "write_sweep",
+    "sweep_columns",
+    "csv_path_for",
+    "JUMP_RESOLUTION_RPM",
+]
+
+#: Width of the speed bracket at which the jump-onset bisection stops [rpm].
+JUMP_RESOLUTION_RPM = 0.1
+#: Default largest number of variants run without confirmation (``--max-variants``).
+DEFAULT_MAX_VARIANTS = 1000
+#: Seconds to wait for a Dask scheduler before giving up.
+SCHEDULER_TIMEOUT_S = 5.0
+
+#: Columns after the parameters and per-mass peaks, with their SI units.
+FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("peak_transducer_force", "N"),
+    ("max_cam_contact_force", "N"),
+    ("min_cam_contact_force", "N"),
+    ("jump", ""),
+    ("impacts", ""),
+    ("max_impact_velocity", "m/s"),
+    ("periodicity_residual", ""),
+    ("status", ""),
+)
+_PEAK_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+_RPM = 60.0 / (2.0 * math.pi)  # rad/s -> rpm
+
+#: SI unit of each machine key leaf, for the ``param:<key>`` columns.
+_KEY_UNITS = {
+    "speed": "rad/s",
+    "ratio": "",
+    "arm": "m",
+    "start_angle": "rad",
+    "lift": "m",
+    "mass": "kg",
+    "stiffness": "N/m",
+    "push_stiffness": "N/m",
+    "pull_stiffness": "N/m",
+    "preload": "N",
+    "gap": "m",
+    "exponent": "",
+    "restitution": "",
+    "damping": "N*s/m",
+    "damping_ratio": "",
+    "cycles": "",
+    "warmup_cycles": "",
+    "sample_rate": "Hz",
+    "gravity": "m/s^2",
+    "displacement": "m",
+    "velocity": "m/s",
+}
+
+
+# --------------------------------------------------------------------------------------
+# Inputs
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MachineSource:
+    """A machine file's text and where it came from (what a worker needs to load it).
+
+    The text travels to the worker (a Dask worker need not see the file); ``base_dir``
+    is where a cam ``table`` CSV is looked up, so a remote worker needs that path too.
+    """
+
+    text: str
+    source: str
+    base_dir: str
+
+    @classmethod
+    def from_path(cls, path: str | os.PathLike[str]) -> MachineSource:
+        """Read a machine file (raises :class:`MachineFileError` like the loader)."""
+        source = str(path)
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise MachineFileError(source, "", "no such machine file") from None
+        except IsADirectoryError:
+            raise MachineFileError(source, "", "is a directory, not a machine file") from None
+        except UnicodeDecodeError as exc:
+            raise MachineFileError(source, "", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+        except OSError as exc:
+            raise MachineFileError(source, "", f"cannot read machine file: {exc.strerror or exc}") from None
+        return cls(text=text, source=source, base_dir=str(Path(path).parent))
+
+    def load(self, overrides: Sequence[str] = ()):
+        """The :class:`~camsim.machine.Machine` with ``overrides`` (loader checks apply)."""
+        from camsim.loader import load_machine_text
+
+        return load_machine_text(self.text, source=self.source, base_dir=Path(self.base_dir), overrides=list(overrides))
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """Run settings shared by every variant (``None``: the machine file's value).
+
+    Attributes
+    ----------
+    cycles : int, optional
+        Recorded revolutions.
+    warmup_cycles : int, optional
+        Revolutions computed and discarded first.
+    sample_rate : float, optional
+        Output sample rate [Hz]. Peaks are taken over the samples, so they depend on it.
+    keep_traces : bool
+        Return each variant's :class:`~camsim.simulate.RunResult` too.
+    """
+
+    cycles: int | None = None
+    warmup_cycles: int | None = None
+    sample_rate: float | None = None
+    keep_traces: bool = False
+
+
+_NUMBER = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+
+
+def _split_number(text: str, where: str) -> tuple[Decimal, str]:
+    m = _NUMBER.match(text)
+    if not m:
+        raise InputError(f"{where}: '{text.strip()}' is not a number (with an optional unit)")
+    try:
+        return Decimal(m.group(1)), m.group(2)
+    except InvalidOperation:  # pragma: no cover - the regex admits only valid numbers
+        raise InputError(f"{where}: '{text.strip()}' is not a number") from None
+
+
+def _decimal_text(value: Decimal) -> str:
+    """A grid value as plain text without float noise: ``60``, ``0.3``, ``1000000``."""
+    text = format(value.normalize(), "f")
+    return "0" if text in ("-0", "0") else text
+
+
+def _with_unit(number: str, unit: str) -> str:
+    return f"{number} {unit}" if unit else number
+
+
+def parse_vary(text: str) -> tuple[str, list[str]]:
+    """Parse ``KEY=START:STOP:STEP[UNIT]`` into the key and the grid's value texts.
+
+    The grid is START, START+STEP, ... up to STOP; STOP is included when it falls on the
+    grid (within 1e-9 of a step), otherwise the last value is the largest one below it.
+    The unit, if any, is written after STEP and applies to all three numbers; START and
+    STOP may repeat it (``60rpm:600rpm:10rpm``). Arithmetic is decimal, so
+    ``0.1:0.3:0.1`` gives exactly ``0.1, 0.2, 0.3``. A negative STEP counts down.
+
+    Parameters
+    ----------
+    text : str
+        e.g. ``"cam.speed=60:600:10rpm"``, ``"element.seat.stiffness=1e6:4e6:1e6 N/m"``.
+
+    Returns
+    -------
+    key : str
+    values : list of str
+        Value texts for the loader, e.g. ``["60 rpm", "70 rpm", ...]``; a bare number
+        (no unit) is passed on bare and means SI to the loader.
+
+    Raises
+    ------
+    InputError
+        Malformed text, a zero step, an empty range, or mixed units.
+    """
+    where = f"--vary {text}"
+    key, sep, spec = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise InputError(f"{where}: expected KEY=START:STOP:STEP[UNIT], e.g. cam.speed=60:600:10rpm")
+    parts = spec.split(":")
+    if len(parts) != 3:
+        raise InputError(f"{where}: expected START:STOP:STEP[UNIT] after '=', e.g. 60:600:10rpm")
+    (start, u0), (stop, u1), (step, unit) = (_split_number(p, where) for p in parts)
+    for given in (u0, u1):
+        if given and given.replace(" ", "") != unit.replace(" ", ""):
+            raise InputError(
+                f"{where}: START and STOP may only repeat the unit written after STEP ('{unit or 'none'}'), not '{given}'"
+            )
+    if step == 0:
+        raise InputError(f"{where}: the step is zero")
+    span = (stop - start) / step
+    if span < 0:
+        raise InputError(f"{where}: empty range (STOP {'below' if step > 0 else 'above'} START for a {'positive' if step > 0 else 'negative'} step)")
+    count = int((span + Decimal("1e-9")).to_integral_value(rounding="ROUND_FLOOR")) + 1
+    if count > 10**7:
+        raise InputError(f"{where}: {count} values; that is not a sweep one can run")
+    return key, [_with_unit(_decimal_text(start + i * step), unit) for i in range(count)]
+
+
+def parse_values(text: str) -> tuple[str, list[str]]:
+    """Parse ``KEY=v1,v2,...`` into the key and the value texts.
+
+    Each value is passed to the loader as written (``100rpm,250rpm``). When only the last
+    value carries a unit and the others are bare numbers, that unit applies to all
+    (``100,250,400rpm``).
+
+    Raises
+    ------
+    InputError
+        No ``=``, no key, or an empty value.
+    """
+    where = f"--values {text}"
+    key, sep, spec = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise InputError(f"{where}: expected KEY=v1,v2,..., e.g. cam.speed=100rpm,200rpm")
+    values = [v.strip() for v in spec.split(",")]
+    if not values or any(not v for v in values):
+        raise InputError(f"{where}: empty value in the list")
+    last = _NUMBER.match(values[-1])
+    if last and last.group(2) and len(values) > 1:
+        bare = [_NUMBER.match(v) for v in values[:-1]]
+        if all(b and not b.group(2) for b in bare):
+            values = [_with_unit(b.group(1), last.group(2)) for b in bare] + [_with_unit(last.group(1), last.group(2))]
+    return key, values
+
+
+def build_grid(axes: Sequence[tuple[str, Sequence[str]]]) -> list[tuple[str, ...]]:
+    """All combinations of the axes' values, the last axis varying fastest.
+
+    Returns
+    -------
+    list of tuple of str
+        One tuple of ``"KEY=VALUE"`` overrides per variant, in grid order.
+
+    Raises
+    ------
+    InputError
+        A key given twice.
+    """
+    keys = [k for k, _ in axes]
+    for k in keys:
+        if keys.count(k) > 1:
+            raise InputError(f"--vary/--values: key {k} is given twice")
+    combos = itertools.product(*[[f"{k}={v}" for v in values] for k, values in axes])
+    return [tuple(c) for c in combos]
+
+
+# --------------------------------------------------------------------------------------
+# One variant
+# --------------------------------------------------------------------------------------
+_KEY_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
+
+
+def key_unit(key: str) -> str:
+    """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
+    leaf = key.rsplit(".", 1)[-1]
+    if key.startswith("simulation.") and leaf == "duration":
+        return "s"
+    if key.startswith("cam.segments") and leaf == "duration":
+        return "rad"
+    return _KEY_UNITS.get(leaf, "")
+
+
+def machine_value(machine, key: str) -> Any:
+    """The SI value of override key ``key`` in a loaded machine (None if not found).
+
+    Reads :func:`camsim.loader.machine_to_dict`, so it is the value the run used, e.g.
+    ``cam.speed`` in rad/s and a lift given as an angle already turned into metres.
+    """
+    from camsim.loader import machine_to_dict
+
+    d = machine_to_dict(machine)
+    parts = []
+    for p in key.split("."):
+        m = _KEY_PART.match(p.strip())
+        if not m:
+            return None
+        parts.append((m.group(1), None if m.group(2) is None else int(m.group(2))))
+    try:
+        head, head_index = parts[0]
+        if head == "cam":
+            leaf, index = parts[1]
+            if leaf == "segments":
+                return d["cam"]["segments"][index][parts[2][0]]
+            return d["cam"][leaf]
+        if head == "simulation":
+            return d["simulation"][parts[1][0]]
+        if head in ("mass", "element"):
+            rows = d["masses" if head == "mass" else "elements"]
+            if head_index is not None:
+                row, leaf = rows[head_index], parts[1][0]
+            else:
+                row, leaf = next(r for r in rows if r["name"] == parts[1][0]), parts[2][0]
+            return row[leaf]
+        if head == "initial":
+            row = next(r for r in d["initial"] if r["mass"] == parts[1][0])
+            return row[parts[2][0]]
+    except (KeyError, IndexError, StopIteration, TypeError):
+        return None
+    return None
+
+
+def _text_value(assignment: str, key: str) -> Any:
+    """Best-effort SI number of an override's value text (for rows that did not load)."""
+    from camsim.units import ureg
+
+    raw = assignment.partition("=")[2].strip().strip('"')
+    unit = key_unit(key)
+    try:
+        q = ureg.Quantity(raw)
+        if not unit or isinstance(q, (int, float)) or q.dimensionless:
+            value = q.to("").magnitude if hasattr(q, "to") else q
+        else:
+            value = q.to(unit).magnitude
+        return float(value)
+    except Exception:  # noqa: BLE001 - any unparsable text: no number
+        return raw
+
+
+def _param_value(machine, assignment: str) -> Any:
+    key = assignment.partition("=")[0].strip()
+    value = machine_value(machine, key) if machine is not None else None
+    if isinstance(value, bool) or value is None or not isinstance(value, (int, float)):
+        return _text_value(assignment, key) if value is None else value
+    return float(value)
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    message = text[0] if text else ""
+    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
+
+
+def cam_force(result) -> np.ndarray | None:
+    """Force of the cam on the follower [N], compressive-positive.
+
+    :attr:`RunResult.cam_contact_force` for a machine whose cam drives a mass; for a cam
+    that acts through contact elements (``between = ["cam", ...]``), the sum of their
+    forces; None when the machine has neither.
+    """
+    if result.cam_contact_force is not None:
+        return result.cam_contact_force
+    from camsim.machine import CAM, Contact
+
+    names = [e.name for e in result.machine.elements if isinstance(e, Contact) and CAM in e.nodes and e.name in result.elements]
+    if not names:
+        return None
+    return np.sum([np.asarray(result.elements[n], dtype=float) for n in names], axis=0)
+
+
+def summary_row(result) -> dict[str, Any]:
+    """The summary columns of one :class:`~camsim.simulate.RunResult` (SI; NaN if absent).
+
+    Peaks are the largest absolute sampled values over the recorded window, as in
+    :meth:`RunResult.summary`; the cam contact force is :func:`cam_force`; ``jump`` is
+    :meth:`RunResult.follower_jumps`; ``max_impact_velocity`` is the largest
+    |relative velocity| of the impact and rejoin events.
+    """
+    nan = float("nan")
+    row: dict[str, Any] = {}
+    for name, traces in result.masses.items():
+        for quantity in ("displacement", "velocity", "acceleration"):
+            data = traces[quantity]
+            row[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
+    tf = result.transducer_force
+    row["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
+    cf = cam_force(result)
+    row["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
+    row["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
+    row["jump"] = bool(result.follower_jumps())
+    impacts = result.impacts()
+    row["impacts"] = len(impacts)
+    speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
+    row["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
+    residual = result.periodicity_residual
+    row["periodicity_residual"] = float(residual) if residual is not None else nan
+    row["status"] = "ok"
+    return row
+
+
+def run_variant(source: MachineSource, overrides: Sequence[str], settings: SweepSettings) -> tuple[dict[str, Any], Any]:
+    """Load, run and summarise one variant; never raises for a variant that fails.
+
+    This is the task every executor runs (a module-level function, so that process
+    pools and Dask can ship it).
+
+    Parameters
+    ----------
+    source : MachineSource
+        The machine file's text.
+    overrides : sequence of str
+        ``"KEY=VALUE"`` assignments: the fixed ``--set`` ones first, then the varied ones.
+    settings : SweepSettings
+
+    Returns
+    -------
+    row : dict
+        ``param:<key>`` for every override key (its SI value as the run used it), the
+        summary columns of :func:`summary_row`, and ``status``: ``"ok"`` or the
+        one-line error (``"SimulationError: ..."``) of a variant that failed to load or run.
+    result : RunResult or None
+        The run, when ``settings.keep_traces`` and the run succeeded.
+    """
+    from camsim.simulate import simulate
+
+    machine = None
+    try:
+        machine = source.load(overrides)
+        result = simulate(
+            machine,
+            cycles=settings.cycles,
+            warmup_cycles=settings.warmup_cycles,
+            sample_rate=settings.sample_rate,
+        )
+        row = summary_row(result)
+    except Exception as exc:  # noqa: BLE001 - a failing variant is recorded, the sweep goes on
+        result = None
+        row = {"status": _one_line(exc)}
+    params = {f"param:{a.partition('=')[0].strip()}": _param_value(machine, a) for a in overrides}
+    return {**params, **row}, (result if settings.keep_traces else None)
+
+
+# --------------------------------------------------------------------------------------
+# Executors
+# --------------------------------------------------------------------------------------
+def _ignore_sigint() -> None:  # pragma: no cover - runs in the worker processes
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class _Serial:
+    name = "serial"
+
+    def run(self, tasks):
+        for i, args in enumerate(tasks):
+            yield i, run_variant(*args)
+
+    def abort(self):
+        pass
+
+    def close(self):
+        pass
+
+
+class _Pool:
+    """A ProcessPoolExecutor whose workers ignore SIGINT (Ctrl-C is the parent's)."""
+
+    name = "process pool"
+
+    def __init__(self, workers: int):
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers = workers
+        self.executor = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
+        self.futures: list = []
+
+    def run(self, tasks):
+        from concurrent.futures import as_completed
+
+        self.futures = [self.executor.submit(run_variant, *args) for args in tasks]
+        index = {f: i for i, f in enumerate(self.futures)}
+        for fut in as_completed(self.futures):
+            yield index[fut], _future_value(fut, tasks[index[fut]])
+
+    def abort(self):
+        for fut in self.futures:
+            fut.cancel()
+        self.executor.shutdown(wait=False, cancel_futures=True)
+        # Stop the variants in flight now rather than wait for them.
+        for proc in list((getattr(self.executor, "_processes", None) or {}).values()):
+            if proc.is_alive():
+                proc.terminate()
+
+    def close(self):
+        self.executor.shutdown(wait=True)
+
+
+def _future_value(fut, args):
+    """The result of a finished future; an executor failure becomes a failed row."""
+    try:
+        return fut.result()
+    except Exception as exc:  # noqa: BLE001 - e.g. a worker process killed
+        source, overrides, _ = args
+        params = {f"param:{a.partition('=')[0].strip()}": _text_value(a, a.partition("=")[0].strip()) for a in overrides}
+        return {**params, "status": _one_line(exc)}, None
+
+
+def _import_distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise InputError(
+            "--scheduler/--dask-local need Dask: pip install 'camsim[dask]' (dask.distributed is not installed)"
+        ) from None
+    return distributed
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Ask ``address`` for its identity within ``timeout`` [s]; InputError unless a scheduler answers.
+
+    Done before a :class:`distributed.Client` is made, because a Client that fails to
+    connect can block for a further 10 s while it is garbage-collected.
+    """
+    import asyncio
+
+    from distributed.core import rpc
+
+    async def identity():
+        r = rpc(address, timeout=timeout)
+        try:
+            return await r.identity()
+        finally:
+            await r.close_rpc()
+
+    import socket
+
+    where = f"--scheduler {address}"
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    if address.startswith("tcp://") and host and port.isdigit():
+        # A refused or unroutable address fails here at once (Dask itself retries until timeout).
+        try:
+            socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+        except TimeoutError:
+            raise InputError(f"{where}: no answer within {timeout:g} s") from None
+        except OSError as exc:
+            raise InputError(f"{where}: cannot connect ({exc.strerror or exc})") from None
+    try:
+        info = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise InputError(f"{where}: no Dask scheduler answered within {timeout:g} s") from None
+    except OSError as exc:
+        raise InputError(f"{where}: cannot reach a Dask scheduler ({_one_line(exc)})") from None
+    except Exception as exc:  # noqa: BLE001 - bad address, a server that does not speak Dask
+        raise InputError(f"{where}: no Dask scheduler there ({_one_line(exc)})") from None
+    if not isinstance(info, dict) or info.get("type") != "Scheduler":
+        kind = info.get("type") if isinstance(info, dict) else type(info).__name__
+        raise InputError(f"{where}: the server there is not a Dask scheduler (it says it is a {kind})")
+
+
+class _Dask:
+    """Variants as Dask futures on an existing scheduler or a LocalCluster on loopback."""
+
+    def __init__(self, scheduler: str | None, local_workers: int | None):
+        distributed = _import_distributed()
+        self.cluster = None
+        self.futures: list = []
+        if scheduler is not None:
+            self.name = f"Dask scheduler {scheduler}"
+            _probe_scheduler(scheduler, SCHEDULER_TIMEOUT_S)
+            try:
+                self.client = distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT_S, set_as_default=False)
+            except Exception as exc:  # noqa: BLE001 - OSError, TimeoutError
+                raise InputError(f"--scheduler {scheduler}: cannot connect a Dask client ({_one_line(exc)})") from None
+        else:
+            import logging
+
+            self.name = f"Dask LocalCluster ({local_workers} workers)"
+            self.cluster = distributed.LocalCluster(
+                n_workers=local_workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+            self.client = distributed.Client(self.cluster, set_as_default=False)
+
+    def run(self, tasks):
+        import uuid
+
+        distributed = _import_distributed()
+        tag = uuid.uuid4().hex[:12]
+        self.futures = [
+            self.client.submit(run_variant, *args, key=f"camsim-variant-{tag}-{i}", pure=False)
+            for i, args in enumerate(tasks)
+        ]
+        index = {f.key: i for i, f in enumerate(self.futures)}
+        for fut in distributed.as_completed(self.futures, loop=self.client.loop):
+            i = index[fut.key]
+            yield i, _future_value(fut, tasks[i])
+
+    def abort(self):
+        try:
+            self.client.cancel(self.futures)
+        except Exception:  # noqa: BLE001 - best effort on the way out
+            pass
+
+    def close(self):
+        try:
+            self.client.close()
+        finally:
+            if self.cluster is not None:
+                self.cluster.close()
+
+
+def _make_executor(workers: int, n_tasks: int, scheduler: str | None, dask_local: int | None):
+    if scheduler is not None or dask_local is not None:
+        return _Dask(scheduler, dask_local)
+    workers = max(1, min(workers, n_tasks))
+    return _Serial() if workers == 1 else _Pool(workers)
+
+
+# --------------------------------------------------------------------------------------
+# The sweep
+# --------------------------------------------------------------------------------------
+@dataclass
+class SweepResult:
+    """Rows of a sweep in grid order, with the jump onset of a speed sweep.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per variant: column name -> value (SI; NaN where a value does not exist).
+    columns : list of (str, str)
+        Column names in order, with their SI units.
+    jump_onset_rpm : float or None
+        Jump onset found by bisection [rpm]: the middle of a bracket at most 0.1 rpm wide
+        whose lower end does not jump and upper end does. None when not refined, when
+        nothing jumps, or when the lowest swept speed already jumps.
+    first_jump_rpm : float or None
+        Lowest swept ``cam.speed`` whose variant jumps [rpm] (None if none or no speed sweep).
+    jump_bracket_rpm : tuple of float or None
+        The final bisection bracket (no jump, jump) [rpm].
+    machine : Machine
+        The machine with the fixed ``--set`` overrides (root attributes of the file).
+    overrides : list of tuple of str
+        The varied overrides of each row.
+    runs : list
+        Each variant's RunResult with ``keep_traces`` (None for failed ones), else empty.
+    settings : SweepSettings
+    interrupted : bool
+        True when Ctrl-C stopped the sweep; unfinished rows have status ``"cancelled"``.
+    executor : str
+        What ran the variants.
+    """
+
+    rows: list[dict[str, Any]]
+    columns: list[tuple[str, str]]
+    jump_onset_rpm: float | None = None
+    first_jump_rpm: float | None = None
+    jump_bracket_rpm: tuple[float, float] | None = None
+    machine: Any = None
+    overrides: list[tuple[str, ...]] = field(default_factory=list)
+    fixed_overrides: list[str] = field(default_factory=list)
+    runs: list[Any] = field(default_factory=list)
+    settings: SweepSettings = field(default_factory=SweepSettings)
+    interrupted: bool = False
+    executor: str = "serial"
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def failed(self) -> list[int]:
+        """Row indices whose status is neither ok nor cancelled."""
+        return [i for i, r in enumerate(self.rows) if r["status"] not in ("ok", "cancelled")]
+
+    def column(self, name: str) -> np.ndarray:
+        """One column as an array (floats, bools, ints or strings)."""
+        return _column_array(self.rows, name, dict(self.columns).get(name, ""))
+
+
+def sweep_columns(keys: Sequence[str], masses: Sequence[str]) -> list[tuple[str, str]]:
+    """The column names and SI units of a sweep over ``keys`` of a machine with ``masses``."""
+    cols = [(f"param:{k}", key_unit(k)) for k in keys]
+    for m in masses:
+        for q in ("displacement", "velocity", "acceleration"):
+            cols.append((f"peak_{q}:{m}", _PEAK_UNITS[q]))
+    return cols + list(FIXED_COLUMNS)
+
+
+def _complete_row(row: dict[str, Any], columns: Sequence[tuple[str, str]]) -> dict[str, Any]:
+    out = {}
+    for name, _ in columns:
+        if name in row:
+            out[name] = row[name]
+        elif name == "jump":
+            out[name] = False
+        elif name == "impacts":
+            out[name] = 0
+        elif name == "status":
+            out[name] = "cancelled"
+        else:
+            out[name] = float("nan")
+    return out
+
+
+def _column_array(rows, name, unit="") -> np.ndarray:
+    values = [r[name] for r in rows]
+    if name == "status":
+        return np.array(values, dtype=object)
+    if name == "jump":
+        return np.array(values, dtype=bool)
+    if name == "impacts":
+        return np.array(values, dtype=np.int64)
+    if any(isinstance(v, str) for v in values):
+        return np.array([str(v) for v in values], dtype=object)
+    return np.array(values, dtype=float)
+
+
+def _unify_params(rows, overrides_per_row, keys) -> None:
+    """A parameter column with any non-number value holds the value texts instead."""
+    for j, key in enumerate(keys):
+        name = f"param:{key}"
+        if any(not isinstance(r[name], (int, float)) or isinstance(r[name], bool) for r in rows):
+            for r, ov in zip(rows, overrides_per_row):
+                r[name] = ov[j].partition("=")[2].strip()
+
+
+def _default_workers() -> int:
+    return os.cpu_count() or 1
+
+
+def run_sweep(
+    machine_path: str | os.PathLike[str] | MachineSource,
+    vary: Sequence[str] = (),
+    values: Sequence[str] = (),
+    *,
+    fixed: Sequence[str] = (),
+    workers: int | None = None,
+    scheduler: str | None = None,
+    dask_local: int | None = None,
+    keep_traces: bool = False,
+    refine_jump: bool = False,
+    cycles: int | None = None,
+    warmup_cycles: int | None = None,
+    sample_rate: float | None = None,
+    max_variants: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    on_start: Callable[[int, str], None] | None = None,
+) -> SweepResult:
+    """Run a machine over the grid of all combinations of the varied keys.
+
+    Parameters
+    ----------
+    machine_path : path or MachineSource
+        The machine file.
+    vary : sequence of str
+        ``KEY=START:STOP:STEP[UNIT]`` ranges (:func:`parse_vary`).
+    values : sequence of str
+        ``KEY=v1,v2,...`` lists (:func:`parse_values`). Grid axes are the ``vary`` keys in
+        order, then the ``values`` keys; the last axis varies fastest.
+    fixed : sequence of str
+        ``KEY=VALUE`` overrides applied to every variant before the varied ones (``--set``).
+    workers : int, optional
+        Local processes (default: the number of cores); 1 runs serially in this process.
+    scheduler : str, optional
+        Address of a running Dask scheduler, ``tcp://HOST:PORT``.
+    dask_local : int, optional
+        Start a Dask LocalCluster with this many single-threaded worker processes on
+        127.0.0.1 for the sweep.
+    keep_traces : bool
+        Keep each variant's RunResult in :attr:`SweepResult.runs` (memory: all traces).
+    refine_jump : bool
+        Bisect the jump onset of a ``cam.speed`` sweep to 0.1 rpm (``cam.speed`` must be
+        the only varied key).
+    cycles, warmup_cycles : int, optional
+        Override the machine's recorded and warm-up revolutions.
+    sample_rate : float, optional
+        Override the machine's output sample rate [Hz].
+    max_variants : int, optional
+        Refuse grids larger than this (None: no limit).
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each finished variant.
+    on_start : callable, optional
+        Called as ``on_start(n_variants, executor_name)`` once the checks passed.
+
+    Returns
+    -------
+    SweepResult
+        With ``interrupted=True`` and rows of status ``"cancelled"`` when Ctrl-C
+        (KeyboardInterrupt) stopped it; the finished rows are kept.
+
+    Raises
+    ------
+    InputError
+        A malformed range or list, a key the machine does not have or a value of the
+        wrong dimension (checked on the first and last variant before anything runs),
+        too many variants, conflicting executor options, an unreachable scheduler, Dask
+        not installed.
+    """
+    source = machine_path if isinstance(machine_path, MachineSource) else MachineSource.from_path(machine_path)
+    axes = [parse_vary(v) for v in vary] + [parse_values(v) for v in values]
+    if not axes:
+        raise InputError("sweep: give at least one --vary KEY=START:STOP:STEP or --values KEY=v1,v2,...")
+    keys = [k for k, _ in axes]
+    grid = build_grid(axes)
+    if max_variants is not None and len(grid) > max_variants:
+        raise InputError(
+            f"sweep: {len(grid)} variants exceed --max-variants {max_variants}; pass --yes to run them anyway"
+        )
+    if scheduler is not None and dask_local is not None:
+        raise InputError("--scheduler and --dask-local: give one of them, not both")
+    if dask_local is not None and dask_local < 1:
+        raise InputError(f"--dask-local {dask_local}: needs at least 1 worker")
+    workers = _default_workers() if workers is None else workers
+    if workers < 1:
+        raise InputError(f"--workers {workers}: needs at least 1")
+    if refine_jump and keys != ["cam.speed"]:
+        raise InputError("--refine-jump: needs a sweep of cam.speed alone (--vary cam.speed=START:STOP:STEPrpm)")
+    fixed = list(fixed)
+    base = source.load(fixed)  # the --set overrides alone
+    # The loader's checks on the varied keys, before anything runs: the first and last
+    # variants hold every key and both ends of every range.
+    for ov in (grid[0], grid[-1]) if len(grid) > 1 else (grid[0],):
+        try:
+            source.load(fixed + list(ov))
+        except MachineFileError as exc:
+            suffix = next((f" (value from --set {a})" for a in ov if exc.message.endswith(f" (value from --set {a})")), None)
+            if suffix is None:
+                raise
+            raise MachineFileError(exc.file, exc.key, exc.message[: -len(suffix)] + suffix.replace("--set", "--vary/--values")) from None
+    settings = SweepSettings(cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate, keep_traces=keep_traces)
+    if sample_rate is not None and sample_rate <= 0:
+        raise InputError("--sample-rate: must be positive")
+    columns = sweep_columns(keys, [m.name for m in base.masses])
+
+    executor = _make_executor(workers, len(grid), scheduler, dask_local)
+    tasks = [(source, tuple(fixed) + ov, settings) for ov in grid]
+    raw: list[dict | None] = [None] * len(grid)
+    runs: list[Any] = [None] * len(grid) if keep_traces else []
+    interrupted = False
+    onset = bracket = None
+    notes: list[str] = []
+    try:
+        if on_start is not None:
+            on_start(len(grid), executor.name)
+        done = 0
+        for i, (row, result) in executor.run(tasks):
+            raw[i] = row
+            if keep_traces:
+                runs[i] = result
+            done += 1
+            if progress is not None:
+                progress(done, len(grid))
+        first = _first_jump(raw, keys)
+        if refine_jump and first is not None:
+            onset, bracket, note = _refine(executor, source, fixed, settings, raw, first)
+            if note:
+                notes.append(note)
+    except KeyboardInterrupt:
+        interrupted = True
+        executor.abort()
+    finally:
+        if not interrupted:
+            executor.close()
+        else:
+            try:
+                executor.close()
+            except Exception:  # noqa: BLE001 - the workers were stopped on purpose
+                pass
+
+    rows = []
+    for i, row in enumerate(raw):
+        if row is None:
+            params = {
+                f"param:{a.partition('=')[0].strip()}": _text_value(a, a.partition("=")[0].strip()) for a in grid[i]
+            }
+            row = {**params, "status": "cancelled"}
+        else:
+            # the --set keys are not columns; only the varied ones
+            row = {k: v for k, v in row.items() if not k.startswith("param:") or k[6:] in keys}
+        rows.append(_complete_row(row, columns))
+    _unify_params(rows, grid, keys)
+    first = _first_jump(rows, keys)
+    return SweepResult(
+        rows=rows,
+        columns=columns,
+        jump_onset_rpm=onset,
+        first_jump_rpm=None if first is None else first[1] * _RPM,
+        jump_bracket_rpm=bracket,
+        machine=base,
+        overrides=grid,
+        fixed_overrides=fixed,
+        runs=runs,
+        settings=settings,
+        interrupted=interrupted,
+        executor=executor.name,
+        notes=notes,
+    )
+
+
+def _first_jump(rows, keys) -> tuple[int, float] | None:
+    """(row index, speed [rad/s]) of the lowest swept speed whose variant jumps."""
+    if "cam.speed" not in keys:
+        return None
+    best = None
+    for i, r in enumerate(rows):
+        if r is None or r.get("status") != "ok" or not r.get("jump"):
+            continue
+        speed = r.get("param:cam.speed")
+        if not isinstance(speed, float) or math.isnan(speed):
+            continue
+        if best is None or speed < best[1]:
+            best = (i, speed)
+    return best
+
+
+def _refine(executor, source, fixed, settings, rows, first) -> tuple[float | None, tuple[float, float] | None, str | None]:
+    """Bisect between the highest non-jumping swept speed below the first jump and it."""
+    _, hi_speed = first
+    below = [
+        r["param:cam.speed"]
+        for r in rows
+        if r is not None and r.get("status") == "ok" and not r.get("jump") and r["param:cam.speed"] < hi_speed
+    ]
+    if not below:
+        return None, None, (
+            f"the follower already jumps at the lowest swept speed {hi_speed * _RPM:.6g} rpm: "
+            "the onset is below the swept range, not refined"
+        )
+    lo, hi = max(below) * _RPM, hi_speed * _RPM
+    quiet = SweepSettings(cycles=settings.cycles, warmup_cycles=settings.warmup_cycles, sample_rate=settings.sample_rate)
+    while hi - lo > JUMP_RESOLUTION_RPM:
+        mid = 0.5 * (lo + hi)
+        ((_, (row, _)),) = list(executor.run([(source, tuple(fixed) + (f"cam.speed={mid!r} rpm",), quiet)]))
+        if row["status"] != "ok":
+            return None, (lo, hi), f"jump-onset refinement stopped at {mid:.6g} rpm: {row['status']}"
+        if row["jump"]:
+            hi = mid
+        else:
+            lo = mid
+    return 0.5 * (lo + hi), (lo, hi), None
+
+
+# --------------------------------------------------------------------------------------
+# Writing
+# --------------------------------------------------------------------------------------
+def csv_path_for(path: str | os.PathLike[str]) -> Path:
+    """The CSV written beside a sweep file: same stem, ``.csv``."""
+    return Path(path).with_suffix(".csv")
+
+
+def _csv_cell(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))  # round-trips exactly; nan as "nan"
+    return str(value)
+
+
+def write_sweep(result: SweepResult, path: str | os.PathLike[str], csv_path: str | os.PathLike[str] | None = None) -> tuple[Path, Path]:
+    """Write a sweep as HDF5 (``/sweep/summary``) and the same table as CSV, atomically.
+
+    The HDF5 file carries the root attributes of every camsim file (``file_kind`` =
+    ``"sweep"``, the machine with its ``--set`` overrides); ``/sweep/summary`` is a
+    compound table with a ``units:<column>`` attribute per column and the attributes
+    ``jump_onset_rpm`` and ``first_jump_rpm`` (NaN when None). With kept traces, variant
+    ``k`` (the row index, from 0) is under ``/sweep/variants/<k>/`` in the run layout.
+    The CSV has one header line with the column names and the values in SI (floats
+    written so that they read back exactly; ``nan`` where absent; ``true``/``false``).
+
+    Returns
+    -------
+    (Path, Path)
+        The HDF5 and CSV paths.
+    """
+    from camsim.io.atomic import atomic_path, check_writable
+    from camsim.io.hdf5 import create_file, write_table
+    from camsim.io.runfile import write_root_attributes, write_run_group
+
+    h5_path = Path(path)
+    csv_target = csv_path_for(h5_path) if csv_path is None else Path(csv_path)
+    check_writable(h5_path)
+    check_writable(csv_target)
+    nan = float("nan")
+    with atomic_path(h5_path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, result.machine, "sweep")
+            group = f.create_group("sweep", track_order=True)
+            group.attrs["varied_keys"] = [name[6:] for name, _ in result.columns if name.startswith("param:")]
+            group.attrs["fixed_overrides"] = list(result.fixed_overrides) or [""]
+            s = result.settings
+            group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
+            group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
+            group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
+            group.attrs["interrupted"] = bool(result.interrupted)
+            cols = {name: (_column_array(result.rows, name, unit), unit) for name, unit in result.columns}
+            table = write_table(group, "summary", cols)
+            table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
+            table.attrs["first_jump_rpm"] = nan if result.first_jump_rpm is None else float(result.first_jump_rpm)
+            if result.jump_bracket_rpm is not None:
+                table.attrs["jump_bracket_rpm"] = np.array(result.jump_bracket_rpm, dtype=float)
+            if result.runs:
+                variants = group.create_group("variants", track_order=True)
+                for k, run in enumerate(result.runs):
+                    if run is None:
+                        continue
+                    g = variants.create_group(str(k), track_order=True)
+                    g.attrs["overrides"] = list(result.overrides[k])
+                    write_run_group(g, run)
+    with atomic_path(csv_target) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh)
+            writer.writerow([name for name, _ in result.columns])
+            for row in result.rows:
+                writer.writerow([_csv_cell(row[name]) for name, _ in result.columns])
+    return h5_path, csv_target
+
+
+def jsonable_rows(result: SweepResult) -> list[dict[str, Any]]:
+    """Rows with NaN as None (for ``--json``)."""
+    out = []
+    for row in result.rows:
+        out.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()})
+    return out
