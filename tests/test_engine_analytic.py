@@ -59,31 +59,36 @@ sample_rate = "2 kHz"
 """
 
 
-def _cam_segments(law: str) -> list[tuple[float, Polynomial]]:
-    """The cam of :func:`_base_toml` as (start time [s], s(τ) [m] polynomial in local time τ [s]).
+def _cam_segments(law: str) -> list[tuple[float, Polynomial, complex, float]]:
+    """The cam of :func:`_base_toml` per segment, in local time τ [s] from its start.
 
+    Each entry is (start time [s], P, S, Ω) with s(τ) = P(τ) + Re(S·e^(iΩτ)) [m].
     Normalised rises (Norton, *Cam Design and Manufacturing Handbook*, ch. 3), u = τ/t_seg:
     3-4-5 polynomial y = 10u³ − 15u⁴ + 6u⁵ (jerk jumps at its ends, 60·h/t_seg³);
-    4-5-6-7 polynomial y = 35u⁴ − 84u⁵ + 70u⁶ − 20u⁷ (jerk zero at its ends).
+    4-5-6-7 polynomial y = 35u⁴ − 84u⁵ + 70u⁶ − 20u⁷ (jerk zero at its ends);
+    simple harmonic y = (1 − cos πu)/2 (acceleration jumps at its ends).
     A fall is h·(1 − y).
     """
     t_seg = 0.25 * 60.0 / RPM
     u = Polynomial([0.0, 1.0 / t_seg])
-    if law == "poly345":
-        y = 10 * u**3 - 15 * u**4 + 6 * u**5
-    else:
-        y = 35 * u**4 - 84 * u**5 + 70 * u**6 - 20 * u**7
     zero = Polynomial([0.0])
+    omega = math.pi / t_seg
+    if law == "poly345":
+        rise = (10 * u**3 - 15 * u**4 + 6 * u**5, 0j)
+    elif law == "poly4567":
+        rise = (35 * u**4 - 84 * u**5 + 70 * u**6 - 20 * u**7, 0j)
+    else:  # harmonic: 1/2 − (1/2)·cos(Ωτ)
+        rise = (zero + 0.5, -0.5 + 0j)
     segments = []
     for cycle in range(2):
         t0 = cycle * 4 * t_seg
         segments += [
-            (t0, LIFT * y),
-            (t0 + t_seg, zero + LIFT),
-            (t0 + 2 * t_seg, LIFT * (1 - y)),
-            (t0 + 3 * t_seg, zero),
+            (t0, LIFT * rise[0], LIFT * rise[1], omega),
+            (t0 + t_seg, zero + LIFT, 0j, omega),
+            (t0 + 2 * t_seg, LIFT * (1 - rise[0]), -LIFT * rise[1], omega),
+            (t0 + 3 * t_seg, zero, 0j, omega),
         ]
-    return segments + [(8 * t_seg, zero)]
+    return segments + [(8 * t_seg, zero, 0j, omega)]
 
 
 def _particular(q: Polynomial, m: float, c: float, k: float) -> Polynomial:
@@ -103,9 +108,11 @@ def _particular(q: Polynomial, m: float, c: float, k: float) -> Polynomial:
 def base_excitation_closed_form(t: np.ndarray, law: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x, ẋ, ẍ of m·ẍ + c·ẋ + k·x = k·s + c·ṡ from rest at x = s(0) = 0.
 
-    Per cam segment the forcing q = k·s + c·ṡ is a polynomial in local time τ, so
-    x = x_p(τ) + e^(−ζωτ)·(A cos ω_d τ + B sin ω_d τ) with A = x0 − x_p(0),
-    B = (v0 − x_p'(0) + ζω·A)/ω_d; (x0, v0) carried from the end of the previous segment.
+    Per cam segment s = P(τ) + Re(S·e^(iΩτ)), so the particular solution is the polynomial
+    of :func:`_particular` for k·P + c·P' plus Re(X·e^(iΩτ)) with
+    X = (k + icΩ)·S/(k − mΩ² + icΩ); then x = x_p(τ) + e^(−ζωτ)·(A cos ω_d τ + B sin ω_d τ)
+    with A = x0 − x_p(0), B = (v0 − x_p'(0) + ζω·A)/ω_d, (x0, v0) carried over from the end
+    of the previous segment.
     """
     m, k = M_BASE, K_BASE
     wn = math.sqrt(k / m)
@@ -117,10 +124,18 @@ def base_excitation_closed_form(t: np.ndarray, law: str) -> tuple[np.ndarray, np
     v = np.full(t.shape, np.nan)
     a = np.full(t.shape, np.nan)
     x0 = v0 = 0.0
-    for (ts, s), (te, _) in zip(segs[:-1], segs[1:]):
-        xp = _particular(k * s + c * s.deriv(), m, c, k)
-        A = x0 - xp(0.0)
-        B = (v0 - xp.deriv()(0.0) + zw * A) / wd
+    for (ts, poly, amp, om), (te, *_) in zip(segs[:-1], segs[1:]):
+        xp = _particular(k * poly + c * poly.deriv(), m, c, k)
+        X = (k + 1j * c * om) * amp / (k - m * om**2 + 1j * c * om)
+
+        def part(tau, xp=xp, X=X, om=om):
+            e = X * np.exp(1j * om * np.asarray(tau, dtype=float))
+            return (xp(tau) + e.real, xp.deriv()(tau) + (1j * om * e).real,
+                    xp.deriv(2)(tau) + (-(om**2) * e).real)
+
+        p0, dp0, _ = part(0.0)
+        A = x0 - p0
+        B = (v0 - dp0 + zw * A) / wd
 
         def hom(tau, A=A, B=B):
             e = np.exp(-zw * tau)
@@ -133,28 +148,21 @@ def base_excitation_closed_form(t: np.ndarray, law: str) -> tuple[np.ndarray, np
         sel = (t >= ts - 1e-12) & (t <= te + 1e-12)
         tau = t[sel] - ts
         h, dh, ddh = hom(tau)
-        x[sel] = xp(tau) + h
-        v[sel] = xp.deriv()(tau) + dh
-        a[sel] = xp.deriv(2)(tau) + ddh
+        p, dp, ddp = part(tau)
+        x[sel], v[sel], a[sel] = p + h, dp + dh, ddp + ddh
         h, dh, _ = hom(te - ts)
-        x0, v0 = xp(te - ts) + h, xp.deriv()(te - ts) + dh
+        p, dp, _ = part(te - ts)
+        x0, v0 = p + h, dp + dh
     return x, v, a
 
 
-JERK_JUMP_REASON = (
-    "engine bug reported to the lead: near a cam segment join where the cam jerk jumps "
-    "(poly345) the error grows with the output step as h^4 (at 2 kHz: displacement 2.9e-11, "
-    "velocity 8.0e-10, acceleration 1.09e-8 of peak; 500 Hz: displacement 7.3e-9; 20 kHz: "
-    "acceleration 1.6e-10); the smooth poly4567 case agrees to 1e-11 at any rate"
-)
-
-
-@pytest.mark.parametrize(
-    "law",
-    ["poly4567", pytest.param("poly345", marks=pytest.mark.xfail(strict=True, reason=JERK_JUMP_REASON))],
-)
+@pytest.mark.parametrize("law", ["poly4567", "poly345", "harmonic"])
 def test_base_excitation_closed_form(law):
     """Spring-damper between the cam and a 1 kg mass, rise/dwell/fall/dwell, two cycles.
+
+    poly345's jerk and the harmonic law's acceleration jump at every segment join,
+    poly4567's do not: the first two check that steps ending on a join use the ending
+    segment's derivatives.
 
     Reference: the piecewise closed form of :func:`base_excitation_closed_form`
     (undetermined coefficients + damped free vibration, matched at each segment join).
@@ -408,7 +416,8 @@ def test_grazing_contact_found_every_time(phase):
     Each penetration lasts about 2·√(2ε/(ω²A)) = 14 µs, far less than the 1 ms output
     step. The contact is undamped, so each graze is elastic and the orbit keeps its
     amplitude: one impact per trough, troughs at ωt + φ = π (mod 2π). Reference: that
-    count, for 9 phases φ (troughs kept > 1 ms from the window's ends); first impact time where x_eq + A·cos(ωt + φ) = floor, to 1e-8 s
+    count, for 9 phases φ (troughs kept > 1 ms from the window's ends); first impact time
+    where x_eq + A·cos(ωt + φ) = floor, to 1e-8 s
     (the crossing speed is only ω·√(2Aε) ≈ 3e-5 m/s).
     """
     r = simulate(load_machine_text(_graze_toml(phase)))

@@ -11,8 +11,8 @@ grid t_rec + k/10 kHz, and writes ``tests/data/reference/<machine>.npz`` holding
   for every mass (the driven one too);
 - ``event_time`` [s], ``event_element``, ``event_kind``, ``event_rate`` [m/s] (δ̇ for a
   contact, ḋ for a preloaded link) of the recorded cycle;
-- ``meta`` (a JSON string: solver, method, rtol, atol, sample rate, cycles, the machine
-  file's SHA-256; no date, so that regenerating gives the same file).
+- ``meta`` (a JSON string: solver, method, rtol, atol, sample rate, cycles, the SHA-256 of the
+  machine's SI physics (:func:`machine_digest`); no date, so that regenerating gives the same file).
 
 Regenerate (from the repository root)::
 
@@ -40,7 +40,7 @@ sys.path.insert(0, str(HERE))
 
 from reference_solver import ATOL_V, ATOL_X, ReferenceSolver  # noqa: E402
 
-from camsim.loader import load_machine  # noqa: E402
+from camsim.loader import load_machine, machine_to_dict  # noqa: E402
 
 #: Machines and their reference settings.
 MACHINES = ("cdtm", "dynacam-2mass")
@@ -48,6 +48,16 @@ RTOL = 1e-12
 METHOD = "DOP853"
 SAMPLE_RATE = 10_000.0  # [Hz]
 OUT_DIR = ROOT / "tests" / "data" / "reference"
+
+
+def machine_digest(machine) -> str:
+    """SHA-256 of the machine's physics in SI (cam, masses, elements, initial state, cycles,
+    gravity): comments and the output sample rate of the file do not change it."""
+    d = machine_to_dict(machine)
+    sim = {k: v for k, v in d["simulation"].items() if k != "sample_rate"}
+    physics = {"cam": d["cam"], "masses": d["masses"], "elements": d["elements"],
+               "initial": d["initial"], "simulation": sim}
+    return hashlib.sha256(json.dumps(physics, sort_keys=True).encode()).hexdigest()
 
 
 def make(name: str) -> Path:
@@ -67,7 +77,7 @@ def make(name: str) -> Path:
     arrays["event_rate"] = np.array([e[3] for e in ref.events], dtype=float)
     meta = {
         "machine": f"machines/{name}.toml",
-        "machine_sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+        "machine_sha256": machine_digest(machine),
         "solver": "tests/reference/reference_solver.py (scipy.integrate.solve_ivp, terminal events)",
         "method": METHOD,
         "rtol": RTOL,
