@@ -50,3 +50,15 @@ def test_run_check_against_detects_a_change(tmp_path, monkeypatch):
     result = CliRunner().invoke(app, ["run", *args, "-o", str(out), "--check-against", str(golden)])
     assert result.exit_code == 1, result.output
     assert "masses/m2" in result.output
+
+
+def test_ci_check_script_passes(tmp_path):
+    """scripts/ci-check.sh (the README's CI recipe) runs every golden machine and passes."""
+    import shutil
+    import subprocess
+
+    if shutil.which("camsim") is None:
+        pytest.skip("the camsim command is not on PATH (package not installed)")
+    out = subprocess.run(["sh", str(ROOT / "scripts" / "ci-check.sh"), str(tmp_path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.count("ok ") == len(GOLDENS)

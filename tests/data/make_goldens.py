@@ -2,8 +2,8 @@
 
     python tests/data/make_goldens.py
 
-Runs each shipped machine with the settings in GOLDENS and writes
-tests/data/golden/<name>.h5. Run it deliberately, after a change that is meant to move
+Runs each machine listed in tests/data/golden/goldens.txt with the options given there
+and writes tests/data/golden/<name>.h5 (scripts/ci-check.sh reads the same list). Run it deliberately, after a change that is meant to move
 the numbers, and say why in the commit message. Takes a few seconds.
 """
 
@@ -16,12 +16,19 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "tests" / "data" / "golden"
 
-#: name -> camsim run arguments (kept small: a coarse sample rate, one recorded cycle).
-GOLDENS: dict[str, list[str]] = {
-    "cdtm": ["machines/cdtm.toml", "--sample-rate", "5 kHz"],
-    "dynacam-2mass": ["machines/dynacam-2mass.toml", "--sample-rate", "2 kHz"],
-    "barkan-follower": ["machines/barkan-follower.toml", "--sample-rate", "2 kHz"],
-}
+
+
+def read_goldens() -> dict[str, list[str]]:
+    """name -> camsim run arguments, from goldens.txt (kept small: coarse sample rates)."""
+    goldens = {}
+    for line in (OUT / "goldens.txt").read_text().splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            name, *args = line.split()
+            goldens[name] = args
+    return goldens
+
+
+GOLDENS = read_goldens()
 
 
 def main() -> int:
