@@ -78,8 +78,24 @@ def user_errors() -> Iterator[None]:
 
 
 def print_json(payload: Any) -> None:
-    """Print ``payload`` as JSON on stdout (the only thing a ``--json`` command prints there)."""
-    sys.stdout.write(json.dumps(payload, indent=2, allow_nan=False, default=_jsonable) + "\n")
+    """Print ``payload`` as JSON on stdout (the only thing a ``--json`` command prints there).
+
+    JSON has no NaN or infinity: non-finite numbers (a quantity that does not apply, the
+    unbounded Johnson force of a rigid stop) are written as null.
+    """
+    sys.stdout.write(json.dumps(_finite(payload), indent=2, allow_nan=False, default=_jsonable) + "\n")
+
+
+def _finite(value: Any) -> Any:
+    import math
+
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def _jsonable(value: Any) -> Any:
