@@ -211,3 +211,81 @@ def test_version_and_module_entry():
 
     out = subprocess.run([sys.executable, "-m", "camsim", "--version"], capture_output=True, text=True, check=True)
     assert out.stdout.startswith("camsim ")
+
+
+def test_rigid_stop_json_has_null_bounds(tmp_path):
+    """Above the jump onset (447.6 rpm, machine comments) the follower lands on the cam again:
+    a rigid (restitution) impact, whose Johnson bound is unbounded — null in JSON, ∞ in HDF5."""
+    out = tmp_path / "b.h5"
+    result = run(["run", str(MACHINES / "barkan-follower.toml"), "-o", str(out), "--set", "cam.speed=480 rpm", "--json"])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert payload["jump"] is True
+    assert payload["impacts"] and all(i["johnson_upper"] is None for i in payload["impacts"])
+    with h5py.File(out) as f:
+        kinds = [k.decode() if isinstance(k, bytes) else k for k in f["events"]["kind"]]
+        assert "release" in kinds and "impact" in kinds
+        assert np.isinf(f["events"]["johnson_upper"][kinds.index("impact")])
+
+
+DRIVEN = """
+schema = 1
+[machine]
+name = "driven follower"
+[cam]
+speed = "600 rpm"
+drives = "F"
+segments = [
+  { motion = "rise", law = "cycloidal", duration = "90 deg", lift = "20 mm" },
+  { motion = "dwell", duration = "90 deg" },
+  { motion = "fall", law = "cycloidal", duration = "90 deg", lift = "20 mm" },
+  { motion = "dwell", duration = "90 deg" },
+]
+[[mass]]
+name = "F"
+mass = "1 kg"
+[[mass]]
+name = "B"
+mass = "0.5 kg"
+[[element]]
+name = "closure"
+type = "spring"
+between = ["ground", "F"]
+stiffness = "1000 N/m"
+preload = "50 N"
+[[element]]
+name = "body"
+type = "spring"
+between = ["F", "B"]
+stiffness = "1e5 N/m"
+damping_ratio = 0.05
+[simulation]
+cycles = 1
+warmup_cycles = 0
+sample_rate = "20 kHz"
+"""
+
+
+def test_cam_contact_force_and_jump_rows(tmp_path):
+    """With a rigid body B on F the cam must push m_F·s̈ + (forces of the springs on F);
+    at 600 rpm the cycloidal deceleration 2π·h·(ω/β)² = 2π·0.02·400 = 50.3 m/s² times
+    1.5 kg (F and B move together, slowly vibrating) exceeds the 50 N preload: the cam
+    contact force turns negative near the middle of the rise, and a `jump` row marks it."""
+    path = tmp_path / "driven.toml"
+    path.write_text(DRIVEN)
+    out = tmp_path / "d.h5"
+    result = run(["run", str(path), "-o", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    assert payload["jump"] is True
+    assert payload["min_cam_contact_force"]["value"] < 0
+    with h5py.File(out) as f:
+        fc = f["cam_contact/force"][:]
+        t = f["time"][:]
+        kinds = [k.decode() if isinstance(k, bytes) else k for k in f["events"]["kind"]]
+        jump_times = f["events"]["time"][[k == "jump" for k in kinds]]
+    crossings = np.flatnonzero((fc[1:] < 0) & (fc[:-1] >= 0))
+    assert len(jump_times) == len(crossings) >= 1
+    for k, tj in zip(crossings, jump_times):
+        assert t[k] <= tj <= t[k + 1]
+    assert any("goes negative" in w for w in payload["warnings"])
