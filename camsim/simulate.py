@@ -415,17 +415,16 @@ def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, 
     if not ts:
         raise SimulationError("the run recorded no samples")
     t = np.concatenate(ts)
-    order = np.argsort(t, kind="stable")
-    t = t[order]
-    # Drop duplicates (a grid point shared by two stretches keeps the later one's value).
-    x = np.concatenate(xs)[order]
-    v = np.concatenate(vs)[order]
-    a = np.concatenate(as_)[order]
-    u = np.concatenate(us)[order]
-    forces = np.concatenate(fs)[order]
-    keep = np.concatenate([np.diff(np.round((t - t_rec) / h_out)) != 0, [True]])
-    t, x, v, a, u, forces = t[keep], x[keep], v[keep], a[keep], u[keep], forces[keep]
-    time = np.round((t - t_rec) / h_out) * h_out
+    x, v, a, u, forces = (np.concatenate(parts) for parts in (xs, vs, as_, us, fs))
+    # Stretches come in time order; a grid point shared by two of them (an event exactly on
+    # a sample) keeps the later value, the state just after the event.
+    grid_index = np.round((t - t_rec) / h_out)
+    if np.any(np.diff(grid_index) <= 0):
+        order = np.argsort(t, kind="stable")
+        t, x, v, a, u, forces, grid_index = (arr[order] for arr in (t, x, v, a, u, forces, grid_index))
+        keep = np.concatenate([np.diff(grid_index) != 0, [True]])
+        t, x, v, a, u, forces, grid_index = (arr[keep] for arr in (t, x, v, a, u, forces, grid_index))
+    time = grid_index * h_out
     masses: dict[str, dict[str, np.ndarray]] = {}
     for m in machine.masses:
         if m.name == model.driven:
