@@ -491,7 +491,10 @@ class Integrator:
         z_start = z0
         t_start = t0
         while True:
-            t_chunk_end = min(t_stop, t_start + chunk * h)
+            # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
+            # sample's time (and the cam input there) is the same whatever the history.
+            k_end = math.floor((t_start - self.t_ref) / h + 1e-7) + chunk
+            t_chunk_end = min(t_stop, self.t_ref + k_end * h)
             grid = self.grid_between(t_start, t_chunk_end)
             # Nodes: the start, the interior grid points, the end.
             interior = grid[grid > t_start + TIME_EPS]

@@ -7,13 +7,14 @@ import math
 from rich.console import Console
 from rich.table import Table
 
-from camsim.units import ureg
+#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²).
+LBF = 0.45359237 * 9.80665
 
 _UNITS = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
 
 
 def _lbf(newton: float) -> str:
-    return f"{newton:.4g} N ({ureg.Quantity(newton, 'N').to('lbf').magnitude:.4g} lbf)"
+    return f"{newton:.4g} N ({newton / LBF:.4g} lbf)"
 
 
 def _fmt(value, fmt: str = ".4g") -> str:

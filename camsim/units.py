@@ -8,10 +8,29 @@ from __future__ import annotations
 
 import math
 import re
+from typing import Any
 
-import pint
+_REGISTRY = None
 
-ureg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+
+def registry() -> Any:
+    """The one pint ``UnitRegistry`` of camsim, created on first use.
+
+    Building it costs about 0.2 s, so commands that never parse a unit (``--help``,
+    ``plot``, ``check``) do not pay for it. ``camsim.units.ureg`` is the same object.
+    """
+    global _REGISTRY
+    if _REGISTRY is None:
+        import pint
+
+        _REGISTRY = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    return _REGISTRY
+
+
+def __getattr__(name: str) -> Any:
+    if name == "ureg":
+        return registry()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 #: Dimension names used in messages, and the SI unit each is converted to.
 DIMENSIONS: dict[str, str] = {
@@ -101,7 +120,10 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
             raise QuantityError(f"expected a finite {shown}, got {value!r}")
         if bare_unit is None:
             return number
-        return float(ureg.Quantity(number, bare_unit).to(target).magnitude)
+        return float(registry().Quantity(number, bare_unit).to(target).magnitude)
+    import pint
+
+    ureg = registry()
     text = value.strip()
     if _MIL.search(text):
         raise QuantityError(

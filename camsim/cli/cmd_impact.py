@@ -21,9 +21,10 @@ from rich.table import Table
 from camsim import impact
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.errors import InputError
-from camsim.units import QuantityError, to_si, ureg
+from camsim.units import QuantityError, to_si
 
-LBF = float(ureg.Quantity(1.0, "lbf").to("N").magnitude)
+#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²).
+LBF = 0.45359237 * 9.80665
 
 impact_app = typer.Typer(
     name="impact",
