@@ -338,6 +338,8 @@ class Integrator:
         self.rtol_nonlinear = 1e-11
         self._chunk = 512
         self._input_cache: dict[float, np.ndarray] = {}
+        self._joins: set[float] = set()  # cam segment joins of the current run
+        self._stacked = None  # the current stretch's guards stacked into matrices
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
@@ -504,8 +506,9 @@ class Integrator:
             U = self.inputs(nodes)
             # The last step ends at the chunk's end, maybe a cam segment join: its end
             # values are the limits from the left (acceleration or jerk may jump there).
-            s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
-            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+            if nodes[-1] in self._joins:
+                s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
+                U[-1] = [s_[0], v_[0], a_[0], j_[0]]
             steps = np.diff(nodes)
             D = step_input_derivatives(U[:-1], U[1:], steps)
             Z = np.empty((nodes.size, config.dim))
@@ -587,11 +590,18 @@ class Integrator:
             return None
         steps = np.diff(nodes)[:, None]
         # All guards at once: values and exact time derivatives at every node.
-        G = Z @ np.vstack([g.value.Cz for g in guards]).T + U @ np.vstack([g.value.Du for g in guards]).T
-        G += np.concatenate([g.value.e for g in guards])
-        Gd = Z @ np.vstack([g.rate.Cz for g in guards]).T + U @ np.vstack([g.rate.Du for g in guards]).T
-        Gd += np.concatenate([g.rate.e for g in guards])
-        tol = np.array([g.tol for g in guards])
+        if self._stacked is None or self._stacked[0] is not guards:
+            self._stacked = (
+                guards,
+                np.vstack([g.value.Cz for g in guards]).T, np.vstack([g.value.Du for g in guards]).T,
+                np.concatenate([g.value.e for g in guards]),
+                np.vstack([g.rate.Cz for g in guards]).T, np.vstack([g.rate.Du for g in guards]).T,
+                np.concatenate([g.rate.e for g in guards]),
+                np.array([g.tol for g in guards]),
+            )
+        _, Cz, Du, e, Cz_d, Du_d, e_d, tol = self._stacked
+        G = Z @ Cz + U @ Du + e
+        Gd = Z @ Cz_d + U @ Du_d + e_d
         g0 = G[:-1].copy()
         g1 = G[1:]
         if first_chunk:
@@ -917,7 +927,9 @@ class Integrator:
         state = self.settle(state)
         if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
             on_stop(state)
-        boundaries = list(self.cam.boundary_times(state.t, t_end)) + [s for s in stops if state.t < s < t_end]
+        joins = [float(t) for t in self.cam.boundary_times(state.t, t_end)]
+        self._joins = set(joins)
+        boundaries = joins + [s for s in stops if state.t < s < t_end]
         boundaries = sorted(set(boundaries)) + [t_end]
         bi = 0
         max_stretches = 10_000_000
