@@ -374,7 +374,16 @@ def ball_drop_numbers(height_in: float, gravity: str | None = None) -> dict:
     }
 
 
-def ball_drop_block() -> str:
+def ball_drop_runs() -> dict:
+    """Simulated first impacts at the four heights: {(height [in], "standard"|"thesis"): numbers}."""
+    return {
+        (h, g): ball_drop_numbers(h, THESIS_GRAVITY if g == "thesis" else None)
+        for h in DROP_HEIGHTS_IN
+        for g in ("standard", "thesis")
+    }
+
+
+def ball_drop_block(runs: dict | None = None) -> str:
     from camsim.impact import burr_impact_force, drop_velocity, hertz_sphere_coefficient, johnson_power_upper
 
     header = [
@@ -385,13 +394,13 @@ def ball_drop_block() -> str:
         "contact duration [µs]",
     ]  # fmt: skip
     coefficient = hertz_sphere_coefficient(BALL_MODULUS, BALL_DIAMETER)
+    runs = runs if runs is not None else ball_drop_runs()
     rows = []
     for k, h in enumerate(DROP_HEIGHTS_IN):
         v = drop_velocity(h * INCH)
         johnson = johnson_power_upper(coefficient, 1.5, BALL_MASS, v, 0.0) / LBF
         burr = burr_impact_force(BALL_MASS * 9.80665, HARD_STOP_STIFFNESS, h * INCH, eta=1.0) / LBF
-        std = ball_drop_numbers(h)
-        thesis_g = ball_drop_numbers(h, THESIS_GRAVITY)
+        std, thesis_g = runs[(h, "standard")], runs[(h, "thesis")]
         cv = TABLE6_COMMON_VELOCITY_LBF[k]
         rows.append([
             fmt(h, 3), TABLE5_EXPERIMENT_LBF[k], cv, TABLE6_DC_FACTOR_LBF[k], johnson, burr,
@@ -504,7 +513,9 @@ def blocks(skip_power: bool = False, names=BLOCK_NAMES) -> tuple[dict[str, str],
     return out, linear, power
 
 
-BLOCK = re.compile(r"(<!-- BEGIN validation\.py:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(\n<!-- END validation\.py:(?P=name) -->)", re.S)
+BLOCK = re.compile(
+    r"(<!-- BEGIN validation\.py:(?P<name>[\w-]+) -->\n)(?P<body>.*?)\n?(<!-- END validation\.py:(?P=name) -->)", re.S
+)
 
 
 def doc_blocks(text: str) -> dict[str, str]:
@@ -520,7 +531,8 @@ def update_doc(path: Path, new: dict[str, str]) -> None:
 
     def repl(m):
         name = m.group("name")
-        return m.group(1) + new.get(name, m.group("body")) + m.group(4)
+        body = new.get(name, m.group("body"))
+        return m.group(1) + body + ("\n" if body else "") + m.group(4)
 
     path.write_text(BLOCK.sub(repl, text), encoding="utf-8")
 
