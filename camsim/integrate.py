@@ -31,7 +31,7 @@ import numpy as np
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from camsim.errors import InputError, SimulationError, ZenoError
+from camsim.errors import SimulationError, ZenoError
 from camsim.machine import Contact, PreloadedLink
 from camsim.recurrence import linear_recurrence
 from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
@@ -689,7 +689,6 @@ class Integrator:
             # Grazing dip: find the minimum of the exact guard.
             from scipy.optimize import minimize_scalar
 
-            best = min(values, key=lambda v: v[1])
             res = minimize_scalar(lambda t: evaluate(t)[0], bounds=(0.0, hk), method="bounded", options={"xatol": hk * 1e-10})
             if res.fun > 0:
                 return None
@@ -700,7 +699,6 @@ class Integrator:
             lo = left[-1]
             g, gd, z = evaluate(t_min)
             hi = (t_min, g, gd, z)
-            del best
         a_t, a_g = lo[0], lo[1]
         b_t, b_g = hi[0], hi[1]
         guess = b_t - b_g * (b_t - a_t) / (b_g - a_g) if b_g != a_g else 0.5 * (a_t + b_t)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import csv
 import difflib
 import math
+import os
 import re
 import tomllib
 from collections.abc import Sequence
@@ -120,9 +121,15 @@ def load_machine(path: str | Path, overrides: Sequence[str] = ()) -> Machine:
     MachineFileError
         Missing or unreadable file, invalid TOML, or any invalid key or value.
     """
+    text = read_machine_text(path)
+    return load_machine_text(text, source=str(path), base_dir=Path(path).parent, overrides=overrides)
+
+
+def read_machine_text(path: str | os.PathLike[str]) -> str:
+    """The text of a machine file, or a one-line :class:`MachineFileError` naming the file."""
     source = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        return Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
         raise MachineFileError(source, "", "no such machine file") from None
     except IsADirectoryError:
@@ -131,7 +138,6 @@ def load_machine(path: str | Path, overrides: Sequence[str] = ()) -> Machine:
         raise MachineFileError(source, "", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:
         raise MachineFileError(source, "", f"cannot read machine file: {exc.strerror or exc}") from None
-    return load_machine_text(text, source=source, base_dir=Path(path).parent, overrides=overrides)
 
 
 def load_machine_text(

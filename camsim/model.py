@@ -295,7 +295,6 @@ class Model:
             k_s -= k * geo.G * geo.g_s
             c_s -= c * geo.G * geo.g_s
             F0 -= f0 * geo.G
-        Minv = 1.0 / self.mass if n else np.zeros(0)
         # Power-law contact force F (compressive) acts +F on the upper node: Q = F·G.
         P = np.array([self.geometry[i].G for i in power]).T.reshape(n, len(power))
 

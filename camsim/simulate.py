@@ -7,7 +7,6 @@ HDF5 writer, the plots and the summary table all read.
 from __future__ import annotations
 
 import math
-import warnings as _warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -393,7 +392,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress) 
 
 
 def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, t_end, h_out, warnings, no_impact) -> RunResult:
-    ts, xs, vs, as_, us, fs, lams = [], [], [], [], [], [], []
+    ts, xs, vs, as_, us, fs = [], [], [], [], [], []
     for st in stretches:
         k = (st.t - t_rec) / h_out
         keep = (np.abs(k - np.round(k)) < 1e-6) & (st.t <= t_end + 1e-9 * h_out)

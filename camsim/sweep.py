@@ -120,18 +120,9 @@ class MachineSource:
     @classmethod
     def from_path(cls, path: str | os.PathLike[str]) -> MachineSource:
         """Read a machine file (raises :class:`MachineFileError` like the loader)."""
-        source = str(path)
-        try:
-            text = Path(path).read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise MachineFileError(source, "", "no such machine file") from None
-        except IsADirectoryError:
-            raise MachineFileError(source, "", "is a directory, not a machine file") from None
-        except UnicodeDecodeError as exc:
-            raise MachineFileError(source, "", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-        except OSError as exc:
-            raise MachineFileError(source, "", f"cannot read machine file: {exc.strerror or exc}") from None
-        return cls(text=text, source=source, base_dir=str(Path(path).parent))
+        from camsim.loader import read_machine_text
+
+        return cls(text=read_machine_text(path), source=str(path), base_dir=str(Path(path).parent))
 
     def load(self, overrides: Sequence[str] = ()):
         """The :class:`~camsim.machine.Machine` with ``overrides`` (loader checks apply)."""
