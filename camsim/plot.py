@@ -420,15 +420,23 @@ def _sweep_table(f: h5py.Group) -> tuple[dict[str, np.ndarray], dict[str, str], 
     return table, units, params[0]
 
 
+#: Swept parameters shown in a unit designers read more easily than SI: (unit, factor).
+_SWEEP_DISPLAY_UNITS = {"rad/s": ("rpm", 60.0 / (2.0 * np.pi)), "rad": ("deg", 180.0 / np.pi)}
+
+
 def _sweep_figure(table, units, xcol: str, columns: Sequence[str], title: str) -> Figure:
     x = np.asarray(table[xcol], dtype=float)
+    x_unit = units.get(xcol, "")
+    if x_unit in _SWEEP_DISPLAY_UNITS:
+        x_unit, factor = _SWEEP_DISPLAY_UNITS[x_unit]
+        x = x * factor
     order = np.argsort(x, kind="stable")
     with matplotlib.rc_context(_STYLE):
         fig, axes = _new_figure(max(2.4 * len(columns), 3.6), len(columns))
         for ax, col in zip(axes, columns):
             ax.plot(x[order], np.asarray(table[col], dtype=float)[order], marker="o", markersize=4, color="tab:blue")
             ax.set_ylabel(axis_label(col.replace("_", " ").replace(":", " "), units.get(col, "")), fontsize=9)
-        axes[-1].set_xlabel(axis_label(xcol.removeprefix("param:"), units.get(xcol, "")))
+        axes[-1].set_xlabel(axis_label(xcol.removeprefix("param:"), x_unit))
         fig.suptitle(title)
     return fig
 

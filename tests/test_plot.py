@@ -115,10 +115,12 @@ def test_sweep_figure_skips_failed_points(sweep_file):
     with open_result(sweep_file) as f:
         fig = plot_sweep_mass(f, "M2")
     assert len(fig.axes) == 3
-    assert fig.axes[-1].get_xlabel() == "cam.speed [rad/s]"
+    # speeds are stored in rad/s and shown in rpm (× 60/2π)
+    assert fig.axes[-1].get_xlabel() == "cam.speed [rpm]"
+    rpm = 60.0 / (2.0 * np.pi)
     for ax in fig.axes:
         (line,) = ax.get_lines()
-        assert list(line.get_xdata()) == [6.0, 8.0, 10.0, 14.0]  # 12 rad/s failed
+        assert np.allclose(line.get_xdata(), np.array([6.0, 8.0, 10.0, 14.0]) * rpm, rtol=1e-15)  # 12 rad/s failed
     # peak_acceleration:M2 = 2 * s^2 in conftest
     assert list(fig.axes[2].get_lines()[0].get_ydata()) == [72.0, 128.0, 200.0, 392.0]
     assert fig.axes[2].get_ylabel() == "peak acceleration M2 [m/s²]"
