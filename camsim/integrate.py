@@ -151,6 +151,45 @@ def _cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:
     return x
 
 
+class _StepInput:
+    """The cam input u(t) = [s, ṡ, s̈, s⃛] inside [t0, t1] from per-step Hermite polynomials.
+
+    A right-hand side evaluated tens of thousands of times would otherwise evaluate the
+    cam laws point by point; the degree-7 Hermite of each grid step (exact to ~1e-20
+    relative, as in the linear integrator) is built once per step and then costs a dot
+    product. [t0, t1] never straddles a cam segment join (stretches stop there).
+    """
+
+    def __init__(self, integrator: "Integrator", t0: float, t1: float):
+        self.integrator = integrator
+        self.t0, self.t1 = t0, t1
+        self.cache: dict[int, tuple[float, np.ndarray]] = {}
+        j = np.arange(_P + 1)
+        self.fact = _FACT[: _P + 1]
+        self.j = j
+
+    def __call__(self, t: float) -> np.ndarray:
+        integ = self.integrator
+        k = math.floor((t - integ.t_ref) / integ.h)
+        hit = self.cache.get(k)
+        if hit is None:
+            a = max(self.t0, integ.t_ref + k * integ.h)
+            b = min(self.t1, integ.t_ref + (k + 1) * integ.h)
+            if b <= a:  # t at (or rounding past) the window's ends
+                b = a + integ.h * 1e-9
+            ua = integ.inputs(np.array([a]))
+            s_, v_, a_, j_ = integ.cam.svaj(np.array([b]), side="left")
+            ub = np.array([[s_[0], v_[0], a_[0], j_[0]]])
+            D = step_input_derivatives(ua, ub, np.array([b - a]))[0]
+            # coefficient matrix: u_c(τ) = Σ_j D[j + c] τ^j / j!
+            Dp = np.concatenate([D, np.zeros(3)])
+            C = np.array([Dp[c : c + _P + 1] / self.fact for c in range(N_INPUT)])
+            hit = (a, C)
+            self.cache[k] = hit
+        a, C = hit
+        return C @ ((t - a) ** self.j)
+
+
 class StepMaps:
     """Cached exact step maps of one linear configuration for a fixed step h."""
 
@@ -735,26 +774,38 @@ class Integrator:
 
     # ------------------------------------------------------------------ nonlinear
     def _advance_nonlinear(self, state, config, z0, guards, t_stop, record):
-        model = self.model
         v_imp = state.v_impacts
         lengths = np.concatenate([np.full(config.dim // 2, 1e-13), np.full(config.dim // 2, 1e-10)])
-        deltas = [self._delta(config, i) for i in config.power_contacts]
+        cam_input = _StepInput(self, state.t, t_stop)
+        contacts = []
+        for i in config.power_contacts:
+            delta, rate = self._delta(config, i)
+            contacts.append((i, delta.Cz[0], delta.Du[0], float(delta.e[0]), rate.Cz[0], rate.Du[0], float(rate.e[0])))
+        A, B, b, L = config.A, config.B, config.b, config.L
+        fn = np.zeros(len(contacts))
 
         def rhs(t, z):
-            u = self.inputs(np.array([t]))
-            fn = self.nonlinear_forces(config, z[None, :], u, v_imp)[0]
-            return config.A @ z + config.B @ u[0] + config.b + config.L @ fn
+            u = cam_input(t)
+            for k, (i, dcz, ddu, de, rcz, rdu, re) in enumerate(contacts):
+                delta = dcz @ z + ddu @ u + de
+                rate = rcz @ z + rdu @ u + re
+                fn[k] = self.model.power_force_scalar(i, delta, rate, v_imp.get(i))
+            return A @ z + B @ u + b + L @ fn
 
         events = []
+        u0 = cam_input(state.t)
         for guard in guards:
-            def ev(t, z, guard=guard):
-                u = self.inputs(np.array([t]))
-                return float(guard.value(z[None, :], u)[0, 0])
+            cz, du, e = guard.value.Cz[0], guard.value.Du[0], float(guard.value.e[0])
+            # A guard that sits at zero at the start (the one just crossed) is watched
+            # for a real re-crossing, below −tol, so the solver does not stop at once.
+            offset = guard.tol if abs(cz @ z0 + du @ u0 + e) <= guard.tol else 0.0
+
+            def ev(t, z, cz=cz, du=du, e=e, offset=offset):
+                return float(cz @ z + du @ cam_input(t) + e + offset)
 
             ev.terminal = True
             ev.direction = -1
             events.append(ev)
-        del deltas, model
         t0 = state.t
         sol = solve_ivp(
             rhs, (t0, t_stop), z0, method="DOP853", rtol=self.rtol_nonlinear, atol=lengths,

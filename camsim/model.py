@@ -389,6 +389,16 @@ class Model:
             force = force * factor
         return np.maximum(force, 0.0)
 
+    def power_force_scalar(self, index: int, delta: float, delta_rate: float, v_impact: float | None) -> float:
+        """:meth:`power_force` for one sample, in plain floats (the hot path of a contact phase)."""
+        if delta <= 0.0:
+            return 0.0
+        element = self.elements[index]
+        force = element.coefficient * delta**element.exponent
+        if element.restitution is not None and v_impact:
+            force *= 1.0 + 0.75 * (1.0 - element.restitution**2) * delta_rate / v_impact
+        return force if force > 0.0 else 0.0
+
     def element_forces(
         self,
         branches: tuple[Branch, ...],
