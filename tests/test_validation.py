@@ -17,15 +17,14 @@ Sources and tolerances:
   and within 0.06 % with the thesis's g (the table's last digit: 93.8 is ±0.05 %).
 - docs/validation.md: the tables between the ``validation.py`` markers must match what
   scripts/validation.py computes now, cell by cell, to half a unit of the printed last digit
-  or 0.2 % (so that the document cannot silently go stale). The cdtm-power.toml columns take
-  about a minute and are checked only with CAMSIM_SLOW=1.
+  or 0.2 % (so that the document cannot silently go stale), the cdtm-power.toml columns
+  included (about 15 s).
 """
 
 from __future__ import annotations
 
 import importlib.util
 import math
-import os
 import sys
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
@@ -269,7 +268,6 @@ def test_doc_ball_drop_current(documented, ball_runs):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get("CAMSIM_SLOW"), reason="cdtm-power.toml takes about a minute; set CAMSIM_SLOW=1")
 def test_doc_power_columns_current(documented):
     """Every table including the cdtm-power.toml columns and rows."""
     fresh, _, _ = validation.blocks(names=("impacts", "summary", "choices"))
