@@ -96,16 +96,45 @@ def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray) -> np.
     ndarray (K, 8)
         d^j s/dt^j at each step start for the degree-7 Hermite interpolant.
     """
-    h = np.asarray(h, dtype=float).reshape(-1, 1)
-    powers = h ** np.arange(4)
-    data = np.hstack([u0 * powers, u1 * powers])  # scaled derivatives wrt σ = τ/h
-    a = data @ _HERMITE.T  # coefficients in σ
-    hp = h ** np.arange(_P + 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        D = a * _FACT[: _P + 1] / hp
-    D[:, :4] = u0  # exact where known
-    D[~np.isfinite(D)] = 0.0
-    return D
+    h = np.asarray(h, dtype=float).reshape(-1)
+    if h.size == 0:
+        return np.zeros((0, _P + 1))
+    # Most steps share one length (the grid step): two small matrix products for all of
+    # them; the few others (partial steps at stretch ends) one by one.
+    common = float(np.median(h))
+    P0, P1 = _hermite_maps(common)
+    out = u0 @ P0 + u1 @ P1
+    # (grid steps differ from one another by rounding only: |Δh| ~ 1e-16·t)
+    for k in np.flatnonzero(np.abs(h - common) > 1e-9 * common):
+        P0, P1 = _hermite_maps(float(h[k]))
+        out[k] = u0[k] @ P0 + u1[k] @ P1
+    return out
+
+
+_HERMITE_MAPS: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _hermite_maps(h: float) -> tuple[np.ndarray, np.ndarray]:
+    """(P0, P1) with D = u0·P0 + u1·P1 for steps of length h (cached per h)."""
+    hit = _HERMITE_MAPS.get(h)
+    if hit is None:
+        k = np.arange(4)
+        j = np.arange(_P + 1)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            # D_j = j!/h^j · Σ_i H[j, i]·data_i, data = [u0·h^k, u1·h^k]
+            scale = _FACT[: _P + 1] / h**j
+            P0 = (h**k)[:, None] * _HERMITE[:, :4].T * scale[None, :]
+            P1 = (h**k)[:, None] * _HERMITE[:, 4:].T * scale[None, :]
+        P0[~np.isfinite(P0)] = 0.0
+        P1[~np.isfinite(P1)] = 0.0
+        # The first four derivatives are the data at the step start, exactly.
+        P0[:, :4] = np.eye(4)
+        P1[:, :4] = 0.0
+        hit = (P0, P1)
+        if len(_HERMITE_MAPS) > 4096:
+            _HERMITE_MAPS.clear()
+        _HERMITE_MAPS[h] = hit
+    return hit
 
 
 def forcing_coefficients(config: Configuration, D: np.ndarray) -> np.ndarray:
@@ -553,18 +582,15 @@ class Integrator:
             Z = np.empty((nodes.size, config.dim))
             Z[0] = z_start
             full = np.abs(steps - h) <= 1e-9 * h
-            # Steps are full except possibly the first and the last.
+            # Steps are full except possibly the first and the last: runs of full steps go
+            # through the cached maps, the others through an exact map of their own length.
             k = 0
-            while k < steps.size:
-                if full[k]:
-                    k_end = k
-                    while k_end < steps.size and full[k_end]:
-                        k_end += 1
-                    Z[k + 1 : k_end + 1] = maps.propagate(Z[k], D[k:k_end])
-                    k = k_end
-                else:
-                    Z[k + 1] = exact_partial(config, Z[k], forcing_coefficients(config, D[k : k + 1])[0], steps[k])
-                    k += 1
+            for p in [*np.flatnonzero(~full).tolist(), steps.size]:
+                if p > k:
+                    Z[k + 1 : p + 1] = maps.propagate(Z[k], D[k:p])
+                if p < steps.size:
+                    Z[p + 1] = exact_partial(config, Z[p], forcing_coefficients(config, D[p : p + 1])[0], steps[p])
+                k = p + 1
             hit = self._first_crossing(config, guards, nodes, Z, U, D, first_chunk)
             if hit is not None:
                 self._chunk = 512  # events come in clusters: look ahead a little after one
