@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-from scipy.integrate import solve_ivp
 
 from camsim.errors import SimulationError, ZenoError
 from camsim.machine import Contact, PreloadedLink
@@ -833,6 +832,8 @@ class Integrator:
             ev.direction = -1
             events.append(ev)
         t0 = state.t
+        from scipy.integrate import solve_ivp  # only contact phases of power-law contacts
+
         sol = solve_ivp(
             rhs, (t0, t_stop), z0, method="DOP853", rtol=self.rtol_nonlinear, atol=lengths,
             events=events or None, dense_output=True, max_step=max(self.h * 4, 1e-6),

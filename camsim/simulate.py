@@ -10,7 +10,6 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.optimize
 from threadpoolctl import threadpool_limits
 
 from camsim.cam.program import CamProgram
@@ -170,6 +169,8 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
 
 
 def _nonlinear_static(model, integrator, config, u, t0):
+    from scipy import optimize  # only power-law contacts need it; keeps start-up light
+
     nq = config.dim // 2
 
     def residual(q):
@@ -181,7 +182,7 @@ def _nonlinear_static(model, integrator, config, u, t0):
     guess = np.zeros(nq)
     best = None
     for scale in (0.0, 1e-6, 1e-5, 1e-4):
-        sol = scipy.optimize.root(residual, guess + scale, method="hybr", options={"xtol": 1e-14})
+        sol = optimize.root(residual, guess + scale, method="hybr", options={"xtol": 1e-14})
         if sol.success and np.max(np.abs(residual(sol.x))) < 1e-6 * max(1.0, np.max(np.abs(residual(guess)))):
             best = sol.x
             break
