@@ -397,7 +397,7 @@ def fmt_e(x: float) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
-                        help="DOP853 and LSODA only, rtol 1e-6/1e-9/1e-12, no repeats (about a minute)")
+                        help="DOP853 and LSODA only, rtol 1e-6/1e-9/1e-12, no repeats (about 15 s)")
     parser.add_argument("--budget", type=float, default=60.0,
                         help="give up a solve_ivp run after this many seconds [s] (default 60)")
     args = parser.parse_args(argv)
