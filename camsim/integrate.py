@@ -393,6 +393,9 @@ class Integrator:
         A time on the grid [s].
     """
 
+    #: Grid points per block of cached cam input.
+    _BLOCK = 4096
+
     def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
         self.model = model
         self.cam = cam
@@ -405,6 +408,7 @@ class Integrator:
         self.rtol_nonlinear = 1e-11
         self._chunk = 512
         self._input_cache: dict[float, np.ndarray] = {}
+        self._grid_cache: dict[int, np.ndarray] = {}  # cam input on the grid, per block
         self._joins: set[float] = set()  # cam segment joins of the current run
         self._stacked = None  # the current stretch's guards stacked into matrices
 
@@ -424,6 +428,26 @@ class Integrator:
             return hit.copy()
         s, v, a, j = self.cam.svaj(t)
         return np.stack([s, v, a, j], axis=-1)
+
+    def _grid_inputs(self, k0: int, k1: int) -> np.ndarray:
+        """Cam input at grid points k0 ≤ k < k1: (k1 − k0, 4), from blocks evaluated once."""
+        out = np.empty((max(k1 - k0, 0), N_INPUT))
+        block = self._BLOCK
+        k = k0
+        while k < k1:
+            b = k // block
+            values = self._grid_cache.get(b)
+            if values is None:
+                t = self.t_ref + np.arange(b * block, (b + 1) * block) * self.h
+                s_, v_, a_, j_ = self.cam.svaj(t)
+                values = np.stack([s_, v_, a_, j_], axis=-1)
+                if len(self._grid_cache) > 64:
+                    self._grid_cache.clear()
+                self._grid_cache[b] = values
+            stop = min(k1, (b + 1) * block)
+            out[k - k0 : stop - k0] = values[k - b * block : stop - b * block]
+            k = stop
+        return out
 
     def maps(self, config: Configuration) -> StepMaps:
         maps = self._maps.get(config.branches)
@@ -564,13 +588,18 @@ class Integrator:
             # sample's time (and the cam input there) is the same whatever the history.
             k_end = math.floor((t_start - self.t_ref) / h + 1e-7) + chunk
             t_chunk_end = min(t_stop, self.t_ref + k_end * h)
-            grid = self.grid_between(t_start, t_chunk_end)
+            k0 = math.ceil((t_start - self.t_ref) / h - 1e-7)
+            k1 = math.ceil((t_chunk_end - self.t_ref) / h - 1e-7)
+            if k0 < k1 and self.t_ref + k0 * h <= t_start + TIME_EPS:
+                k0 += 1  # the start is that grid point: it is node 0 already
+            if k0 < k1 and self.t_ref + (k1 - 1) * h >= t_chunk_end - TIME_EPS:
+                k1 -= 1  # the end is that grid point: it is the last node
             # Nodes: the start, the interior grid points, the end.
-            interior = grid[grid > t_start + TIME_EPS]
-            nodes = np.concatenate([[t_start], interior, [t_chunk_end]])
-            if nodes[-1] - nodes[-2] <= TIME_EPS:
-                nodes = np.delete(nodes, -2) if nodes.size > 2 else nodes
-            U = self.inputs(nodes)
+            nodes = np.concatenate([[t_start], self.t_ref + np.arange(k0, k1) * h, [t_chunk_end]])
+            U = np.empty((nodes.size, N_INPUT))
+            U[0] = self.inputs(nodes[:1])[0]
+            U[1:-1] = self._grid_inputs(k0, k1)
+            U[-1] = self.inputs(nodes[-1:])[0]
             # The last step ends at the chunk's end, maybe a cam segment join: its end
             # values are the limits from the left (acceleration or jerk may jump there).
             if nodes[-1] in self._joins:
@@ -750,23 +779,44 @@ class Integrator:
                 lo, hi = a, b
                 break
         if lo is None:
-            # Grazing dip: find the minimum of the exact guard.
-            from scipy.optimize import minimize_scalar
-
-            res = minimize_scalar(lambda t: evaluate(t)[0], bounds=(0.0, hk), method="bounded", options={"xatol": hk * 1e-10})
-            if res.fun > 0:
+            # Grazing dip: look for the minimum of the exact guard (where its exact rate
+            # changes sign), stopping as soon as the guard is seen at or below zero.
+            dip = self._dip(evaluate, values, hk)
+            if dip is None:
                 return None
-            t_min = float(res.x)
+            t_min = dip[0]
             left = [v for v in values if v[0] < t_min and v[1] > 0]
             if not left:
                 return None
-            lo = left[-1]
-            g, gd, z = evaluate(t_min)
-            hi = (t_min, g, gd, z)
+            lo, hi = left[-1], dip
         a_t, a_g = lo[0], lo[1]
         b_t, b_g = hi[0], hi[1]
         guess = b_t - b_g * (b_t - a_t) / (b_g - a_g) if b_g != a_g else 0.5 * (a_t + b_t)
         return self._newton(evaluate, lo, hi, guess, hk)
+
+    @staticmethod
+    def _dip(evaluate, values, hk):
+        """A point where the guard is ≤ 0 near its smallest sample, or None if it stays > 0.
+
+        ``values`` are (τ, g, ġ, z) samples across the step; the minimum lies where ġ turns
+        from negative to positive. Bisection on the sign of the exact ġ, to 1e-10 of the step.
+        """
+        k = min(range(len(values)), key=lambda i: values[i][1])
+        a = values[max(k - 1, 0)]
+        b = values[min(k + 1, len(values) - 1)]
+        if a[2] >= 0 or b[2] <= 0:  # no interior minimum between the neighbours
+            return values[k] if values[k][1] <= 0 else None
+        lo_t, hi_t = a[0], b[0]
+        while hi_t - lo_t > 1e-10 * hk:
+            mid = 0.5 * (lo_t + hi_t)
+            g, gd, z = evaluate(mid)
+            if g <= 0:
+                return (mid, g, gd, z)
+            if gd < 0:
+                lo_t = mid
+            else:
+                hi_t = mid
+        return None
 
     @staticmethod
     def _newton(evaluate, lo, hi, t, hk):

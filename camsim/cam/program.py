@@ -307,12 +307,23 @@ class CamProgram:
 
     def _join_warnings(self) -> list[str]:
         n = len(self._laws)
-        peaks = self.segment_peaks()
+        # Scale of s, v, a for the jump threshold: sampled peaks are plenty for a relative
+        # tolerance of 1e-9 (the refined peaks of segment_peaks need scipy.optimize, which
+        # would cost every run a tenth of a second of imports).
+        u = np.linspace(0.0, 1.0, 257)
+        speed_peak = accel_peak = 0.0
+        for i, law in enumerate(self._laws):
+            if law is None:
+                continue
+            k = self.speed / self._betas[i]
+            y = rise(law, u)
+            speed_peak = max(speed_peak, abs(self.ratio * self._signed[i]) * k * float(np.max(np.abs(y[1]))))
+            accel_peak = max(accel_peak, abs(self.ratio * self._signed[i]) * k * k * float(np.max(np.abs(y[2]))))
         scale = np.array(
             [
                 max(abs(self.ratio) * float(np.max(np.abs(np.append(self._h0, self._h0 + self._signed)))), 0.0),
-                max(p["peak_velocity"] for p in peaks),
-                max(p["peak_acceleration"] for p in peaks),
+                speed_peak,
+                accel_peak,
             ]
         )
         out = []
