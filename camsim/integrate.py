@@ -81,7 +81,7 @@ def _hermite_matrix() -> np.ndarray:
 _HERMITE = _hermite_matrix()
 
 
-def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray) -> np.ndarray:
+def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray, grid_step: float | None = None) -> np.ndarray:
     """Derivatives D_j (j = 0..7) of the cam displacement at step starts.
 
     Parameters
@@ -90,6 +90,8 @@ def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray) -> np.
         [s, ṡ, s̈, s⃛] at the start and end of each step [SI].
     h : ndarray (K,)
         Step lengths [s].
+    grid_step : float, optional
+        The step most of them have (default: their median).
 
     Returns
     -------
@@ -101,7 +103,7 @@ def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray) -> np.
         return np.zeros((0, _P + 1))
     # Most steps share one length (the grid step): two small matrix products for all of
     # them; the few others (partial steps at stretch ends) one by one.
-    common = float(np.median(h))
+    common = float(grid_step) if grid_step is not None else float(np.median(h))
     P0, P1 = _hermite_maps(common)
     out = u0 @ P0 + u1 @ P1
     # (grid steps differ from one another by rounding only: |Δh| ~ 1e-16·t)
@@ -640,7 +642,7 @@ class Integrator:
                 s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
                 U[-1] = [s_[0], v_[0], a_[0], j_[0]]
             steps = np.diff(nodes)
-            D = step_input_derivatives(U[:-1], U[1:], steps)
+            D = step_input_derivatives(U[:-1], U[1:], steps, h)
             Z = np.empty((nodes.size, config.dim))
             Z[0] = z_start
             full = np.abs(steps - h) <= 1e-9 * h
