@@ -7,86 +7,22 @@ The library calls behind it: :class:`camsim.cam.CamProgram` (peaks, warnings) an
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
 from pathlib import Path
 
-import numpy as np
 import typer
 from rich import box
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from camsim import __version__
-from camsim.cam import CamProgram, sample_revolution
+from camsim.cam import CamProgram
 from camsim.cli.app import app, err_console, print_json, user_errors
 from camsim.errors import InputError, MachineFileError
-from camsim.io.atomic import atomic_path, check_writable
-from camsim.io.hdf5 import create_file, write_time, write_trace
+from camsim.io.atomic import check_writable
+from camsim.io.camfile import write_cam_csv, write_cam_hdf5
 
 #: The traces written by ``camsim cam -o``: name, units, long name.
-TRACES = (
-    ("displacement", "m", "cam displacement on the model axis"),
-    ("velocity", "m/s", "cam velocity on the model axis"),
-    ("acceleration", "m/s^2", "cam acceleration on the model axis"),
-    ("jerk", "m/s^3", "cam jerk on the model axis"),
-)
-
-
-def _root_attrs(machine) -> dict:
-    text = machine.text or ""
-    return {
-        "camsim_version": __version__,
-        "schema": 1,
-        "file_kind": "cam",
-        "machine_name": machine.name,
-        "machine_toml": text,
-        "machine_sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
-        "units_system": "SI",
-    }
-
-
-def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, points: int = 3600) -> Path:
-    """Write one revolution of the cam program as a camsim HDF5 file (``file_kind = "cam"``).
-
-    Layout: ``/time`` [s] (a dimension scale attached to every trace), ``/cam/angle``
-    [deg], ``/cam/displacement`` [m], ``/cam/velocity`` [m/s], ``/cam/acceleration``
-    [m/s^2], ``/cam/jerk`` [m/s^3] on the model axis, ``/cam/boundaries_deg`` (segment
-    start angles [deg], segment cams only); root attributes as in a run file.
-    Written through :func:`camsim.io.atomic.atomic_path`.
-    """
-    data = sample_revolution(program, points)
-    with atomic_path(path) as tmp:
-        with create_file(tmp) as f:
-            for key, value in _root_attrs(machine).items():
-                f.attrs[key] = value
-            time = write_time(f, data["time"])
-            write_trace(f, "cam/angle", data["angle"], "deg", "cam angle", time)
-            for name, units, long_name in TRACES:
-                write_trace(f, f"cam/{name}", data[name], units, long_name, time)
-            if program.kind == "segments":
-                write_trace(
-                    f, "cam/boundaries_deg", np.degrees(program.boundary_angles()), "deg", "cam angles of segment joins"
-                )
-    return Path(path)
-
-
-def write_cam_csv(path: str | os.PathLike[str], program: CamProgram, points: int = 3600) -> Path:
-    """Write one revolution of the cam program as CSV, units in the header.
-
-    Columns: ``time [s]``, ``angle [deg]``, ``displacement [m]``, ``velocity [m/s]``,
-    ``acceleration [m/s^2]``, ``jerk [m/s^3]`` (12 significant digits).
-    """
-    data = sample_revolution(program, points)
-    header = ",".join(["time [s]", "angle [deg]"] + [f"{name} [{units}]" for name, units, _ in TRACES])
-    columns = np.column_stack([data["time"], data["angle"]] + [data[name] for name, _, _ in TRACES]) + 0.0  # no "-0"
-    with atomic_path(path) as tmp:
-        np.savetxt(tmp, columns, fmt="%.12g", delimiter=",", header=header, comments="")
-    return Path(path)
-
-
 def _num(value: float | None, fmt: str = ".4g") -> str:
     return "-" if value is None else format(value, fmt)
 

@@ -17,15 +17,18 @@ import hashlib
 import math
 import os
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
 
 from camsim import __version__
-from camsim.integrate import Event
 from camsim.io.atomic import atomic_path
 from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
 from camsim.machine import Contact, Machine
+
+if TYPE_CHECKING:  # the integrator (and scipy) only for type checkers
+    from camsim.integrate import Event
 
 #: Result-file schema written by this version.
 SCHEMA = 1
@@ -58,7 +61,7 @@ def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> Non
     f.attrs["units_system"] = "SI"
 
 
-def write_events(group: h5py.Group, events: Sequence[Event]) -> None:
+def write_events(group: h5py.Group, events: Sequence["Event"]) -> None:
     """The event table as a compound dataset (NaN where a column does not apply)."""
     columns = {}
     for name, units in EVENT_COLUMNS:
