@@ -154,8 +154,8 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
             q = _nonlinear_static(model, integrator, config, u, t0)
         if q is None:
             raise InputError(
-                f"{model.machine.source}: no static equilibrium at the start (a mass is held by "
-                "nothing stiff); give its position in an [initial] table"
+                f"{model.machine.source}: initial: no static equilibrium at the start (a mass is held "
+                "by nothing stiff); give its position in an [initial] table"
             )
         z = np.concatenate([q, np.zeros(nq)])
         x = config.x(z[None, :], u[None, :], integrator.nonlinear_forces(config, z[None, :], u[None, :], {}))[0]
@@ -165,7 +165,10 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
         if new == branches:
             return state
         branches = new
-    raise InputError(f"{model.machine.source}: the static equilibrium does not settle on one branch of the contacts")
+    raise InputError(
+        f"{model.machine.source}: initial: the static equilibrium does not settle on one branch of "
+        "the contacts and links; give the start in an [initial] table"
+    )
 
 
 def _nonlinear_static(model, integrator, config, u, t0):
@@ -178,7 +181,8 @@ def _nonlinear_static(model, integrator, config, u, t0):
         fn = integrator.nonlinear_forces(config, z[None, :], u[None, :], {})[0]
         return (config.A @ z + config.B @ u + config.b + config.L @ fn)[nq:]
 
-    # Start from the configuration without the power-law forces, stiffened: try a few guesses.
+    # Powell's hybrid method from the unloaded position, then from a few small
+    # penetrations (δ^a has no slope at δ = 0, which can stall the first try).
     guess = np.zeros(nq)
     best = None
     for scale in (0.0, 1e-6, 1e-5, 1e-4):
@@ -200,11 +204,11 @@ def _consistent_branches(model: Model, integrator: Integrator, state: State) -> 
         branch = branches[pos]
         if branch == Branch.BILATERAL:
             continue
-        delta, _ = integrator.relative_rate(state, i)
         if isinstance(element, PreloadedLink):
-            d = -delta
+            d = float(model.deflection(i, state.x, u[0, 0]))
             branches[pos] = Branch.SEPARATED if d > element.separation_deflection + LENGTH_TOL else Branch.JOINED
             continue
+        delta, _ = integrator.relative_rate(state, i)
         if branch == Branch.STUCK:
             k = config.stuck_contacts.index(i)
             lam = config.lam(z[None, :], u)[0, k]
