@@ -231,7 +231,7 @@ class StepMaps:
         big = np.zeros((m * nb, m * nb))
         big[:m, :m] = config.A
         for j in range(nb - 1):
-            big[m * j : m * (j + 1), m * (j + 1) : m * (j + 2)] = np.eye(m) if j else np.eye(m)
+            big[m * j : m * (j + 1), m * (j + 1) : m * (j + 2)] = np.eye(m)
         if m:
             expo = expm_balanced(big * h)
         else:
