@@ -8,6 +8,8 @@ the expected values comes from camsim's model or integrator.
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +17,9 @@ from numpy.polynomial import Polynomial
 
 from camsim.loader import load_machine_text
 from camsim.simulate import simulate
+
+sys.path.insert(0, str(Path(__file__).parent / "reference"))
+from scenarios import ContactRelease  # noqa: E402
 
 G = 9.80665  # standard gravity [m/s^2], `gravity = true`
 
@@ -451,33 +456,11 @@ def test_damped_contact_releases_when_force_vanishes():
     approach speed and exit velocity 1e-9 relative, peak contact force to 1e-6 relative
     (1 MHz samples of a 3.2 ms contact).
     """
-    m, k, zeta, x0, v0 = 0.5, 2.0e5, 0.2, 1.0e-3, 0.4
-    machine = load_machine_text(f"""
-schema = 1
-[machine]
-name = "contact release"
-[[mass]]
-name = "M"
-mass = "{m} kg"
-[[element]]
-name = "seat"
-type = "contact"
-between = ["ground", "M"]
-stiffness = "{k} N/m"
-damping_ratio = {zeta}
-[initial.M]
-displacement = "{x0} m"
-velocity = "{-v0} m/s"
-[simulation]
-duration = "0.01 s"
-warmup_cycles = 0
-sample_rate = "1 MHz"
-""")
-    r = simulate(machine)
-    w = math.sqrt(k / m)
-    wd = w * math.sqrt(1 - zeta**2)
-    t0 = x0 / v0
-    tr = (math.pi - math.atan(2 * zeta * math.sqrt(1 - zeta**2) / (1 - 2 * zeta**2))) / wd
+    case = ContactRelease()
+    m, k, zeta, v0 = case.m, case.k, case.zeta, case.v0
+    r = simulate(case.machine("1 MHz"))
+    w, wd = case.omega, case.omega_d
+    t0, tr = case.impact_time, case.contact_time
     events = [(e.element, e.kind) for e in r.events]
     assert events == [("seat", "impact"), ("seat", "release")]
     assert abs(r.events[0].time - t0) < 1e-9

@@ -31,6 +31,7 @@ DATA = ROOT / "tests" / "data" / "reference"
 sys.path.insert(0, str(ROOT / "tests" / "reference"))
 
 from reference_solver import reference_run  # noqa: E402
+from scenarios import ContactRelease  # noqa: E402
 
 MACHINES = ("cdtm", "dynacam-2mass")
 BRANCH_KINDS = ("impact", "release", "separation", "rejoin", "stick")
@@ -152,33 +153,9 @@ def test_reference_solver_damped_contact_release():
     ω_d·t_r = π − arctan(2ζ√(1−ζ²)/(1 − 2ζ²)) — before δ returns to 0. Impact at
     t0 = x0/v0. Tolerance 1e-9 s on both event times, at rtol 1e-11.
     """
-    m, k, zeta, x0, v0 = 0.5, 2.0e5, 0.2, 1.0e-3, 0.4
-    machine = load_machine_text(f"""
-schema = 1
-[machine]
-name = "contact release"
-[[mass]]
-name = "M"
-mass = "{m} kg"
-[[element]]
-name = "seat"
-type = "contact"
-between = ["ground", "M"]
-stiffness = "{k} N/m"
-damping_ratio = {zeta}
-[initial.M]
-displacement = "{x0} m"
-velocity = "{-v0} m/s"
-[simulation]
-duration = "0.01 s"
-warmup_cycles = 0
-sample_rate = "10 kHz"
-""")
-    ref = reference_run(machine, rtol=1e-11)
-    w = math.sqrt(k / m)
-    wd = w * math.sqrt(1 - zeta**2)
-    t0 = x0 / v0
-    tr = (math.pi - math.atan(2 * zeta * math.sqrt(1 - zeta**2) / (1 - 2 * zeta**2))) / wd
+    case = ContactRelease()
+    ref = reference_run(case.machine("10 kHz"), rtol=1e-11)
+    t0, tr = case.impact_time, case.contact_time
     assert [(e[1], e[2]) for e in ref.events] == [("seat", "impact"), ("seat", "release")]
     assert abs(ref.events[0][0] - t0) < 1e-9
     assert abs(ref.events[1][0] - (t0 + tr)) < 1e-9
