@@ -403,14 +403,17 @@ def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, 
         keep = (np.abs(k - np.round(k)) < 1e-6) & (st.t <= t_end + 1e-9 * h_out)
         if not np.any(keep):
             continue
-        z, u, fn = st.z[keep], st.u[keep], st.fn[keep]
+        if np.all(keep):  # the usual case: no copies
+            z, u, fn, t = st.z, st.u, st.fn, st.t
+        else:
+            z, u, fn, t = st.z[keep], st.u[keep], st.fn[keep], st.t[keep]
         config = st.config
         x = config.x(z, u, fn)
         v = config.v(z, u, fn)
         a = config.a(z, u, fn)
         lam = config.lam(z, u, fn)
         forces = model.element_forces(st.branches, x, v, u[:, 0], u[:, 1], lam, config, st.v_impacts)
-        ts.append(st.t[keep])
+        ts.append(t)
         xs.append(x)
         vs.append(v)
         as_.append(a)
