@@ -574,7 +574,7 @@ class Integrator:
         element = self.model.elements[i]
         if element.restitution is None or not v_impact:
             return None
-        beta = 0.75 * (1.0 - element.restitution**2) / v_impact
+        beta = self.model.hc_alpha(i) / v_impact
         return Affine(beta * rate.Cz, beta * rate.Du, beta * rate.Fn, 1.0 + beta * rate.e)
 
     @staticmethod

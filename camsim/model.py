@@ -379,13 +379,29 @@ class Model:
         geo = self.geometry[index]
         return x @ geo.G + geo.g_s * s
 
+    def hc_alpha(self, index: int) -> float:
+        """α = χ·v of a damped power-law contact [-] (issue 12 hook: camsim.restitution)."""
+        cache = self.__dict__.setdefault("_hc_alpha", {})
+        if index not in cache:
+            from camsim.restitution import hc_alpha
+
+            element = self.elements[index]
+            alpha = hc_alpha(element.restitution, getattr(element, "damping_model", "exact"))
+            if not math.isfinite(alpha):
+                raise InputError(
+                    f"element {element.name}: restitution = {element.restitution:g} needs infinite "
+                    "Hunt-Crossley damping; use law = \"restitution\" for a plastic contact"
+                )
+            cache[index] = alpha
+        return cache[index]
+
     def power_force(self, index: int, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None) -> np.ndarray:
-        """Power-law contact force F = C·δ^a·(1 + 3(1−e²)/4·δ̇/v_impact), ≥ 0 [N]."""
+        """Power-law contact force F = C·δ^a·(1 + α(e)·δ̇/v_impact), ≥ 0 [N] (spec §3)."""
         element = self.elements[index]
         pen = np.maximum(delta, 0.0)
         force = element.coefficient * pen**element.exponent
         if element.restitution is not None and v_impact:
-            factor = 1.0 + 0.75 * (1.0 - element.restitution**2) * delta_rate / v_impact
+            factor = 1.0 + self.hc_alpha(index) * delta_rate / v_impact
             force = force * factor
         return np.maximum(force, 0.0)
 
@@ -396,7 +412,7 @@ class Model:
         element = self.elements[index]
         force = element.coefficient * delta**element.exponent
         if element.restitution is not None and v_impact:
-            force *= 1.0 + 0.75 * (1.0 - element.restitution**2) * delta_rate / v_impact
+            force *= 1.0 + self.hc_alpha(index) * delta_rate / v_impact
         return force if force > 0.0 else 0.0
 
     def element_forces(
