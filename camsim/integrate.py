@@ -33,6 +33,7 @@ import scipy.linalg
 
 from camsim.errors import SimulationError, ZenoError
 from camsim.machine import Contact, PreloadedLink
+from camsim.events import polish_crossing
 from camsim.recurrence import linear_recurrence
 from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
 
@@ -775,6 +776,8 @@ class Integrator:
             root = self._refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
             if root is not None:
                 tau, z = root
+                # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket
+                tau, z = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z)
                 return nodes[k] + tau, z, guard, k
         return None
 
