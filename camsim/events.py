@@ -8,8 +8,9 @@ leaves the cam near its jump speed, where the contact force touches zero almost
 tangentially) turns a guard error ε into a time error ε/|ġ|. :func:`polish_crossing`
 therefore re-evaluates the guard with the cam input from its **analytic law**
 (:meth:`CamProgram.svaj`) and the state carried from the located root by its exact
-derivative (ż = A·z + B·u + b; over the 1e-10 s involved the neglected ½·z̈·τ² is below
-1e-20 of the state scale), and brackets the crossing:
+derivatives (z + ż·τ + ½·z̈·τ², ż = A·z + B·u + b; over the ≤ 1e-8 s involved the
+neglected (ω·τ)³/6 is below 1e-12 relative for modes up to 10⁵ rad/s), and brackets the
+crossing:
 
 0. if the analytic guard already changes sign across the located root ± 5e-11 s, the
    root stands (the usual case, which keeps earlier results bit-identical);
@@ -18,7 +19,8 @@ derivative (ż = A·z + B·u + b; over the 1e-10 s involved the neglected ½·z�
    evaluation): a sign change between neighbours is a bracket of 2.5e-11 s, inside which
    the crossing is placed by linear interpolation;
 3. if no sign change shows (the Hermite root was off by more than 5e-11 s), bisection on
-   the analytic guard from a bracket grown around the root, until it is below 1e-10 s.
+   the analytic guard from a bracket grown around the root (up to ±1e-8 s,
+   :data:`MAX_SHIFT`), until it is below 1e-10 s.
 
 The guarantee (docs/model.md): every event is located within 1e-10 s of the crossing
 of its guard evaluated with the exact cam law and the exact state, at any slope, except
@@ -32,6 +34,8 @@ import numpy as np
 
 #: Half-width of the final bracket of a crossing [s] (the guarantee is the full width).
 BRACKET = 1e-10
+#: Largest correction the polish applies to a located root [s].
+MAX_SHIFT = 1e-8
 _OFFSETS = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * 2.5e-11
 
 
@@ -46,7 +50,7 @@ def _analytic_inputs(cam, t: np.ndarray, step_end: float) -> np.ndarray:
     return out
 
 
-def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau: float, z: np.ndarray):
+def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau: float, z: np.ndarray, Dk=None):
     """Refine a located crossing on the analytic cam law to a 1e-10 s bracket.
 
     Parameters
@@ -63,6 +67,11 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
         The crossing located on the Hermite input, from ``t_step`` [s].
     z : ndarray
         The exact state there.
+    Dk : ndarray (8,), optional
+        The step's Hermite derivatives of the cam input. The state was integrated with
+        that input: where its s differs from the analytic law by more than 1e-11
+        relative (a coarse warm-up grid; on a recording grid it agrees to ~1e-15) state and analytic input are not consistent and
+        the root is kept as located.
 
     Returns
     -------
@@ -76,7 +85,18 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
     t_root = t_step + tau
     step_end = t_step + h_step
     u0 = _analytic_inputs(cam, np.array([t_root]), step_end)[0]
-    zdot = A @ z + B @ u0 + b if z.size else z
+    if Dk is not None:
+        from camsim.integrate import input_at
+
+        u_h = input_at(Dk, tau)
+        if abs(u_h[0] - u0[0]) > 1e-11 * (abs(u0[0]) + abs(u_h[0])) + 1e-300:
+            return tau, z
+    if z.size:
+        zdot = A @ z + B @ u0 + b
+        # ü = [ṡ, s̈, s⃛, s⁗]: the last channel (jerk) carries no weight in B
+        zddot = A @ zdot + B[:, :3] @ u0[1:]
+    else:
+        zdot = zddot = z
 
     # A stuck rigid contact's release guard is λ + FORCE_TOL (it fires only once the force
     # is really tensile, so that a contact that has just stuck does not release on
@@ -86,7 +106,7 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
     def guard_at(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         U = _analytic_inputs(cam, times, step_end)
         dt = (times - t_root)[:, None]
-        Z = z[None, :] + dt * zdot[None, :] if z.size else np.zeros((times.size, 0))
+        Z = z[None, :] + dt * zdot[None, :] + 0.5 * dt**2 * zddot[None, :] if z.size else np.zeros((times.size, 0))
         return guard.value(Z, U)[:, 0] - offset, Z
 
     if offset == 0.0:
@@ -115,10 +135,12 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
             gl, _ = guard_at(np.array([lo, hi]))
             if gl[0] > 0.0 >= gl[1]:
                 break
-            width *= 4.0
+            width *= 2.0
             lo, hi = t_c - width, t_c + width
-            if width > 0.25 * h_step:
-                return tau, z  # flat to rounding: keep the located root
+            if width > MAX_SHIFT:
+                # Not within MAX_SHIFT (where the carried state holds): a guard flat to
+                # rounding here; keep the located root.
+                return tau, z
         while hi - lo > BRACKET:
             mid = 0.5 * (lo + hi)
             gm, _ = guard_at(np.array([mid]))
@@ -127,7 +149,8 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
             else:
                 hi = mid
         t_new = 0.5 * (lo + hi)
-        return _clip(t_new - t_step, z + (t_new - t_root) * zdot, tau, z, h_step, zdot, t_root, t_step)
+        dt = t_new - t_root
+        return _clip(t_new - t_step, z + dt * zdot + 0.5 * dt * dt * zddot, tau, z, h_step, zdot, t_root, t_step)
     return tau, z
 
 

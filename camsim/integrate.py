@@ -35,6 +35,7 @@ from camsim.errors import SimulationError, ZenoError
 from camsim.machine import Contact, PreloadedLink
 from camsim.events import polish_crossing
 from camsim.recurrence import linear_recurrence
+from camsim.rigid import resolve as resolve_rigid
 from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
 
 #: Degree of the per-step Hermite representation of the cam input.
@@ -777,7 +778,7 @@ class Integrator:
             if root is not None:
                 tau, z = root
                 # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket
-                tau, z = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z)
+                tau, z = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k])
                 return nodes[k] + tau, z, guard, k
         return None
 
@@ -983,6 +984,8 @@ class Integrator:
         kind = guard.kind
         if kind == "unlift":
             return State(state.t, x, v, tuple(branches), v_imp)
+        if isinstance(element, Contact) and Branch.STUCK in model.branch_options(i):
+            return resolve_rigid(self, state, i, kind)  # issue 12 hook: rigid contacts as one LCP
         if isinstance(element, PreloadedLink):
             if kind == "separate":
                 branches[pos] = Branch.SEPARATED
