@@ -34,6 +34,7 @@ import scipy.linalg
 from camsim.errors import SimulationError, ZenoError
 from camsim.machine import Contact, PreloadedLink
 from camsim.events import polish_crossing
+from camsim.nonlinear import advance_power
 from camsim.recurrence import linear_recurrence
 from camsim.rigid import resolve as resolve_rigid
 from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
@@ -52,6 +53,9 @@ ZENO_TIME = 1e-11
 #: More events than this at one instant (within TIME_EPS) is a failure to resolve.
 MAX_EVENTS_PER_INSTANT = 64
 TIME_EPS = 1e-13
+#: Closed power-law contacts by the iterated-remainder stepper (camsim.nonlinear); False:
+#: DOP853 throughout (the reference for the stepper's tests and benchmark).
+NONLINEAR_STEPPER = True
 
 
 def expm_balanced(M: np.ndarray) -> np.ndarray:
@@ -610,6 +614,8 @@ class Integrator:
         z0 = config.state_from_full(state.x, state.v, u0[0], u0[1])
         if config.linear:
             return self._advance_linear(state, config, z0, guards, t_stop, record)
+        if len(config.power_contacts) == 1 and config.dim and NONLINEAR_STEPPER:
+            return advance_power(self, state, config, z0, guards, t_stop, record)  # issue 12 hook
         return self._advance_nonlinear(state, config, z0, guards, t_stop, record)
 
     def _advance_linear(self, state, config, z0, guards, t_stop, record):
