@@ -32,6 +32,7 @@ import numpy as np
 import scipy.linalg
 
 from camsim.errors import SimulationError, ZenoError
+from camsim.events import Event, EventKind
 from camsim.machine import Contact, PreloadedLink
 from camsim.recurrence import linear_recurrence
 from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
@@ -342,23 +343,6 @@ class Guard:
 
 
 @dataclass
-class Event:
-    """One event of a run (times on the simulation clock until shifted for output)."""
-
-    time: float
-    element: str
-    kind: str
-    relative_velocity: float = float("nan")
-    angle_deg: float = float("nan")
-    masses: str = ""
-    johnson_lower: float = float("nan")
-    johnson_upper: float = float("nan")
-    peak_force: float = float("nan")
-    contact_duration: float = float("nan")
-    element_index: int = -1
-
-
-@dataclass
 class Stretch:
     """Samples of one configuration on the output grid."""
 
@@ -526,7 +510,7 @@ class Integrator:
                     out.append(Guard(i, "separate", g, LENGTH_TOL))
                 elif branch == Branch.SEPARATED:
                     g = Affine(d.Cz, d.Du, d.Fn, d.e - dsep)
-                    out.append(Guard(i, "rejoin", g, LENGTH_TOL))
+                    out.append(Guard(i, EventKind.REJOIN, g, LENGTH_TOL))
                 continue
             if not isinstance(element, Contact) or branch == Branch.BILATERAL:
                 continue
@@ -535,18 +519,18 @@ class Integrator:
                 k = config.stuck_contacts.index(i)
                 lam = config.lam.rows(slice(k, k + 1))
                 g = Affine(lam.Cz, lam.Du, lam.Fn, lam.e + FORCE_TOL)
-                out.append(Guard(i, "release", g, FORCE_TOL))
+                out.append(Guard(i, EventKind.RELEASE, g, FORCE_TOL))
                 continue
             if branch == Branch.CLOSED:
                 if element.law == "linear":
                     k_, c_, _ = model.linear_branch(i, branch)
                     force = Affine.combine([(np.array([[k_]]), delta), (np.array([[c_]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
-                    out.append(Guard(i, "release", force, FORCE_TOL))
+                    out.append(Guard(i, EventKind.RELEASE, force, FORCE_TOL))
                 else:  # power law: δ > 0 and the Hunt–Crossley factor > 0
-                    out.append(Guard(i, "release", delta, LENGTH_TOL))
+                    out.append(Guard(i, EventKind.RELEASE, delta, LENGTH_TOL))
                     factor = self._hc_factor(i, rate, state.v_impacts.get(i))
                     if factor is not None:
-                        out.append(Guard(i, "release", factor, 1e-12))
+                        out.append(Guard(i, EventKind.RELEASE, factor, 1e-12))
                 continue
             # OPEN: approaching (δ ≤ 0) or lifted (δ > 0 but the law would pull)
             z = config.state_from_full(state.x, state.v, *self.inputs(np.array([state.t]))[0, :2])
@@ -983,17 +967,17 @@ class Integrator:
         if isinstance(element, PreloadedLink):
             if kind == "separate":
                 branches[pos] = Branch.SEPARATED
-                self._record(state.t, i, "separation", -rate)
+                self._record(state.t, i, EventKind.SEPARATION, -rate)
             else:
                 branches[pos] = Branch.JOINED
-                self._record(state.t, i, "rejoin", rate)
+                self._record(state.t, i, EventKind.REJOIN, rate)
             return State(state.t, x, v, tuple(branches), v_imp)
         if kind == "release":
             branches[pos] = Branch.OPEN
-            self._record(state.t, i, "release", rate)
+            self._record(state.t, i, EventKind.RELEASE, rate)
             return State(state.t, x, v, tuple(branches), v_imp)
         # closing
-        self._record(state.t, i, "impact", rate)
+        self._record(state.t, i, EventKind.IMPACT, rate)
         if element.law != "restitution":
             branches[pos] = Branch.CLOSED
             if element.law == "power" and element.restitution is not None:
@@ -1043,11 +1027,11 @@ class Integrator:
             v_stuck = velocity_after(0.0)
             branches[pos] = Branch.STUCK
             stuck = State(t, state.x, v_stuck, tuple(branches), v_imp)
-            self._record(t, i, "stick", 0.0)
+            self._record(t, i, EventKind.STICK, 0.0)
             return stuck
         return after
 
-    def _record(self, t: float, i: int, kind: str, relative_velocity: float) -> None:
+    def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float) -> None:
         element = self.model.elements[i]
         self.events.append(
             Event(

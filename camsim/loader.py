@@ -101,28 +101,64 @@ _TABLE_COLUMNS = ("angle", "displacement", "velocity", "acceleration")
 # --------------------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------------------
-def load_machine(path: str | Path, overrides: Sequence[str] = ()) -> Machine:
-    """Read and validate a machine file.
+def load_machine(
+    path: str | os.PathLike[str] | dict, overrides: Sequence[str] | dict[str, Any] = (), *, base_dir: str | Path | None = None
+) -> Machine:
+    """Read and validate a machine file (or a machine given as a dict).
 
     Parameters
     ----------
-    path : str or Path
-        The TOML machine file. A cam ``table`` CSV is looked up relative to it.
-    overrides : sequence of str
-        ``"KEY=VALUE"`` assignments (as from ``--set``), applied before validation.
+    path : str, Path or dict
+        The TOML machine file — a cam ``table`` CSV is looked up relative to it — or the
+        machine document itself as a dict (what ``tomllib.load`` would return; values may
+        be strings with units, as in a file).
+    overrides : sequence of str, or dict
+        ``"KEY=VALUE"`` assignments (as from ``--set``), or ``{KEY: VALUE}``, applied
+        before validation.
+    base_dir : path, optional
+        For a dict: where a cam ``table`` path is relative to (default: the current
+        directory).
 
     Returns
     -------
     Machine
-        The machine in SI units; ``source`` is ``str(path)``.
+        The machine in SI units; ``source`` is ``str(path)`` (``"<dict>"`` for a dict).
 
     Raises
     ------
     MachineFileError
         Missing or unreadable file, invalid TOML, or any invalid key or value.
     """
+    if isinstance(overrides, dict):
+        overrides = assignments(overrides)
+    if isinstance(path, dict):
+        import tomli_w
+
+        try:
+            text = tomli_w.dumps(path)
+        except TypeError as exc:
+            raise MachineFileError("<dict>", "", f"not a machine document: {exc}") from None
+        return load_machine_text(text, source="<dict>", base_dir=Path(base_dir or "."), overrides=overrides)
     text = read_machine_text(path)
     return load_machine_text(text, source=str(path), base_dir=Path(path).parent, overrides=overrides)
+
+
+def assignments(values: dict[str, Any]) -> list[str]:
+    """``{KEY: VALUE}`` → ``["KEY=VALUE", ...]`` in the ``--set`` grammar.
+
+    A value may be a number, a bool or a string with units (``"1.7e6 N/m"``); strings are
+    quoted so that they reach the loader as written.
+    """
+    out = []
+    for key, value in values.items():
+        if isinstance(value, bool):
+            text = "true" if value else "false"
+        elif isinstance(value, (int, float)):
+            text = repr(value)
+        else:
+            text = '"' + str(value).replace("\\", "\\\\").replace('"', '\\"') + '"'
+        out.append(f"{key}={text}")
+    return out
 
 
 def read_machine_text(path: str | os.PathLike[str]) -> str:
@@ -190,7 +226,7 @@ def load_machine_text(
 
         header = "".join(f"# --set {a}\n" for a in overrides)
         text = f"# {source} with command-line overrides:\n{header}" + tomli_w.dumps(doc)
-    return _replace_text(machine, text)
+    return _replace_text(machine, text, base_dir)
 
 
 def apply_override(doc: dict, assignment: str, source: str) -> None:
@@ -563,10 +599,10 @@ def _table(doc: dict, name: str, source: str) -> dict:
     return table
 
 
-def _replace_text(machine: Machine, text: str) -> Machine:
+def _replace_text(machine: Machine, text: str, base_dir: Path) -> Machine:
     import dataclasses
 
-    return dataclasses.replace(machine, text=text)
+    return dataclasses.replace(machine, text=text, base_dir=str(base_dir))
 
 
 # --------------------------------------------------------------------------------------

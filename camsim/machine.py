@@ -140,9 +140,17 @@ class Element:
     upper: str
     damping: Damping = field(default_factory=Damping)
 
+    #: True for elements that can only push (contacts): their force is compressive-positive.
+    unilateral = False
+
     @property
     def nodes(self) -> tuple[str, str]:
         return (self.lower, self.upper)
+
+    @property
+    def force_sense(self) -> str:
+        """How the element's force is signed in results."""
+        return "compressive-positive" if self.unilateral else "tension-positive"
 
 
 @dataclass(frozen=True)
@@ -192,6 +200,8 @@ class Contact(Element):
     transducer : bool
         Its force is summed into ``/transducer/force``.
     """
+
+    unilateral = True
 
     gap: float = 0.0
     law: str = "linear"
@@ -264,6 +274,23 @@ class Machine:
     initial: tuple[InitialCondition, ...] = ()
     source: str = "<string>"
     text: str = ""
+    base_dir: str = "."
+
+    def with_values(self, values: dict) -> "Machine":
+        """A modified copy: ``{KEY: VALUE}`` in the ``--set`` grammar, checked like the file.
+
+        >>> stiffer = machine.with_values({"element.K12.stiffness": "1.7e6 N/m"})  # doctest: +SKIP
+
+        Keys and values as on the command line (``cam.speed``, ``mass.M2.mass``,
+        ``element.seat.stiffness``, ``cam.segments[2].lift``, ``simulation.cycles``...);
+        a string value carries its units. Raises :class:`~camsim.errors.MachineFileError`
+        naming the key for an unknown key or a bad value.
+        """
+        from pathlib import Path
+
+        from camsim.loader import assignments, load_machine_text
+
+        return load_machine_text(self.text, source=self.source, base_dir=Path(self.base_dir), overrides=assignments(values))
 
     def mass_of(self, name: str) -> float:
         """Mass [kg] of the mass called ``name``."""

@@ -88,9 +88,9 @@ def run_command(
         target = output if output is not None else default_output(machine)
         check_writable(target)
         if check_against is not None:
-            from camsim.io.results import open_result
+            from camsim.io.results import open_h5
 
-            open_result(check_against).close()
+            open_h5(check_against).close()
         progress = ProgressAfterOneSecond(f"simulating {loaded.name}")
         try:
             result = simulate(loaded, no_impact=no_impact, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, progress=progress)
