@@ -29,27 +29,20 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from camsim import elements as element_kinds
+from camsim.elements import CAM, FIXED_NODES, GROUND, Damping, Element, Param
 from camsim.errors import MachineFileError
 from camsim.machine import (
-    CAM,
-    CONTACT_LAWS,
-    FIXED_NODES,
-    GROUND,
     LAWS,
     MOTIONS,
     STANDARD_GRAVITY,
     Cam,
     CamTable,
-    Contact,
-    Damping,
-    Element,
     InitialCondition,
     Machine,
     Mass,
-    PreloadedLink,
     Segment,
     Simulation,
-    Spring,
 )
 from camsim.units import QuantityError, to_si, ureg
 
@@ -74,21 +67,14 @@ MACHINE_KEYS = ("name", "description")
 CAM_KEYS = ("speed", "ratio", "arm", "drives", "start_angle", "segments", "table")
 SEGMENT_KEYS = ("motion", "law", "duration", "lift")
 MASS_KEYS = ("name", "mass")
-ELEMENT_TYPES = ("spring", "preloaded", "contact")
-ELEMENT_COMMON_KEYS = ("name", "type", "between", "damping", "damping_ratio", "reference_mass")
-ELEMENT_TYPE_KEYS = {
-    "spring": ("stiffness", "preload"),
-    "preloaded": ("push_stiffness", "pull_stiffness", "preload"),
-    "contact": ("gap", "law", "stiffness", "coefficient", "exponent", "restitution", "transducer"),
-}
-#: Contact keys that only some laws accept (the rest are common to all laws).
-_CONTACT_LAW_KEYS = {
-    "linear": ("stiffness", "damping", "damping_ratio", "reference_mass"),
-    "power": ("coefficient", "exponent", "restitution"),
-    "restitution": ("restitution",),
-}
+# Element tables: the keys come from each kind's schema (camsim/elements/).
+ELEMENT_TYPES = element_kinds.element_types()
+ELEMENT_COMMON_KEYS = tuple(p.key for p in element_kinds.COMMON_PARAMS)
+ELEMENT_TYPE_KEYS = {kind: element_kinds.type_keys(kind) for kind in ELEMENT_TYPES}
 SIMULATION_KEYS = ("cycles", "warmup_cycles", "sample_rate", "gravity", "duration")
 INITIAL_KEYS = ("displacement", "velocity")
+
+_DAMPING_KEYS = ("damping", "damping_ratio", "reference_mass")
 
 #: Tolerance on the sum of segment durations [deg].
 DURATION_TOLERANCE_DEG = 1e-6
@@ -303,21 +289,7 @@ def damping_coefficients(machine: Machine, element: Element) -> dict[str, float]
         for a preloaded link, ``{}`` for power-law and restitution contacts (which take
         no viscous damping).
     """
-    damping = element.damping
-    if isinstance(element, PreloadedLink):
-        stiffnesses = {"c_push": element.push_stiffness, "c_pull": element.pull_stiffness}
-    elif isinstance(element, Spring):
-        stiffnesses = {"c": element.stiffness}
-    elif isinstance(element, Contact) and element.law == "linear":
-        stiffnesses = {"c": element.stiffness}
-    else:
-        return {}
-    if damping.coefficient is not None:
-        return {key: damping.coefficient for key in stiffnesses}
-    if damping.ratio is None:
-        return {key: 0.0 for key in stiffnesses}
-    m_ref = machine.mass_of(reference_mass_of(element))
-    return {key: 2.0 * damping.ratio * math.sqrt(k * m_ref) for key, k in stiffnesses.items()}
+    return element.damping_coefficients(lambda: machine.mass_of(reference_mass_of(element)))
 
 
 def reference_mass_of(element: Element) -> str:
@@ -364,24 +336,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             }
     elements = []
     for e in machine.elements:
-        row: dict[str, Any] = {"name": e.name, "lower": e.lower, "upper": e.upper}
-        if isinstance(e, PreloadedLink):
-            row.update(
-                type="preloaded",
-                push_stiffness=e.push_stiffness,
-                pull_stiffness=e.pull_stiffness,
-                preload=e.preload,
-                separation_deflection=e.separation_deflection,
-            )
-        elif isinstance(e, Spring):
-            row.update(type="spring", stiffness=e.stiffness, preload=e.preload)
-        elif isinstance(e, Contact):
-            row.update(type="contact", law=e.law, gap=e.gap, transducer=e.transducer)
-            if e.law == "linear":
-                row["stiffness"] = e.stiffness
-            elif e.law == "power":
-                row.update(coefficient=e.coefficient, exponent=e.exponent)
-            row["restitution"] = e.restitution
+        row: dict[str, Any] = e.describe()
         row["damping"] = e.damping.coefficient
         row["damping_ratio"] = e.damping.ratio
         row["reference_mass"] = (
@@ -1078,39 +1033,25 @@ class _Validator:
             kind = self.choice(row, "type", path, ELEMENT_TYPES, required=True)
             self.check_keys(row, ELEMENT_COMMON_KEYS + ELEMENT_TYPE_KEYS[kind], path, f"for a {kind} element")
             lower, upper = self.between(row, path, nodes)
-            if kind == "contact":
-                law = self.choice(row, "law", path, CONTACT_LAWS, required=False) or "linear"
-                key_laws = self.contact_key_laws()
+            laws = element_kinds.laws_of(kind)
+            law = None
+            if laws:
+                law = self.choice(row, "law", path, laws, required=False) or element_kinds.element_class(kind).law_name
+                key_laws = element_kinds.key_laws(kind)
                 for key in row:
                     if key in key_laws and law not in key_laws[key]:
                         takes = " or ".join(f'law = "{x}"' for x in key_laws[key])
-                        hint = ("; a power-law contact is damped through restitution (Hunt-Crossley)"
-                                if key.startswith("damping") and law == "power" else "")
-                        raise self.error(f"{path}.{key}",
-                                         f'not used by a contact with law = "{law}" (only {takes}){hint}')
-            damping = self.damping(row, path, lower, upper, mass_names)
-            common = dict(name=name, lower=lower, upper=upper, damping=damping)
-            if kind == "spring":
-                k = self.quantity(row, "stiffness", path, "stiffness", required=True, minimum=0.0,
-                                  example='"9051 lbf/in"')
-                preload = self.quantity(row, "preload", path, "force", default=0.0)
-                if k == 0.0 and not (damping.coefficient or 0.0) > 0.0:
-                    raise self.error(f"{path}.stiffness", "a spring with zero stiffness needs a positive "
-                                     "damping coefficient (damping = ...), else it does nothing")
-                element: Element = Spring(**common, stiffness=k, preload=preload)
-            elif kind == "preloaded":
-                push = self.quantity(row, "push_stiffness", path, "stiffness", required=True, minimum=0.0,
-                                     strict=True, example='"8144 lbf/in"')
-                pull = self.quantity(row, "pull_stiffness", path, "stiffness", required=True, minimum=0.0,
-                                     strict=True, example='"219 lbf/in"')
-                preload = self.quantity(row, "preload", path, "force", required=True, minimum=0.0,
-                                        strict=True, example='"28.12 lbf"')
-                element = PreloadedLink(**common, push_stiffness=push, pull_stiffness=pull, preload=preload)
-            else:
-                element = self.contact(row, path, common, driven)
-            if damping.ratio is not None and isinstance(element, Spring) and element.stiffness == 0.0:
-                raise self.error(f"{path}.damping_ratio", "a damping ratio needs stiffness > 0; give damping "
-                                 "(a coefficient) instead")
+                        raise self.error(f"{path}.{key}", f'not used by a {kind} with law = "{law}" (only {takes})'
+                                         + self.law_hint(kind, law, key))
+            cls = element_kinds.element_class(kind, law)
+            values: dict[str, Any] = dict(name=name, lower=lower, upper=upper)
+            values["damping"] = self.damping(row, path, lower, upper, mass_names)
+            for p in cls.params:
+                if p.dimension == "string" or p.key in _DAMPING_KEYS:
+                    continue
+                values[p.attribute] = self.param(row, p, path, values)
+            cls.check(values, lambda key, message: self.error(f"{path}.{key}", message), driven)
+            element = cls(**values)
             if driven is not None and CAM in (lower, upper) and driven in (lower, upper):
                 raise self.error(f"{path}.between", f"{driven} is driven by the cam (cam.drives), so an "
                                  f"element between it and the cam never deflects")
@@ -1118,13 +1059,25 @@ class _Validator:
         return result
 
     @staticmethod
-    def contact_key_laws() -> dict[str, tuple[str, ...]]:
-        """For each law-specific contact key, the laws that take it."""
-        table: dict[str, list[str]] = {}
-        for law, keys in _CONTACT_LAW_KEYS.items():
-            for key in keys:
-                table.setdefault(key, []).append(law)
-        return {k: tuple(v) for k, v in table.items()}
+    def law_hint(kind: str, law: str, key: str) -> str:
+        """Why a key is refused for a law, when the law's class says (``refused_hints``)."""
+        hints = element_kinds.element_class(kind, law).refused_hints
+        hint = next((text for prefix, text in hints.items() if key.startswith(prefix)), "")
+        return f"; {hint}" if hint else ""
+
+    def param(self, row: dict, p: Param, path: str, values: dict[str, Any]) -> Any:
+        """One key of an element table, read and checked as its schema says."""
+        if p.dimension == "bool":
+            value = row.get(p.key, p.default)
+            if not isinstance(value, bool):
+                raise self.error(f"{path}.{p.key}", f"expected true or false, got {_fmt(value)}")
+            return value
+        if p.dimension == "number":
+            return self.number(row, p.key, path, required=p.required, default=p.default, minimum=p.minimum,
+                               strict=p.strict, maximum=p.maximum)
+        dimension = f"power_coefficient:{values['exponent']!r}" if p.dimension == "power_coefficient" else p.dimension
+        return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
+                             strict=p.strict, example=p.example)
 
     def between(self, row: dict, path: str, nodes: list[str]) -> tuple[str, str]:
         where = f"{path}.between"
@@ -1157,35 +1110,6 @@ class _Validator:
             if ratio is None:
                 raise self.error(f"{path}.reference_mass", "only used with damping_ratio")
         return Damping(coefficient=coefficient, ratio=ratio, reference_mass=reference)
-
-    def contact(self, row: dict, path: str, common: dict, driven: str | None) -> Contact:
-        law = row.get("law", "linear")
-        gap = self.quantity(row, "gap", path, "length", default=0.0, minimum=0.0)
-        transducer = row.get("transducer", False)
-        if not isinstance(transducer, bool):
-            raise self.error(f"{path}.transducer", f"expected true or false, got {_fmt(transducer)}")
-        extra: dict[str, Any] = {}
-        if law == "linear":
-            extra["stiffness"] = self.quantity(row, "stiffness", path, "stiffness", required=True,
-                                               minimum=0.0, strict=True, example='"8597740 N/m"')
-        elif law == "power":
-            exponent = self.number(row, "exponent", path, required=True, minimum=0.0, strict=True)
-            extra["exponent"] = exponent
-            extra["coefficient"] = self.quantity(
-                row, "coefficient", path, f"power_coefficient:{exponent!r}", required=True, minimum=0.0,
-                strict=True, example='"1.11e7 lbf/in**1.425"')
-            extra["restitution"] = self.number(row, "restitution", path, minimum=0.0, maximum=1.0)
-        else:
-            extra["restitution"] = self.number(row, "restitution", path, required=True, minimum=0.0,
-                                               maximum=1.0)
-        lower, upper = common["lower"], common["upper"]
-        if driven is not None and driven in (lower, upper):
-            other = upper if lower == driven else lower
-            if other in FIXED_NODES:
-                raise self.error(f"{path}.between", f"{driven} is driven by the cam (cam.drives): its motion "
-                                 f"is prescribed, so a contact with {other} could never close or open; "
-                                 "remove cam.drives to let the follower separate")
-        return Contact(**common, gap=gap, law=law, transducer=transducer, **extra)
 
     # -- simulation and initial state -------------------------------------------------
     def simulation(self, doc: dict, cam: Cam | None) -> Simulation:

@@ -14,11 +14,11 @@ from threadpoolctl import threadpool_limits
 
 from camsim.cam.program import CamProgram
 from camsim.errors import InputError, SimulationError
-from camsim.impact import johnson_bounds
 from camsim.events import Event, EventKind, EventTable
-from camsim.integrate import FORCE_TOL, LENGTH_TOL, Integrator, State, Stretch
-from camsim.machine import CAM, GROUND, Contact, Machine, PreloadedLink
-from camsim.model import Branch, Model
+from camsim.elements import CAM, GROUND, Branch
+from camsim.integrate import Integrator, State, Stretch
+from camsim.machine import Machine
+from camsim.model import Model
 from camsim.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
@@ -106,26 +106,12 @@ def _consistent_branches(model: Model, integrator: Integrator, state: State) -> 
     u = integrator.inputs(np.array([state.t]))
     z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
     for pos, i in enumerate(model.switching):
-        element = model.elements[i]
-        branch = branches[pos]
-        if branch == Branch.BILATERAL:
-            continue
-        if isinstance(element, PreloadedLink):
-            d = float(model.deflection(i, state.x, u[0, 0]))
-            branches[pos] = Branch.SEPARATED if d > element.separation_deflection + LENGTH_TOL else Branch.JOINED
-            continue
-        delta, _ = integrator.relative_rate(state, i)
-        if branch == Branch.STUCK:
-            k = config.stuck_contacts.index(i)
-            lam = config.lam(z[None, :], u)[0, k]
-            if lam < -FORCE_TOL:
-                branches[pos] = Branch.OPEN
-        elif branch == Branch.CLOSED:
-            if delta <= 0:
-                branches[pos] = Branch.OPEN
-        else:
-            if delta > LENGTH_TOL:
-                branches[pos] = Branch.STUCK if element.law == "restitution" else Branch.CLOSED
+        d = float(model.deflection(i, state.x, u[0, 0]))
+
+        def constraint_force(i=i) -> float:
+            return float(config.lam(z[None, :], u)[0, config.stuck_contacts.index(i)])
+
+        branches[pos] = model.elements[i].branch_at_rest(branches[pos], d, constraint_force)
     return tuple(branches)
 
 
@@ -154,26 +140,12 @@ def initial_state(model: Model, integrator: Integrator, t0: float) -> State:
     branches = []
     u = integrator.inputs(np.array([t0]))[0]
     for i in model.switching:
-        element = model.elements[i]
         geo = model.geometry[i]
         d = x @ geo.G + geo.g_s * u[0]
-        if isinstance(element, PreloadedLink):
-            branches.append(Branch.SEPARATED if d > element.separation_deflection and not model.no_impact else Branch.JOINED)
-        elif model.no_impact:
-            branches.append(Branch.BILATERAL)
-        else:
-            delta = element.gap - d
-            if delta > LENGTH_TOL:
-                if element.law == "restitution":
-                    raise InputError(
-                        f"{machine.source}: initial: the initial state penetrates the rigid contact "
-                        f"{element.name} by {delta:.3g} m"
-                    )
-                branches.append(Branch.CLOSED)
-            elif element.law == "restitution" and abs(delta) <= LENGTH_TOL:
-                branches.append(Branch.STUCK)
-            else:
-                branches.append(Branch.OPEN)
+        try:
+            branches.append(model.elements[i].branch_from_state(d, model.no_impact))
+        except ValueError as exc:
+            raise InputError(f"{machine.source}: initial: {exc}") from None
     return State(t0, x, v, tuple(branches), {})
 
 
@@ -347,7 +319,7 @@ def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, 
             masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
     elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
     cam_force = model.cam_contact_force(forces, u[:, 2])
-    transducer_idx = [i for i, e in enumerate(model.elements) if isinstance(e, Contact) and e.transducer]
+    transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
     # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
     angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(t)
@@ -400,30 +372,20 @@ def _annotate(model: Model, ev: Event, later: list[Event], t_rec, time, element_
     m1 = finite[1] if len(finite) > 1 else math.inf
     v = ev.relative_velocity
     try:
-        if isinstance(element, PreloadedLink):
-            lower, upper = johnson_bounds("linear", m1, m2, v, 0.0, stiffness=element.push_stiffness)
-        elif element.law == "linear":
-            lower, upper = johnson_bounds("linear", m1, m2, v, 0.0, stiffness=element.stiffness)
-        elif element.law == "power":
-            lower, upper = johnson_bounds("power", m1, m2, v, 0.0, coefficient=element.coefficient, exponent=element.exponent)
-        else:
-            lower = upper = math.inf  # a rigid stop: an impulse, no finite peak
+        bounds = element.johnson_bounds(m1, m2, v)
     except InputError:
         return
-    ev.johnson_lower, ev.johnson_upper = float(lower), float(upper)
-    end_kind = EventKind.SEPARATION if isinstance(element, PreloadedLink) else EventKind.RELEASE
+    if bounds is None:
+        return
+    ev.johnson_lower, ev.johnson_upper = (float(b) for b in bounds)
     t_close = ev.time
-    t_open = next((e.time - t_rec for e in later if e.element == element.name and e.kind == end_kind), None)
+    t_open = next((e.time - t_rec for e in later if e.element == element.name and e.kind == element.closing_ends), None)
     if t_open is not None:
         ev.contact_duration = t_open - t_close
     t_stop = t_open if t_open is not None else time[-1] + 1e-12
     window = (time >= t_close - 1e-12) & (time <= t_stop + 1e-12)
-    if isinstance(element, Contact) and element.law == "restitution":
-        return
-    force = element_forces[element.name][window]
-    if isinstance(element, PreloadedLink):
-        force = element.preload - force  # compression at the interface of the two parts
-    if force.size:
+    force = element.impact_force(element_forces[element.name][window])
+    if force is not None and force.size:
         ev.peak_force = _peak(force)
 
 
