@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from camsim import elements as element_kinds
+from camsim import schema
 from camsim.elements import CAM, FIXED_NODES, GROUND, Damping, Element, Param
 from camsim.errors import MachineFileError
 from camsim.machine import (
@@ -62,11 +63,13 @@ SCHEMA_VERSION = 1
 # --------------------------------------------------------------------------------------
 # The schema: which keys each table may hold
 # --------------------------------------------------------------------------------------
-TOP_KEYS = ("schema", "machine", "cam", "mass", "element", "simulation", "initial")
-MACHINE_KEYS = ("name", "description")
-CAM_KEYS = ("speed", "ratio", "arm", "drives", "start_angle", "segments", "table")
-SEGMENT_KEYS = ("motion", "law", "duration", "lift")
-MASS_KEYS = ("name", "mass")
+TOP_KEYS = schema.keys("top")
+MACHINE_KEYS = schema.keys("machine")
+CAM_KEYS = schema.keys("cam")
+SEGMENT_KEYS = schema.keys("cam.segments")
+MASS_KEYS = schema.keys("mass")
+SIMULATION_KEYS = schema.keys("simulation")
+INITIAL_KEYS = schema.keys("initial")
 # Element tables: the keys come from each kind's schema (camsim/elements/).
 ELEMENT_TYPES = element_kinds.element_types()
 ELEMENT_COMMON_KEYS = tuple(p.key for p in element_kinds.COMMON_PARAMS)

@@ -81,34 +81,7 @@ FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
     ("periodicity_residual", ""),
     ("status", ""),
 )
-_PEAK_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _RPM = 60.0 / (2.0 * math.pi)  # rad/s -> rpm
-
-#: SI unit of each machine key leaf, for the ``param:<key>`` columns.
-_KEY_UNITS = {
-    "speed": "rad/s",
-    "ratio": "",
-    "arm": "m",
-    "start_angle": "rad",
-    "lift": "m",
-    "mass": "kg",
-    "stiffness": "N/m",
-    "push_stiffness": "N/m",
-    "pull_stiffness": "N/m",
-    "preload": "N",
-    "gap": "m",
-    "exponent": "",
-    "restitution": "",
-    "damping": "N*s/m",
-    "damping_ratio": "",
-    "cycles": "",
-    "warmup_cycles": "",
-    "sample_rate": "Hz",
-    "gravity": "m/s^2",
-    "displacement": "m",
-    "velocity": "m/s",
-}
-
 
 # --------------------------------------------------------------------------------------
 # Inputs
@@ -292,12 +265,9 @@ _KEY_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
 
 def key_unit(key: str) -> str:
     """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
-    leaf = key.rsplit(".", 1)[-1]
-    if key.startswith("simulation.") and leaf == "duration":
-        return "s"
-    if key.startswith("cam.segments") and leaf == "duration":
-        return "rad"
-    return _KEY_UNITS.get(leaf, "")
+    from camsim.schema import key_unit as schema_key_unit
+
+    return schema_key_unit(key)
 
 
 def machine_value(machine, key: str) -> Any:

@@ -25,12 +25,13 @@ from camsim.elements.base import (
     param,
     type_keys,
 )
-from camsim.elements.contact import Contact
-from camsim.elements.linear_contact import LinearContact
-from camsim.elements.power_contact import PowerContact
-from camsim.elements.preloaded import PreloadedLink
-from camsim.elements.rigid_contact import RigidContact
-from camsim.elements.spring import Spring
+# Registration order is the order of the docs and of messages: springs, links, contacts.
+from camsim.elements.spring import Spring  # isort: skip
+from camsim.elements.preloaded import PreloadedLink  # isort: skip
+from camsim.elements.contact import Contact  # isort: skip
+from camsim.elements.linear_contact import LinearContact  # isort: skip
+from camsim.elements.power_contact import PowerContact  # isort: skip
+from camsim.elements.rigid_contact import RigidContact  # isort: skip
 
 __all__ = [
     "CAM", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",

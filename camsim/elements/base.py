@@ -104,7 +104,7 @@ class Param:
 
         if self.dimension == "power_coefficient":
             return "N/m^exponent"
-        return DIMENSIONS.get(self.dimension, "")
+        return DIMENSIONS.get(self.dimension, "").replace("**", "^")
 
 
 #: Keys every element takes.
@@ -280,6 +280,10 @@ class Element:
         return force
 
     # ------------------------------------------------------------------ description
+    def damping_note(self) -> str | None:
+        """How the element is damped when not viscously (for ``camsim validate``)."""
+        return None
+
     def describe(self) -> dict[str, Any]:
         """The element's SI parameters as a JSON-able dict (validate, lump, ``machine_to_dict``)."""
         out: dict[str, Any] = {"name": self.name, "lower": self.lower, "upper": self.upper, "type": self.type_name}

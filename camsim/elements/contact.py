@@ -16,9 +16,9 @@ from camsim.events import EventKind
 
 #: Keys every contact takes, whatever its law.
 CONTACT_PARAMS: tuple[Param, ...] = (
-    Param("law", "string", "contact law (default linear)"),
-    Param("gap", "length", "g0 ≥ 0: penetration δ = g0 − d", default=0.0, minimum=0.0),
-    Param("transducer", "bool", "its force is summed into /transducer/force", default=False),
+    Param("law", "string", "the contact law (the tables below, one per law)", default="linear"),
+    Param("gap", "length", "g0: penetration δ = g0 − d", default=0.0, minimum=0.0),
+    Param("transducer", "bool", "its force is summed into `/transducer/force`", default=False),
 )
 
 

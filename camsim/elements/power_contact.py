@@ -31,15 +31,19 @@ class PowerContact(Contact):
     summary: ClassVar[str] = "compliant contact F = C·δ^a, Hunt–Crossley damped with restitution"
     params: ClassVar[tuple[Param, ...]] = (
         *CONTACT_PARAMS,
-        Param("exponent", "number", "a > 0", required=True, minimum=0.0, strict=True),
-        Param("coefficient", "power_coefficient", "C, in force/length^exponent", required=True, minimum=0.0,
+        Param("exponent", "number", "a", required=True, minimum=0.0, strict=True),
+        Param("coefficient", "power_coefficient", "C of F = C·δ^a, e.g. `\"1.11e7 lbf/in**1.425\"` (the unit's "
+              "length exponent must equal `exponent`)", required=True, minimum=0.0,
               strict=True, example='"1.11e7 lbf/in**1.425"'),
-        Param("restitution", "number", "e ∈ [0, 1]: Hunt–Crossley damping (none when absent)", minimum=0.0, maximum=1.0),
+        Param("restitution", "number", "coefficient of restitution: Hunt–Crossley damping (none when absent)", minimum=0.0, maximum=1.0),
     )
 
     refused_hints: ClassVar[dict[str, str]] = {
         "damping": "a power-law contact is damped through restitution (Hunt-Crossley)",
     }
+
+    def damping_note(self):
+        return "Hunt-Crossley" if self.restitution is not None else None
 
     def is_nonlinear(self, branch):
         return branch == Branch.CLOSED

@@ -27,7 +27,7 @@ class RigidContact(Contact):
     summary: ClassVar[str] = "rigid stop, Newton's impact law with restitution e; sticks when at rest"
     params: ClassVar[tuple[Param, ...]] = (
         *CONTACT_PARAMS,
-        Param("restitution", "number", "e ∈ [0, 1]", required=True, minimum=0.0, maximum=1.0),
+        Param("restitution", "number", "e of Newton's impact law", required=True, minimum=0.0, maximum=1.0),
     )
     closed_branch: ClassVar[Branch] = Branch.STUCK
 

@@ -19,8 +19,10 @@ class Spring(Element):
     type_name: ClassVar[str] = "spring"
     summary: ClassVar[str] = "linear spring-damper, f = P + k·d + c·ḋ (tension-positive)"
     params: ClassVar[tuple[Param, ...]] = (
-        Param("stiffness", "stiffness", "k", required=True, minimum=0.0, example='"9051 lbf/in"'),
-        Param("preload", "force", "P, the tension at zero deflection", default=0.0),
+        Param("stiffness", "stiffness", "k; 0 only with a positive `damping` (a pure damper)", required=True, minimum=0.0, example='"9051 lbf/in"'),
+        Param("preload", "force", "P, the tension at zero deflection; a spring that pulls the upper mass toward "
+              "the lower node (e.g. a closure spring holding a follower on the cam) has a positive preload",
+              default=0.0),
         *DAMPING_PARAMS,
     )
 
