@@ -23,6 +23,16 @@ from camsim.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
 SAMPLES_PER_PERIOD = 12
+#: A linear static equilibrium whose stiffness matrix is worse conditioned than this has
+#: no unique solution (a mass held by nothing stiff): ask for an [initial] state instead.
+#: 1e14 leaves two digits of a double for the positions.
+EQUILIBRIUM_MAX_CONDITION = 1e14
+#: A nonlinear (power-law) static equilibrium is accepted when its force residual is below
+#: this fraction of the residual at the unloaded position (1e-6: well below any reported digit).
+EQUILIBRIUM_RESIDUAL = 1e-6
+#: Penetrations [m] from which Powell's method is started in turn: δ^a has no slope at
+#: δ = 0, which can stall the first try (0.1 µm .. 0.1 mm spans seats from hard to soft).
+EQUILIBRIUM_STARTS = (0.0, 1e-6, 1e-5, 1e-4)
 
 
 # ---------------------------------------------------------------------- initial state
@@ -54,7 +64,7 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
                 q = np.linalg.solve(A21, -rhs) if nq else np.zeros(0)
             except np.linalg.LinAlgError:
                 q = None
-            if q is not None and nq and np.linalg.cond(A21) > 1e14:
+            if q is not None and nq and np.linalg.cond(A21) > EQUILIBRIUM_MAX_CONDITION:
                 q = None
         else:
             q = _nonlinear_static(model, integrator, config, u, t0)
@@ -91,9 +101,9 @@ def _nonlinear_static(model, integrator, config, u, t0):
     # penetrations (δ^a has no slope at δ = 0, which can stall the first try).
     guess = np.zeros(nq)
     best = None
-    for scale in (0.0, 1e-6, 1e-5, 1e-4):
+    for scale in EQUILIBRIUM_STARTS:
         sol = optimize.root(residual, guess + scale, method="hybr", options={"xtol": 1e-14})
-        if sol.success and np.max(np.abs(residual(sol.x))) < 1e-6 * max(1.0, np.max(np.abs(residual(guess)))):
+        if sol.success and np.max(np.abs(residual(sol.x))) < EQUILIBRIUM_RESIDUAL * max(1.0, np.max(np.abs(residual(guess)))):
             best = sol.x
             break
     return best
