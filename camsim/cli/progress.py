@@ -13,7 +13,7 @@ from typing import Any
 
 from camsim.cli.app import err_console
 
-__all__ = ["Bar"]
+__all__ = ["Bar", "FractionBar"]
 
 
 class Bar:
@@ -83,3 +83,22 @@ class Bar:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
+
+
+class FractionBar(Bar):
+    """A bar fed with the fraction done (the ``progress(fraction)`` of ``simulate``).
+
+    Parameters
+    ----------
+    total : float
+        What the whole job counts, e.g. the revolutions of a run (warm-up included).
+    """
+
+    def __init__(self, label: str, unit: str, total: float, quiet: bool = False) -> None:
+        super().__init__(label, unit, quiet=quiet)
+        self.total = total
+
+    def __call__(self, fraction: float, total: float | None = None) -> None:
+        if self.progress is None:
+            self.start(self.total)
+        super().__call__(round(fraction * self.total, 3), self.total)

@@ -51,8 +51,6 @@ import fcntl
 import json
 import math
 import os
-import re
-import secrets
 import time
 import zlib
 from collections.abc import Callable, Iterable, Mapping
@@ -62,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from camsim.errors import InputError
+from camsim.io.atomic import remove_stale_temps, temp_path_for
 
 __all__ = ["RowStore", "journal_path_for", "read_rows", "remove_stale_temps", "temp_path_for"]
 
@@ -75,66 +74,6 @@ def journal_path_for(path: str | os.PathLike[str]) -> Path:
     """The journal kept beside the view ``path``: ``<path>.journal``."""
     p = Path(path)
     return p.with_name(p.name + ".journal")
-
-
-# --------------------------------------------------------------------------------------
-# Temporary files that name their writer
-# --------------------------------------------------------------------------------------
-_TEMP = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.[0-9a-f]{8}\.tmp$")
-
-
-def temp_path_for(target: str | os.PathLike[str]) -> Path:
-    """A fresh temporary name beside ``target`` carrying this process's id.
-
-    ``.<name>.<pid>.<8 hex>.tmp`` in the target's directory (same file system, so the
-    final ``os.replace`` is atomic). :func:`remove_stale_temps` recognises it.
-    """
-    target = Path(target)
-    return target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except OSError as exc:
-        return exc.errno == errno.EPERM  # exists, owned by someone else
-    return True
-
-
-def remove_stale_temps(target: str | os.PathLike[str]) -> list[Path]:
-    """Remove temporary files of ``target`` whose writer process is dead.
-
-    Only files named by :func:`temp_path_for` for this very target are considered, and
-    only when the process id in the name does not exist any more, so a temporary file
-    of a writer that is still running is never touched.
-
-    Returns
-    -------
-    list of Path
-        The files removed.
-    """
-    target = Path(target)
-    directory = target.parent if str(target.parent) else Path(".")
-    removed = []
-    try:
-        entries = list(os.scandir(directory))
-    except OSError:
-        return removed
-    for entry in entries:
-        m = _TEMP.match(entry.name)
-        if not m or m.group("name") != target.name:
-            continue
-        pid = int(m.group("pid"))
-        if pid == os.getpid() or _pid_alive(pid):
-            continue
-        try:
-            os.unlink(entry.path)
-            removed.append(Path(entry.path))
-        except FileNotFoundError:
-            pass
-    return removed
 
 
 # --------------------------------------------------------------------------------------
