@@ -63,6 +63,14 @@ DEFAULT_MAX_VARIANTS = 1000
 #: Seconds to wait for a Dask scheduler before giving up.
 SCHEDULER_TIMEOUT_S = 5.0
 
+#: Columns after the parameters and the run's scalars (:func:`camsim.result.scalar_columns`).
+STATUS_COLUMN = ("status", "")
+_RPM = 0.1
+#: Default largest number of variants run without confirmation (``--max-variants``).
+DEFAULT_MAX_VARIANTS = 1000
+#: Seconds to wait for a Dask scheduler before giving up.
+SCHEDULER_TIMEOUT_S = 5.0
+
 #: Columns after the parameters and per-mass peaks, with their SI units.
 FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
     ("peak_transducer_force", "N"),
@@ -363,51 +371,9 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
 
 
-def cam_force(result) -> np.ndarray | None:
-    """Force of the cam on the follower [N], compressive-positive.
-
-    :attr:`RunResult.cam_contact_force` for a machine whose cam drives a mass; for a cam
-    that acts through contact elements (``between = ["cam", ...]``), the sum of their
-    forces; None when the machine has neither.
-    """
-    if result.cam_contact_force is not None:
-        return result.cam_contact_force
-    from camsim.machine import CAM, Contact
-
-    names = [e.name for e in result.machine.elements if isinstance(e, Contact) and CAM in e.nodes and e.name in result.elements]
-    if not names:
-        return None
-    return np.sum([np.asarray(result.elements[n], dtype=float) for n in names], axis=0)
-
-
 def summary_row(result) -> dict[str, Any]:
-    """The summary columns of one :class:`~camsim.simulate.RunResult` (SI; NaN if absent).
-
-    Peaks are the largest absolute sampled values over the recorded window, as in
-    :meth:`RunResult.summary`; the cam contact force is :func:`cam_force`; ``jump`` is
-    :meth:`RunResult.follower_jumps`; ``max_impact_velocity`` is the largest
-    |relative velocity| of the impact and rejoin events.
-    """
-    nan = float("nan")
-    row: dict[str, Any] = {}
-    for name, traces in result.masses.items():
-        for quantity in ("displacement", "velocity", "acceleration"):
-            data = traces[quantity]
-            row[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
-    tf = result.transducer_force
-    row["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
-    cf = cam_force(result)
-    row["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
-    row["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
-    row["jump"] = bool(result.follower_jumps())
-    impacts = result.impacts()
-    row["impacts"] = len(impacts)
-    speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
-    row["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
-    residual = result.periodicity_residual
-    row["periodicity_residual"] = float(residual) if residual is not None else nan
-    row["status"] = "ok"
-    return row
+    """The summary columns of one run: :meth:`RunResult.scalars` and ``status = "ok"``."""
+    return {**result.scalars(), "status": "ok"}
 
 
 def run_variant(source: MachineSource, overrides: Sequence[str], settings: SweepSettings) -> tuple[dict[str, Any], Any]:
@@ -711,11 +677,9 @@ class SweepResult:
 
 def sweep_columns(keys: Sequence[str], masses: Sequence[str]) -> list[tuple[str, str]]:
     """The column names and SI units of a sweep over ``keys`` of a machine with ``masses``."""
-    cols = [(f"param:{k}", key_unit(k)) for k in keys]
-    for m in masses:
-        for q in ("displacement", "velocity", "acceleration"):
-            cols.append((f"peak_{q}:{m}", _PEAK_UNITS[q]))
-    return cols + list(FIXED_COLUMNS)
+    from camsim.result import scalar_columns
+
+    return [(f"param:{k}", key_unit(k)) for k in keys] + scalar_columns(list(masses)) + [STATUS_COLUMN]
 
 
 def _complete_row(row: dict[str, Any], columns: Sequence[tuple[str, str]]) -> dict[str, Any]:
@@ -878,15 +842,18 @@ def run_sweep(
     if resume and keep_traces:
         raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
+    executor = _make_executor(workers, len(grid), scheduler, dask_local)  # checks the scheduler first
     store = None
     if output is not None:  # issue 16: rows stored as they finish
-        store, stored = _open_store(output, resume, columns, _sweep_meta(source, vary, values, fixed, settings), base)
+        try:
+            store, stored = _open_store(output, resume, columns, _sweep_meta(source, vary, values, fixed, settings), base)
+        except BaseException:
+            executor.close()
+            raise
         for i, row in stored.items():
             if 0 <= i < len(grid):
                 raw[i] = row
     todo = [i for i in range(len(grid)) if raw[i] is None]
-
-    executor = _make_executor(workers, max(len(todo), 1), scheduler, dask_local)
     tasks = [(source, tuple(fixed) + grid[i], settings) for i in todo]
     runs: list[Any] = [None] * len(grid) if keep_traces else []
     interrupted = False

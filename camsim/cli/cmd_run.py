@@ -76,9 +76,9 @@ def run_command(
         if not yes:
             check_budget(estimate, limit, str(machine))
         if check_against is not None:
-            from camsim.io.results import open_result
+            from camsim.io.results import open_h5
 
-            open_result(check_against).close()
+            open_h5(check_against).close()
         revs = estimate.revolutions  # seconds for a machine without a cam
         progress = FractionBar("run", "rev" if revs else "s", revs or estimate.recorded_s, quiet=quiet)
         try:
