@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 # Elements are the element kinds' own classes (camsim/elements/); re-exported here because
 # a Machine is made of them.
-from camsim.elements import (  # noqa: E402,F401
+from camsim.elements import (  # noqa: E402,F401 - re-exported
     CAM,
     FIXED_NODES,
     GROUND,
@@ -223,3 +223,9 @@ class Machine:
             if e.name == name:
                 return e
         raise KeyError(name)
+
+__all__ = [
+    "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
+    "PreloadedLink", "RigidContact", "Spring", "Cam", "CamTable", "InitialCondition", "Machine", "Mass",
+    "Segment", "Simulation", "LAWS", "MOTIONS", "STANDARD_GRAVITY",
+]
