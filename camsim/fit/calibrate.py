@@ -271,7 +271,7 @@ def fit(
         ],
         sim_time=run.time,
         sim_traces=dict(run.traces),
-        channels=list(zip(objective.paths, objective.times, objective.values)),
+        channels=list(zip(objective.paths, objective.times, objective.values, objective.simulated(run.time, run.traces, shift))),
         shift=shift,
         overrides=[override_text(p.key, float(v)) for p, v in zip(parameters, x)],
     )

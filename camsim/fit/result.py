@@ -78,7 +78,8 @@ class FitResult:
     sim_traces : dict
         Path → fitted run's trace [SI].
     channels : list
-        The compared measured channels: (path, times [s], values [SI]).
+        The compared measured channels: (path, measured times [s], measured values [SI],
+        fitted simulation at those times [SI]).
     shift : float
         Fitted time shift [s] (0 without ``--align offset``).
     overrides : list of str
@@ -108,7 +109,7 @@ class FitResult:
     starts: list[dict[str, Any]] = field(default_factory=list)
     sim_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sim_traces: dict[str, np.ndarray] = field(default_factory=dict)
-    channels: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)
+    channels: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
     shift: float = 0.0
     overrides: list[str] = field(default_factory=list)
 

@@ -33,6 +33,10 @@ __all__ = ["FD_STEP", "Evaluator", "Solution", "solve", "jacobian"]
 
 #: Forward-difference step of the Jacobian, in the coordinates scaled to the bounds.
 FD_STEP = 1e-4
+#: Stopping tolerances of least_squares (relative change of cost, of u, and gradient norm).
+FTOL = 1e-8
+XTOL = 1e-8
+GTOL = 1e-8
 #: Central-difference step of the final Jacobian used for the uncertainty.
 CD_STEP = 1e-4
 
@@ -209,9 +213,9 @@ def _one_start(problem: Problem, u0: np.ndarray, max_nfev: int | None, report: C
         method="trf",
         x_scale=np.ones(u0.size),
         max_nfev=max_nfev,
-        ftol=1e-10,
-        xtol=1e-10,
-        gtol=1e-10,
+        ftol=FTOL,
+        xtol=XTOL,
+        gtol=GTOL,
     )
     return Solution(
         u=np.asarray(sol.x, dtype=float),
