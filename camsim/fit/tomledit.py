@@ -17,7 +17,6 @@ addressed as on the command line (``--set`` grammar): ``element.K23.push_stiffne
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import re
@@ -96,7 +95,7 @@ def fitted_text(text: str, result, source: str = "<string>") -> str:
     import tomlkit
 
     doc = tomlkit.parse(text)
-    inline_notes: list[tuple[str, str]] = []
+    inline_notes: list[tuple[str, str, str]] = []
     for i, key in enumerate(result.keys):
         if key == "align.offset":
             continue
@@ -128,8 +127,9 @@ def fitted_text(text: str, result, source: str = "<string>") -> str:
         was = f"was {tomlkit.item(old).as_string()}" if old is not None else f"was the default {_number(float(result.file_values[i]))}{shown_unit}"
         note = f"fitted: {was}; {interval}"
         if inline:
-            table[leaf] = new_value.value if hasattr(new_value, "value") else new_value
-            inline_notes.append((table.as_string().strip(), note))
+            marker = f"@@camsim-fit-{i}@@"
+            inline_notes.append((marker, new_value.as_string(), note))
+            table[leaf] = marker
             continue
         if old_item is not None:
             trivia = old_item.trivia
@@ -143,28 +143,36 @@ def fitted_text(text: str, result, source: str = "<string>") -> str:
         table[leaf] = new_value
     out = tomlkit.dumps(doc)
     if inline_notes:
-        out = _annotate_inline(text, out, inline_notes)
+        out = _annotate_inline(out, inline_notes)
     return out
 
 
-def _annotate_inline(before: str, after: str, notes: list[tuple[str, str]]) -> str:
-    """Append each inline-table note to the changed line that holds that inline table."""
-    old_lines = before.splitlines(keepends=True)
-    new_lines = after.splitlines(keepends=True)
-    changed = set()
-    for tag, _, _, j1, j2 in difflib.SequenceMatcher(a=old_lines, b=new_lines, autojunk=False).get_opcodes():
-        if tag in ("replace", "insert"):
-            changed.update(range(j1, j2))
-    for inline_text, note in notes:
-        for j in sorted(changed):
-            line = new_lines[j]
-            if inline_text in line:
-                body = line.rstrip("\r\n")
-                end = line[len(body):]
-                sep = " | " if "#" in body.replace(inline_text, "") else "  # "
-                new_lines[j] = body + sep + note + end
-                break
-    return "".join(new_lines)
+def _annotate_inline(text: str, notes: list[tuple[str, str, str]]) -> str:
+    """Put each inline-table value (held by a unique marker) in place, with its note at the line's end."""
+    lines = text.splitlines(keepends=True)
+    for marker, value_text, note in notes:
+        quoted = f'"{marker}"'
+        j = next(k for k, line in enumerate(lines) if quoted in line)
+        line = lines[j].replace(quoted, value_text)
+        body = line.rstrip("\r\n")
+        end = line[len(body):]
+        sep = " | " if _has_comment(body) else "  # "
+        lines[j] = body + sep + note + end
+    return "".join(lines)
+
+
+def _has_comment(line: str) -> bool:
+    """Whether a TOML line ends in a comment (a ``#`` outside strings)."""
+    quote = None
+    for ch in line:
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            return True
+    return False
 
 
 def write_fitted(path: str | os.PathLike[str], text: str, result, source: str = "<string>") -> Path:
