@@ -31,7 +31,7 @@ def plot_fit(result, title: str = ""):
     from matplotlib.figure import Figure
 
     from camsim.fit.measured import _QUANTITY_UNITS
-    from camsim.plot import _STYLE, _WIDTH, axis_label
+    from camsim.plot import _STYLE, _WIDTH, axis_label, pretty_units
 
     channels = result.channels
     n = max(1, len(channels))
@@ -44,7 +44,7 @@ def plot_fit(result, title: str = ""):
             unit = _QUANTITY_UNITS.get(path.rsplit("/", 1)[-1], "")
             ax.plot(t, y, ".", markersize=1.5, color="0.55", label="measured")
             ax.plot(t, sim, "-", color="C0", linewidth=1.0, label="fitted")
-            ax.set_ylabel(axis_label(path, unit))
+            ax.set_ylabel(axis_label(" ".join(path.split("/")[-2:]), unit))
             ax.legend(loc="upper right")
             ax.tick_params(labelbottom=False)
             res = sim - y
@@ -53,7 +53,7 @@ def plot_fit(result, title: str = ""):
             if s is not None:
                 axr.axhline(2 * s, color="0.4", linestyle="--", linewidth=0.7)
                 axr.axhline(-2 * s, color="0.4", linestyle="--", linewidth=0.7)
-            axr.set_ylabel(f"residual [{unit}]")
+            axr.set_ylabel(f"resid. [{pretty_units(unit)}]")
             if k == n - 1:
                 axr.set_xlabel("measured time [s]")
         if not channels:
