@@ -87,7 +87,8 @@ def test_inline_table_value_and_missing_key(tmp_path):
 
 def test_cli_json_schema_report_bytes_and_files(oscillator, osc_data, tmp_path):
     out, png = tmp_path / "fitted.toml", tmp_path / "fit.png"
-    args = ["fit", str(oscillator), str(osc_data), "--param", "element.K.stiffness=10:40N/mm", "-o", str(out), "--json"]
+    args = ["fit", str(oscillator), str(osc_data), "--param", "element.K.stiffness=10:40N/mm", "--param",
+            "element.K.damping_ratio=0.01:0.2", "-o", str(out), "--json"]  # fmt: skip
     res = runner.invoke(app, args + ["--report", str(png)])
     assert res.exit_code == 0, res.stderr
     payload = json.loads(res.stdout)
@@ -95,7 +96,7 @@ def test_cli_json_schema_report_bytes_and_files(oscillator, osc_data, tmp_path):
     entry = payload["parameters"]["element.K.stiffness"]
     assert list(entry) == ["value", "unit", "stderr", "ci95", "initial"]
     assert entry["unit"] == "N/m" and entry["initial"] == 20000.0 and entry["ci95"][0] < entry["value"] < entry["ci95"][1]
-    assert payload["converged"] is True and payload["correlation"] == [[1.0]]
+    assert payload["converged"] is True and len(payload["correlation"]) == 2 and payload["correlation"][0][0] == 1.0
     assert list(payload["rms_residual"]) == ["masses/M/acceleration"]
     first = png.read_bytes()
     assert first[:8] == b"\x89PNG\r\n\x1a\n" and out.exists()
