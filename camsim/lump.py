@@ -32,6 +32,7 @@ from typing import Any
 
 import tomli_w
 
+from camsim import elements as element_kinds
 from camsim.errors import InputError, MachineFileError
 from camsim.units import QuantityError, to_si, ureg
 
@@ -79,33 +80,11 @@ _COMMON_PART_KEYS = ("type", "note", "round", "unused")
 _TOP_KEYS = ("schema", "machine", "lever", "part", "cam", "mass", "element", "simulation", "initial")
 _LEVER_KEYS = ("from_arm", "to_arm", "note")
 _MASS_KEYS = ("name", "parts", "lever", "mass", "note")
-#: Element keys that may hold a part reference, and the kind they need.
-_ELEMENT_VALUE_KEYS = {
-    "stiffness": "stiffness",
-    "push_stiffness": "stiffness",
-    "pull_stiffness": "stiffness",
-    "preload": "force",
-}
-#: Every key an element may carry (spec §3 and §6); the others are passed through as given.
-_ELEMENT_KEYS = (
-    "name",
-    "type",
-    "between",
-    "note",
-    "stiffness",
-    "preload",
-    "push_stiffness",
-    "pull_stiffness",
-    "damping",
-    "damping_ratio",
-    "reference_mass",
-    "gap",
-    "law",
-    "coefficient",
-    "exponent",
-    "restitution",
-    "transducer",
-)
+#: Every key an element may carry: the element kinds' schema (camsim/elements/), plus a note.
+_ELEMENT_PARAMS = {p.key: p for cls in element_kinds.classes() for p in (*element_kinds.COMMON_PARAMS, *cls.params)}
+_ELEMENT_KEYS = (*_ELEMENT_PARAMS, "note")
+#: Element keys that may hold a part reference, and the kind they need (stiffnesses and forces).
+_ELEMENT_VALUE_KEYS = {k: p.dimension for k, p in _ELEMENT_PARAMS.items() if p.dimension in ("stiffness", "force")}
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _KIND_TEXT = {"mass": "a mass", "stiffness": "a stiffness", "force": "a force"}
 

@@ -7,8 +7,7 @@ import math
 from rich.console import Console
 from rich.table import Table
 
-#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²).
-LBF = 0.45359237 * 9.80665
+from camsim.units import LBF  # noqa: E402
 
 _UNITS = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
 

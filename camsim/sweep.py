@@ -62,6 +62,14 @@ DEFAULT_MAX_VARIANTS = 1000
 #: Seconds to wait for a Dask scheduler before giving up.
 SCHEDULER_TIMEOUT_S = 5.0
 
+#: Columns after the parameters and the run's scalars (:func:`camsim.result.scalar_columns`).
+STATUS_COLUMN = ("status", "")
+_RPM = 0.1
+#: Default largest number of variants run without confirmation (``--max-variants``).
+DEFAULT_MAX_VARIANTS = 1000
+#: Seconds to wait for a Dask scheduler before giving up.
+SCHEDULER_TIMEOUT_S = 5.0
+
 #: Columns after the parameters and per-mass peaks, with their SI units.
 FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
     ("peak_transducer_force", "N"),
@@ -73,34 +81,7 @@ FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
     ("periodicity_residual", ""),
     ("status", ""),
 )
-_PEAK_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _RPM = 60.0 / (2.0 * math.pi)  # rad/s -> rpm
-
-#: SI unit of each machine key leaf, for the ``param:<key>`` columns.
-_KEY_UNITS = {
-    "speed": "rad/s",
-    "ratio": "",
-    "arm": "m",
-    "start_angle": "rad",
-    "lift": "m",
-    "mass": "kg",
-    "stiffness": "N/m",
-    "push_stiffness": "N/m",
-    "pull_stiffness": "N/m",
-    "preload": "N",
-    "gap": "m",
-    "exponent": "",
-    "restitution": "",
-    "damping": "N*s/m",
-    "damping_ratio": "",
-    "cycles": "",
-    "warmup_cycles": "",
-    "sample_rate": "Hz",
-    "gravity": "m/s^2",
-    "displacement": "m",
-    "velocity": "m/s",
-}
-
 
 # --------------------------------------------------------------------------------------
 # Inputs
@@ -284,12 +265,9 @@ _KEY_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
 
 def key_unit(key: str) -> str:
     """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
-    leaf = key.rsplit(".", 1)[-1]
-    if key.startswith("simulation.") and leaf == "duration":
-        return "s"
-    if key.startswith("cam.segments") and leaf == "duration":
-        return "rad"
-    return _KEY_UNITS.get(leaf, "")
+    from camsim.schema import key_unit as schema_key_unit
+
+    return schema_key_unit(key)
 
 
 def machine_value(machine, key: str) -> Any:
@@ -362,51 +340,9 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
 
 
-def cam_force(result) -> np.ndarray | None:
-    """Force of the cam on the follower [N], compressive-positive.
-
-    :attr:`RunResult.cam_contact_force` for a machine whose cam drives a mass; for a cam
-    that acts through contact elements (``between = ["cam", ...]``), the sum of their
-    forces; None when the machine has neither.
-    """
-    if result.cam_contact_force is not None:
-        return result.cam_contact_force
-    from camsim.machine import CAM, Contact
-
-    names = [e.name for e in result.machine.elements if isinstance(e, Contact) and CAM in e.nodes and e.name in result.elements]
-    if not names:
-        return None
-    return np.sum([np.asarray(result.elements[n], dtype=float) for n in names], axis=0)
-
-
 def summary_row(result) -> dict[str, Any]:
-    """The summary columns of one :class:`~camsim.simulate.RunResult` (SI; NaN if absent).
-
-    Peaks are the largest absolute sampled values over the recorded window, as in
-    :meth:`RunResult.summary`; the cam contact force is :func:`cam_force`; ``jump`` is
-    :meth:`RunResult.follower_jumps`; ``max_impact_velocity`` is the largest
-    |relative velocity| of the impact and rejoin events.
-    """
-    nan = float("nan")
-    row: dict[str, Any] = {}
-    for name, traces in result.masses.items():
-        for quantity in ("displacement", "velocity", "acceleration"):
-            data = traces[quantity]
-            row[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
-    tf = result.transducer_force
-    row["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
-    cf = cam_force(result)
-    row["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
-    row["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
-    row["jump"] = bool(result.follower_jumps())
-    impacts = result.impacts()
-    row["impacts"] = len(impacts)
-    speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
-    row["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
-    residual = result.periodicity_residual
-    row["periodicity_residual"] = float(residual) if residual is not None else nan
-    row["status"] = "ok"
-    return row
+    """The summary columns of one run: :meth:`RunResult.scalars` and ``status = "ok"``."""
+    return {**result.scalars(), "status": "ok"}
 
 
 def run_variant(source: MachineSource, overrides: Sequence[str], settings: SweepSettings) -> tuple[dict[str, Any], Any]:
@@ -692,11 +628,9 @@ class SweepResult:
 
 def sweep_columns(keys: Sequence[str], masses: Sequence[str]) -> list[tuple[str, str]]:
     """The column names and SI units of a sweep over ``keys`` of a machine with ``masses``."""
-    cols = [(f"param:{k}", key_unit(k)) for k in keys]
-    for m in masses:
-        for q in ("displacement", "velocity", "acceleration"):
-            cols.append((f"peak_{q}:{m}", _PEAK_UNITS[q]))
-    return cols + list(FIXED_COLUMNS)
+    from camsim.result import scalar_columns
+
+    return [(f"param:{k}", key_unit(k)) for k in keys] + scalar_columns(list(masses)) + [STATUS_COLUMN]
 
 
 def _complete_row(row: dict[str, Any], columns: Sequence[tuple[str, str]]) -> dict[str, Any]:

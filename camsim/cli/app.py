@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -22,6 +23,7 @@ from rich.console import Console
 
 from camsim import __version__
 from camsim.errors import InputError, SimulationError
+from camsim.units import QuantityError, to_si
 
 #: Human output: stderr, colours only on a terminal; wide enough for the tables in logs.
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -75,6 +77,45 @@ def user_errors() -> Iterator[None]:
     except KeyboardInterrupt:
         err_console.print("camsim: interrupted; nothing was written under the output name")
         raise typer.Exit(code=130) from None
+
+
+def parse_sample_rate(text: str | None) -> float | None:
+    if text is None:
+        return None
+    try:
+        value = to_si(text, "frequency")
+    except QuantityError as exc:
+        raise fail(f"--sample-rate: {exc}") from None
+    if value <= 0:
+        raise fail("--sample-rate: must be positive")
+    return value
+
+
+class ProgressAfterOneSecond:
+    """A progress bar on stderr that appears only for runs longer than a second on a terminal."""
+
+    def __init__(self, description: str):
+        self.description = description
+        self.start = time.monotonic()
+        self.progress = None
+        self.task = None
+
+    def __call__(self, fraction: float) -> None:
+        if not err_console.is_terminal:
+            return
+        if self.progress is None:
+            if time.monotonic() - self.start < 1.0:
+                return
+            from rich.progress import Progress
+
+            self.progress = Progress(console=err_console, transient=True)
+            self.progress.start()
+            self.task = self.progress.add_task(self.description, total=1.0)
+        self.progress.update(self.task, completed=fraction)
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
 
 
 def print_json(payload: Any) -> None:

@@ -46,7 +46,7 @@ def compare_command(
     100·(impact − no impact)/max|impact| with its time. With two run files (two designs,
     two speeds): the same table for A against B when their time grids match.
     """
-    from camsim.cli.cmd_run import ProgressAfterOneSecond, parse_sample_rate
+    from camsim.cli.app import ProgressAfterOneSecond, parse_sample_rate
     from camsim.compare import compare_files, compare_machine, write_file_comparison
 
     with user_errors():

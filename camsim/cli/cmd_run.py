@@ -2,57 +2,16 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
-from camsim.units import QuantityError, to_si
+from camsim.cli.app import ProgressAfterOneSecond, app, err_console, parse_sample_rate, print_json, user_errors
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm.h5`` (next to the input)."""
     return machine_path.with_name(machine_path.stem + suffix + ".h5")
-
-
-def parse_sample_rate(text: str | None) -> float | None:
-    if text is None:
-        return None
-    try:
-        value = to_si(text, "frequency")
-    except QuantityError as exc:
-        raise fail(f"--sample-rate: {exc}") from None
-    if value <= 0:
-        raise fail("--sample-rate: must be positive")
-    return value
-
-
-class ProgressAfterOneSecond:
-    """A progress bar on stderr that appears only for runs longer than a second on a terminal."""
-
-    def __init__(self, description: str):
-        self.description = description
-        self.start = time.monotonic()
-        self.progress = None
-        self.task = None
-
-    def __call__(self, fraction: float) -> None:
-        if not err_console.is_terminal:
-            return
-        if self.progress is None:
-            if time.monotonic() - self.start < 1.0:
-                return
-            from rich.progress import Progress
-
-            self.progress = Progress(console=err_console, transient=True)
-            self.progress.start()
-            self.task = self.progress.add_task(self.description, total=1.0)
-        self.progress.update(self.task, completed=fraction)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
 
 
 @app.command("run")
@@ -88,9 +47,9 @@ def run_command(
         target = output if output is not None else default_output(machine)
         check_writable(target)
         if check_against is not None:
-            from camsim.io.results import open_result
+            from camsim.io.results import open_h5
 
-            open_result(check_against).close()
+            open_h5(check_against).close()
         progress = ProgressAfterOneSecond(f"simulating {loaded.name}")
         try:
             result = simulate(loaded, no_impact=no_impact, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, progress=progress)

@@ -142,7 +142,7 @@ def sweep_command(
     variants are in the table), 2 on bad input, 130 after Ctrl-C (finished rows are
     written, the rest marked "cancelled").
     """
-    from camsim.cli.cmd_run import parse_sample_rate
+    from camsim.cli.app import parse_sample_rate
     from camsim.io.atomic import check_writable
     from camsim.sweep import csv_path_for, jsonable_rows, run_sweep, write_sweep
 
