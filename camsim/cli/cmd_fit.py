@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors
 
 
 def _default_output(machine: Path) -> Path:
@@ -101,7 +101,6 @@ def fit_command(
     identifiability warnings, and writes FITTED.toml (-o). Exit 0 on a converged fit,
     1 when the fit does not converge or a run fails (nothing written), 2 on bad input.
     """
-    from camsim.cli.cmd_run import parse_sample_rate
     from camsim.fit import fit, write_fitted
     from camsim.io.atomic import check_writable
 

@@ -114,8 +114,6 @@ def result_paths(machine) -> dict[str, str]:
         path → unit, e.g. ``{"cam/displacement": "m", "masses/M3/acceleration": "m/s^2",
         "elements/seat/force": "N", "transducer/force": "N", ...}``.
     """
-    from camsim.machine import Contact
-
     paths: dict[str, str] = {}
     for q in ("angle", "displacement", "velocity", "acceleration", "jerk"):
         paths[f"cam/{q}"] = _QUANTITY_UNITS[q]
@@ -126,29 +124,14 @@ def result_paths(machine) -> dict[str, str]:
         paths[f"elements/{e.name}/force"] = "N"
     if machine.cam is not None and machine.cam.drives:
         paths["cam_contact/force"] = "N"
-    if any(isinstance(e, Contact) and e.transducer for e in machine.elements):
+    if any(getattr(e, "transducer", False) for e in machine.elements):
         paths["transducer/force"] = "N"
     return paths
 
 
 def trace(result, path: str) -> np.ndarray:
-    """The SI samples of result path ``path`` of a :class:`~camsim.simulate.RunResult`.
-
-    The one place that knows how a RunResult stores its traces (to become
-    ``result.trace(path)`` once the result object offers it).
-    """
-    parts = path.split("/")
-    if parts[0] == "cam":
-        return np.asarray(result.cam[parts[1]], dtype=float)
-    if parts[0] == "masses":
-        return np.asarray(result.masses[parts[1]][parts[2]], dtype=float)
-    if parts[0] == "elements":
-        return np.asarray(result.elements[parts[1]], dtype=float)
-    if path == "cam_contact/force":
-        return np.asarray(result.cam_contact_force, dtype=float)
-    if path == "transducer/force":
-        return np.asarray(result.transducer_force, dtype=float)
-    raise KeyError(path)
+    """The SI samples of result path ``path`` of a :class:`~camsim.result.RunResult`."""
+    return np.asarray(result.trace(path), dtype=float)
 
 
 def _convert(values: np.ndarray, unit: str, target: str) -> np.ndarray:

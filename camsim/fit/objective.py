@@ -91,12 +91,10 @@ def scalar_units(machine) -> dict[str, str]:
 def run_scalars(result) -> dict[str, float]:
     """The scalars of :func:`scalar_units` for one RunResult (NaN where they do not exist).
 
-    The one place that reads scalars off a result (to become ``result.scalars()`` plus the
-    impact times once the result object offers them).
+    :meth:`RunResult.scalars` (the numbers among them) plus the impact times and the time
+    of the peak transducer force.
     """
-    from camsim.sweep import summary_row
-
-    row = {k: v for k, v in summary_row(result).items() if isinstance(v, float)}
+    row = {k: v for k, v in result.scalars().items() if isinstance(v, float)}
     nan = math.nan
     tf = result.transducer_force
     row["peak_transducer_force_time"] = float(result.time[int(np.argmax(tf))]) if tf is not None and tf.size else nan
