@@ -239,11 +239,17 @@ def fit(
     shift = float(x[len(parameters)]) if shift_bound is not None else 0.0
     from camsim.fit.params import override_text
 
+    given = np.array([p.start for p in all_params], dtype=float)
+
+    def start_value(sol) -> np.ndarray:
+        # the given start exactly (not through the [0, 1] mapping), else the hypercube point
+        return given if sol is solutions[0] else problem.x(sol.start_u)
+
     return FitResult(
         keys=keys,
         units=[p.unit for p in all_params],
         values=x,
-        initial=problem.x(best.start_u),
+        initial=start_value(best),
         file_values=np.array([p.initial for p in all_params], dtype=float),
         stderr=stats.stderr,
         ci95=stats.ci95,
@@ -262,7 +268,7 @@ def fit(
         dof=stats.dof,
         starts=[
             {
-                "start": problem.x(s.start_u).tolist(),
+                "start": start_value(s).tolist(),
                 "value": problem.x(s.u).tolist(),
                 "cost": s.cost,
                 "converged": s.converged,

@@ -107,3 +107,40 @@ def test_intervals_are_honest_fast(oscillator, tmp_path):
 def test_intervals_are_honest_100_repetitions(oscillator, tmp_path):
     hits, est, se = _coverage(oscillator, tmp_path, 100)
     assert np.all(hits >= 90), hits  # each parameter's interval holds the truth in >= 90 of 100
+
+
+def _linear_data(tmp_path, seed=21):
+    t = np.arange(0, 501) / 1000.0
+    s, a, force = _closed_form_force(t)
+    y = force + np.random.default_rng(seed).normal(0.0, 0.5, t.size)
+    return t, s, a, y, write_measured(tmp_path / "m.csv", t, {"cam_contact/force": (y, "N")})
+
+
+def test_window_compares_only_its_samples(driven, tmp_path):
+    t, s, a, y, csv = _linear_data(tmp_path)
+    r = fit(driven, csv, ["element.K.preload=0:100N", "element.K.stiffness=1000:10000"], window="100:300ms")
+    keep = (t >= 0.1) & (t <= 0.3)
+    X = np.column_stack([np.ones(keep.sum()), s[keep]])
+    beta, *_ = np.linalg.lstsq(X, (y - MASS * a)[keep], rcond=None)
+    np.testing.assert_allclose(r.values, beta, rtol=1e-6)
+    assert r.dof == keep.sum() - 2
+
+
+def test_workers_log_scale_and_multistart_reach_the_same_optimum(driven, tmp_path):
+    # the closed-form optimum again, reached with a process pool, a log-scale stiffness
+    # and three starts (two of them Latin-hypercube points)
+    t, s, a, y, csv = _linear_data(tmp_path)
+    X = np.column_stack([np.ones_like(s), s])
+    beta, *_ = np.linalg.lstsq(X, y - MASS * a, rcond=None)
+    params = ["element.K.preload=0:100N", "element.K.stiffness=1000:10000"]
+    r = fit(driven, csv, params, log=["element.K.stiffness"], workers=2, starts=3, seed=4)
+    np.testing.assert_allclose(r.values, beta, rtol=1e-6)
+    assert len(r.starts) == 3 and all(st["converged"] for st in r.starts)
+    starts = np.array([st["start"] for st in r.starts])
+    assert starts[0].tolist() == [40.0, 5000.0]  # the file's values come first
+    assert np.all((starts[1:, 0] > 0) & (starts[1:, 0] < 100) & (starts[1:, 1] > 1000) & (starts[1:, 1] < 10000))
+    again = fit(driven, csv, params, log=["element.K.stiffness"], starts=3, seed=4)
+    assert [st["start"] for st in again.starts] == [st["start"] for st in r.starts]  # seeded
+    # log scale: the interval of ln k mapped back, so it is wider above than below
+    lo, hi = r.ci95[1]
+    assert lo < beta[1] < hi and hi - r.values[1] > r.values[1] - lo
