@@ -69,7 +69,7 @@ def fit_command(
         [],
         "--target",
         metavar="NAME=VALUE[UNIT]",
-        help="A scalar of the run to match, e.g. max_transducer_force=148lbf, first_impact_time=0.31s, peak_acceleration:M3=900m/s^2 (default uncertainty 1 %% of the value; see --sigma). Repeatable.",
+        help="A scalar of the run to match, e.g. max_transducer_force=148lbf, first_impact_time=0.31s, peak_acceleration:M3=900m/s^2 (default uncertainty 1 % of the value; see --sigma). Repeatable.",
     ),
     sigma: list[str] = typer.Option(
         [],
@@ -78,7 +78,7 @@ def fit_command(
         help="Noise level of a measured column or a target, e.g. transducer/force=0.5lbf (default: estimated from the data). Repeatable.",
     ),
     align: str = typer.Option("none", "--align", metavar="none|offset", help="offset: also fit a time shift between measured and simulated time (bounded by --max-shift)."),
-    max_shift: str = typer.Option(None, "--max-shift", metavar="VALUE[UNIT]", help="Bound of the fitted time shift, e.g. 5ms (default: 5 %% of the cam period)."),
+    max_shift: str = typer.Option(None, "--max-shift", metavar="VALUE[UNIT]", help="Bound of the fitted time shift, e.g. 5ms (default: 5 % of the cam period)."),
     window: str = typer.Option(None, "--window", metavar="START:STOP[UNIT]", help="Compare only measured times in this window, e.g. 0.1:0.3 or 100:300ms (default unit s)."),
     drop_nan: bool = typer.Option(False, "--drop-nan", help="Leave out NaN or empty cells of the measured file (else they are an error)."),
     output: Path = typer.Option(None, "-o", "--output", help="Fitted machine file: the input with the fitted values in place, in the units written, with comments. Default: <machine>_fitted.toml."),
