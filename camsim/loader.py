@@ -74,6 +74,8 @@ INITIAL_KEYS = schema.keys("initial")
 ELEMENT_TYPES = element_kinds.element_types()
 ELEMENT_COMMON_KEYS = tuple(p.key for p in element_kinds.COMMON_PARAMS)
 ELEMENT_TYPE_KEYS = {kind: element_kinds.type_keys(kind) for kind in ELEMENT_TYPES}
+# (These two are the kinds registered when the loader was imported; the loader itself asks
+# the registry each time, so a kind registered later — a plug-in — is accepted too.)
 SIMULATION_KEYS = ("cycles", "warmup_cycles", "sample_rate", "gravity", "duration")
 INITIAL_KEYS = ("displacement", "velocity")
 
@@ -268,7 +270,7 @@ def override_keys(doc: dict) -> list[str]:
         keys += [f"mass.{name}.{k}" for k in MASS_KEYS if k != "name"]
     for name, row in _named_rows(doc.get("element")).items():
         kind = row.get("type")
-        extra = ELEMENT_TYPE_KEYS.get(kind, ()) if isinstance(kind, str) else ()
+        extra = element_kinds.type_keys(kind) if isinstance(kind, str) else ()
         keys += [f"element.{name}.{k}" for k in ELEMENT_COMMON_KEYS + extra if k != "name"]
     keys += [f"simulation.{k}" for k in SIMULATION_KEYS]
     driven = cam.get("drives") if isinstance(cam, dict) else None
@@ -512,7 +514,7 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
             valid = MASS_KEYS
         else:
             kind = row.get("type")
-            valid = ELEMENT_COMMON_KEYS + (ELEMENT_TYPE_KEYS.get(kind, ()) if isinstance(kind, str) else ())
+            valid = ELEMENT_COMMON_KEYS + (element_kinds.type_keys(kind) if isinstance(kind, str) else ())
         prefix = f"{head}[{index}]" if head_index is not None else f"{head}.{names[1][0]}"
         if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in valid:
             word = rest[0][0] if rest else ""
@@ -1033,8 +1035,8 @@ class _Validator:
                 raise self.error(f"{path}.name", "must not be empty")
             if any(e.name == name for e in result):
                 raise self.error(f"{path}.name", f'duplicate element name "{name}"')
-            kind = self.choice(row, "type", path, ELEMENT_TYPES, required=True)
-            self.check_keys(row, ELEMENT_COMMON_KEYS + ELEMENT_TYPE_KEYS[kind], path, f"for a {kind} element")
+            kind = self.choice(row, "type", path, element_kinds.element_types(), required=True)
+            self.check_keys(row, ELEMENT_COMMON_KEYS + element_kinds.type_keys(kind), path, f"for a {kind} element")
             lower, upper = self.between(row, path, nodes)
             laws = element_kinds.laws_of(kind)
             law = None

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -89,33 +88,6 @@ def parse_sample_rate(text: str | None) -> float | None:
     if value <= 0:
         raise fail("--sample-rate: must be positive")
     return value
-
-
-class ProgressAfterOneSecond:
-    """A progress bar on stderr that appears only for runs longer than a second on a terminal."""
-
-    def __init__(self, description: str):
-        self.description = description
-        self.start = time.monotonic()
-        self.progress = None
-        self.task = None
-
-    def __call__(self, fraction: float) -> None:
-        if not err_console.is_terminal:
-            return
-        if self.progress is None:
-            if time.monotonic() - self.start < 1.0:
-                return
-            from rich.progress import Progress
-
-            self.progress = Progress(console=err_console, transient=True)
-            self.progress.start()
-            self.task = self.progress.add_task(self.description, total=1.0)
-        self.progress.update(self.task, completed=fraction)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
 
 
 def print_json(payload: Any) -> None:

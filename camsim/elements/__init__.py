@@ -23,6 +23,7 @@ from camsim.elements.base import (
     key_laws,
     laws_of,
     param,
+    register,
     type_keys,
 )
 # Registration order is the order of the docs and of messages: springs, links, contacts.
@@ -37,5 +38,5 @@ __all__ = [
     "CAM", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
     "Branch", "Contact", "Damping", "Element", "GuardKind", "LinearContact", "Outcome", "Param",
     "PowerContact", "PreloadedLink", "RigidContact", "Spring",
-    "classes", "element_class", "element_types", "key_laws", "laws_of", "param", "type_keys",
+    "classes", "element_class", "element_types", "key_laws", "laws_of", "param", "register", "type_keys",
 ]
