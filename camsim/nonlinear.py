@@ -100,12 +100,9 @@ class PowerContactStepper:
 
     # ------------------------------------------------------------------ contact law
     def chi(self, v_impacts) -> float:
-        model = self.integrator.model
-        element = model.elements[self.index]
-        v = v_impacts.get(self.index)
-        if element.restitution is None or not v:
-            return 0.0
-        return model.hc_alpha(self.index) / v
+        """Hunt–Crossley χ [s/m] of the contact for this closed phase."""
+        element = self.integrator.model.elements[self.index]
+        return element.hysteresis(v_impacts.get(self.index))
 
     def law(self, k: float, c: float):
         """(linear system, its StepMaps, W_L) for the ladder rungs nearest k, c."""

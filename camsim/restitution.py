@@ -45,6 +45,7 @@ inverts it once (Brent's method on ln e, to 1e-15 relative).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -158,6 +159,7 @@ DAMPING_MODELS = {
 }
 
 
+@functools.lru_cache(maxsize=1024)
 def hc_alpha(e: float, model: str = "exact") -> float:
     """α = χ·v for restitution ``e`` under a ``damping_model`` [-] (see :data:`DAMPING_MODELS`)."""
     try:

@@ -42,9 +42,9 @@ import itertools
 
 import numpy as np
 
+from camsim.elements import Branch, Contact
 from camsim.errors import SimulationError
-from camsim.machine import Contact
-from camsim.model import Branch
+from camsim.events import EventKind
 
 #: A rigid contact whose remaining chatter time is below this sticks at once [s].
 ZENO_TIME = 1e-11
@@ -179,7 +179,7 @@ def resolve(integrator, state, trigger: int, kind: str):
     w_plus = w_minus + W @ P
     for k, (pos, i) in enumerate(touching):
         if closing[k]:
-            integrator._record(t, i, "impact", -w_minus[k])
+            integrator._record(t, i, EventKind.IMPACT, -w_minus[k])
 
     # ---- which contacts rest: zero relative velocity, or a chatter that ends at once
     a_open, acc = open_accelerations(v)
@@ -241,8 +241,8 @@ def resolve(integrator, state, trigger: int, kind: str):
         was = branches[pos]
         now = Branch.STUCK if k in stuck else Branch.OPEN
         if now == Branch.STUCK and was != Branch.STUCK:
-            integrator._record(t, i, "stick", 0.0)
+            integrator._record(t, i, EventKind.STICK, 0.0)
         elif now == Branch.OPEN and was == Branch.STUCK:
-            integrator._record(t, i, "release", -w_plus[k])
+            integrator._record(t, i, EventKind.RELEASE, -w_plus[k])
         branches[pos] = now
     return State(t, x, v, tuple(branches), dict(state.v_impacts))

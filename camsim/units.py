@@ -39,6 +39,7 @@ DIMENSIONS: dict[str, str] = {
     "force": "N",
     "stiffness": "N/m",
     "damping": "N*s/m",
+    "slowness": "s/m",
     "angle": "rad",
     "angular_speed": "rad/s",
     "frequency": "Hz",
@@ -58,6 +59,7 @@ _DIMENSION_TEXT = {
     "force": "[force]",
     "stiffness": "[force]/[length]",
     "damping": "[force]*[time]/[length]",
+    "slowness": "[time]/[length]",
     "angle": "[angle]",
     "angular_speed": "[angle]/[time]",
     "frequency": "1/[time]",
@@ -144,3 +146,7 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
     if not math.isfinite(number):
         raise QuantityError(f'expected a finite {shown}, got "{value}"')
     return number
+
+
+#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²), for human tables.
+LBF = 0.45359237 * 9.80665
