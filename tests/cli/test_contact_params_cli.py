@@ -1,0 +1,65 @@
+"""Malformed contact parameters (issue 12): one line naming file and key, exit 2, no output.
+
+Reference: the project's error contract (conventions: ``file: key: message``, exit 2,
+nothing written) and the parameter ranges of spec §3.
+"""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from camsim.cli import app
+
+BASE = """
+schema = 1
+[machine]
+name = "drop"
+[[mass]]
+name = "ball"
+mass = "0.01 kg"
+[[element]]
+name = "stop"
+type = "contact"
+between = ["ground", "ball"]
+gap = 0
+{contact}
+[initial.ball]
+displacement = "1 mm"
+velocity = "0 m/s"
+[simulation]
+gravity = true
+duration = "20 ms"
+warmup_cycles = 0
+sample_rate = "10 kHz"
+"""
+
+POWER = 'law = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = 1.5\n'
+
+
+@pytest.mark.parametrize(
+    ("contact", "key"),
+    [
+        (POWER + "restitution = 0", "element[0].restitution"),
+        (POWER + "restitution = 1.2", "element[0].restitution"),
+        (POWER + "restitution = -0.5", "element[0].restitution"),
+        (POWER + 'restitution = 0.5\nhysteresis_damping = "0.3 s/m"', "element[0].hysteresis_damping"),
+        (POWER + 'restitution = 0.5\ndamping_model = "hunt"', "element[0].damping_model"),
+        (POWER + 'hysteresis_damping = "-1 s/m"', "element[0].hysteresis_damping"),
+        (POWER + 'hysteresis_damping = "2 N"', "element[0].hysteresis_damping"),
+        ('law = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = -1.5', "element[0].exponent"),
+        ('law = "linear"\nstiffness = "1e5 N/m"\ndamping_model = "exact"', "element[0].damping_model"),
+        ('law = "restitution"\nrestitution = 1.5', "element[0].restitution"),
+    ],
+)
+def test_malformed_contact_parameters(tmp_path, contact, key):
+    machine = tmp_path / "m.toml"
+    machine.write_text(BASE.replace("{contact}", contact), encoding="utf-8")
+    out = tmp_path / "out.h5"
+    result = CliRunner().invoke(app, ["run", str(machine), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1, result.output
+    assert str(machine) in lines[0] and key in lines[0], lines[0]
+    assert "Traceback" not in result.output
+    assert not out.exists()
