@@ -294,7 +294,10 @@ def damping_coefficients(machine: Machine, element: Element) -> dict[str, float]
         for a preloaded link, ``{}`` for power-law and restitution contacts (which take
         no viscous damping).
     """
-    return element.damping_coefficients(lambda: machine.mass_of(reference_mass_of(element)))
+    from camsim.restitution import reduced_mass
+
+    return element.damping_coefficients(lambda: machine.mass_of(reference_mass_of(element)),
+                                        lambda: reduced_mass(machine, element))
 
 
 def reference_mass_of(element: Element) -> str:

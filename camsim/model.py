@@ -28,6 +28,7 @@ import scipy.linalg
 from camsim.affine import N_INPUT, Affine
 from camsim.elements import CAM, GROUND, Branch, Element
 from camsim.errors import InputError
+from camsim.restitution import reduced_mass
 from camsim.machine import Machine
 
 
@@ -103,7 +104,8 @@ class Model:
         self.elements: list[Element] = elements
         self.geometry = [self._geometry(e) for e in elements]
         self.switching = [i for i, e in enumerate(elements) if e.branches(no_impact)]
-        self.damping = [e.damping_coefficients(lambda e=e: self.reference_mass(e)) for e in elements]
+        self.damping = [e.damping_coefficients(lambda e=e: self.reference_mass(e),
+                                               lambda e=e: reduced_mass(machine, e)) for e in elements]  # issue 12
         self._configs: dict[tuple[Branch, ...], Configuration] = {}
 
     # ------------------------------------------------------------------ geometry

@@ -60,6 +60,7 @@ __all__ = [
     "hc_rebound",
     "linear_damping_ratio",
     "linear_restitution",
+    "reduced_mass",
 ]
 
 
@@ -283,3 +284,17 @@ def linear_damping_ratio(e: float) -> float:
     while math.log(linear_restitution(hi)) > target:
         hi *= 2.0
     return brentq(lambda z: math.log(linear_restitution(z)) - target, 0.0, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500)
+
+
+def reduced_mass(machine, element) -> float:
+    """m1·m2/(m1 + m2) of an element's two nodes [kg]; ground, the cam and a driven mass
+    count as infinite (they do not yield to the contact)."""
+    driven = machine.cam.drives if machine.cam is not None else None
+    inverse = 0.0
+    for node in (element.lower, element.upper):
+        if node in ("ground", "cam") or node == driven:
+            continue
+        inverse += 1.0 / machine.mass_of(node)
+    if inverse == 0.0:
+        raise ValueError(f"element {element.name}: no free mass on either side")
+    return 1.0 / inverse

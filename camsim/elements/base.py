@@ -215,8 +215,13 @@ class Element:
         """Stiffness of each branch that a damping ratio refers to, by damping name."""
         return {}
 
-    def damping_coefficients(self, reference_mass: Callable[[], float]) -> dict[str, float]:
-        """Viscous coefficient [N·s/m] per damping name (see :meth:`branch_stiffnesses`)."""
+    def damping_coefficients(self, reference_mass: Callable[[], float],
+                             reduced_mass: Callable[[], float] | None = None) -> dict[str, float]:
+        """Viscous coefficient [N·s/m] per damping name (see :meth:`branch_stiffnesses`).
+
+        ``reduced_mass`` gives m1·m2/(m1 + m2) of the element's two nodes [kg] (a fixed or
+        driven node counts as infinite), for laws whose damping follows from a restitution.
+        """
         stiffnesses = self.branch_stiffnesses()
         d = self.damping
         if not stiffnesses:

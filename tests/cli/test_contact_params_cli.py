@@ -50,6 +50,8 @@ POWER = 'law = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = 1.5\n'
         ('law = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = -1.5', "element[0].exponent"),
         ('law = "linear"\nstiffness = "1e5 N/m"\ndamping_model = "exact"', "element[0].damping_model"),
         ('law = "restitution"\nrestitution = 1.5', "element[0].restitution"),
+        ('law = "linear"\nstiffness = "1e5 N/m"\nrestitution = 0.5\ndamping_ratio = 0.1', "element[0].restitution"),
+        ('law = "linear"\nstiffness = "1e5 N/m"\nrestitution = 0', "element[0].restitution"),
     ],
 )
 def test_malformed_contact_parameters(tmp_path, contact, key):
