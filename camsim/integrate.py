@@ -576,7 +576,8 @@ class Integrator:
         z0 = config.state_from_full(state.x, state.v, u0[0], u0[1])
         if config.linear:
             return self._advance_linear(state, config, z0, guards, t_stop, record)
-        if len(config.power_contacts) == 1 and config.dim and NONLINEAR_STEPPER:
+        if (len(config.power_contacts) == 1 and config.dim and NONLINEAR_STEPPER
+                and hasattr(self.model.elements[config.power_contacts[0]], "nonlinear_tangent")):
             return advance_power(self, state, config, z0, guards, t_stop, record)  # issue 12 hook
         return self._advance_nonlinear(state, config, z0, guards, t_stop, record)
 

@@ -1,15 +1,17 @@
-"""Closed power-law contacts: exact linear propagation plus an iterated remainder.
+"""Closed nonlinear contacts: exact linear propagation plus an iterated remainder.
 
-A configuration with one closed power-law contact obeys
+A configuration with one closed nonlinear contact (a power law, ``F = C·δ^a·(1 + χ·δ̇)``,
+or Adams's IMPACT) obeys
 
-    ż = A·z + B·u(t) + b + L·F(δ, δ̇),      F = C·δ^a·(1 + χ·δ̇)  (≥ 0),
+    ż = A·z + B·u(t) + b + L·F(δ, δ̇),
 
 δ and δ̇ affine in (z, u). Written around a linear contact law k·δ + c·δ̇,
 
     ż = A_J·z + B_J·u(t) + b + L·r(t),       r = F(δ, δ̇) − k·δ − c·δ̇,
 
-where A_J, B_J hold the linear law (k, c near the tangent stiffness and damping of the
-contact, a_t·C·δ^(a−1)·(1 + χδ̇) and C·δ^a·χ, on a geometric ladder of ratio
+where A_J, B_J hold the linear law (k, c near the tangent stiffness ∂F/∂δ and damping
+∂F/∂δ̇ of the contact, which the element's ``nonlinear_tangent`` gives, on a geometric
+ladder of ratio
 :data:`LADDER` so that their exact step maps are built once and reused). The stiff
 contact mode is then carried by the exact step map of the linear system
 (:class:`camsim.integrate.StepMaps`: Φ = e^{A_J·h} and the input integrals Γ_j), and only
@@ -94,17 +96,16 @@ class PowerContactStepper:
         delta, rate = integrator._delta(config, self.index)
         self.dz, self.du, self.de = delta.Cz[0], delta.Du[0], float(delta.e[0])
         self.rz, self.ru, self.re = rate.Cz[0], rate.Du[0], float(rate.e[0])
-        element = model.elements[self.index]
-        self.C = element.coefficient
-        self.a = element.exponent
+        self.element = model.elements[self.index]
+        self.v_impact = None
         self.L = config.L[:, 0]
         self.laws: dict[tuple[int, int], tuple[_LinearLaw, object, np.ndarray]] = {}
 
     # ------------------------------------------------------------------ contact law
     def chi(self, v_impacts) -> float:
-        """Hunt–Crossley χ [s/m] of the contact for this closed phase."""
-        element = self.integrator.model.elements[self.index]
-        return element.hysteresis(v_impacts.get(self.index))
+        """Set the closed phase's approach speed (the law's damping may depend on it)."""
+        self.v_impact = v_impacts.get(self.index)
+        return 0.0
 
     def law(self, k: float, c: float):
         """(linear system, its StepMaps, W_L) for the ladder rungs nearest k, c."""
@@ -131,21 +132,10 @@ class PowerContactStepper:
         return hit
 
     def force(self, z, u, chi):
-        """δ, δ̇, F, ∂F/∂δ, ∂F/∂δ̇ at nodes (arrays)."""
+        """δ, δ̇, F, ∂F/∂δ, ∂F/∂δ̇ at nodes (arrays), from the element's law."""
         d = z @ self.dz + u @ self.du + self.de
         dd = z @ self.rz + u @ self.ru + self.re
-        pen = np.maximum(d, 0.0)
-        base = self.C * pen**self.a
-        fac = 1.0 + chi * dd
-        F = base * fac
-        with np.errstate(divide="ignore", invalid="ignore"):
-            kt = np.where(pen > 0, self.a * base / np.where(pen > 0, pen, 1.0), 0.0) * fac
-        ct = base * chi
-        neg = F < 0
-        if np.any(neg):
-            F = np.where(neg, 0.0, F)
-            kt = np.where(neg, 0.0, kt)
-            ct = np.where(neg, 0.0, ct)
+        F, kt, ct = self.element.nonlinear_tangent(d, dd, self.v_impact)
         return d, dd, F, kt, ct
 
 
@@ -470,17 +460,13 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     Mz = np.vstack([stepper.dz, stepper.rz])
     Mu = np.vstack([stepper.du, stepper.ru])
     me = np.array([stepper.de, stepper.re])
-    C, a = stepper.C, stepper.a
+    force_of = stepper.element.nonlinear_force_scalar
+    v_impact = stepper.v_impact
 
     def rhs(t, z):
         u = cam_input(t)
         d, dd = Mz @ z + Mu @ u + me
-        force = 0.0
-        if d > 0.0:
-            force = C * d**a * (1.0 + chi * dd)
-            if force < 0.0:
-                force = 0.0
-        return A @ z + B @ u + b + L * force
+        return A @ z + B @ u + b + L * force_of(d, dd, v_impact)
 
     events = []
     u0 = cam_input(state.t)

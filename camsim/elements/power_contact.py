@@ -107,6 +107,19 @@ class PowerContact(Contact):
             force *= 1.0 + chi * delta_rate
         return force if force > 0.0 else 0.0
 
+    def nonlinear_tangent(self, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None):
+        """(F, ∂F/∂δ, ∂F/∂δ̇) on samples [N, N/m, N·s/m] (zero where the force is clamped)."""
+        pen = np.maximum(delta, 0.0)
+        base = self.coefficient * pen**self.exponent
+        chi = self.hysteresis(v_impact)
+        factor = 1.0 + chi * delta_rate
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kt = np.where(pen > 0, self.exponent * base / np.where(pen > 0, pen, 1.0), 0.0) * factor
+        F = base * factor
+        ct = base * chi
+        off = F <= 0.0
+        return np.where(off, 0.0, F), np.where(off, 0.0, kt), np.where(off, 0.0, ct)
+
     def force(self, branch, d, d_rate, damping, v_impact):
         if branch != Branch.CLOSED:
             return np.zeros_like(d)

@@ -50,6 +50,16 @@ POWER = 'law = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = 1.5\n'
         ('law = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = -1.5', "element[0].exponent"),
         ('law = "linear"\nstiffness = "1e5 N/m"\ndamping_model = "exact"', "element[0].damping_model"),
         ('law = "restitution"\nrestitution = 1.5', "element[0].restitution"),
+        ('law = "adams-impact"\nexponent = -1.5\nstiffness = "1e8 N/m**1.5"\nmax_damping = "10 N*s/m"\n'
+         'penetration_depth = "0.1 mm"', "element[0].exponent"),
+        ('law = "adams-impact"\nexponent = 1.5\nstiffness = "1e8 N/m**1.5"\nmax_damping = "10 N*s/m"\n'
+         'penetration_depth = "-0.1 mm"', "element[0].penetration_depth"),
+        ('law = "adams-impact"\nexponent = 1.5\nstiffness = "1e8 N/m**1.5"\nmax_damping = "10 N*s/m"\n'
+         'penetration_depth = "0 mm"', "element[0].penetration_depth"),
+        ('law = "adams-impact"\nexponent = 1.5\nstiffness = "1e8 N/m"\nmax_damping = "10 N*s/m"\n'
+         'penetration_depth = "0.1 mm"', "element[0].stiffness"),
+        ('law = "adams-impact"\nexponent = 1.5\nstiffness = "1e8 N/m**1.5"\nmax_damping = "-10 N*s/m"\n'
+         'penetration_depth = "0.1 mm"', "element[0].max_damping"),
         ('law = "linear"\nstiffness = "1e5 N/m"\nrestitution = 0.5\ndamping_ratio = 0.1', "element[0].restitution"),
         ('law = "linear"\nstiffness = "1e5 N/m"\nrestitution = 0', "element[0].restitution"),
     ],
