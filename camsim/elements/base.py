@@ -42,7 +42,8 @@ class Branch(str, Enum):
     JOINED = "joined"  # preloaded link, d ≤ d_sep
     SEPARATED = "separated"  # preloaded link, d > d_sep
     OPEN = "open"  # contact carries no force
-    CLOSED = "closed"  # compliant contact pressing (linear or power law)
+    CLOSED = "closed"  # compliant contact pressing (linear or power law); a lash's lower side
+    CLOSED_HIGH = "closed-high"  # a lash pressing on its upper side (issue 12)
     STUCK = "stuck"  # rigid contact resting closed: a constraint
     BILATERAL = "bilateral"  # no-impact variant: cam contact that never opens
 

@@ -75,3 +75,43 @@ def test_malformed_contact_parameters(tmp_path, contact, key):
     assert str(machine) in lines[0] and key in lines[0], lines[0]
     assert "Traceback" not in result.output
     assert not out.exists()
+
+
+LASH = """
+schema = 1
+[machine]
+name = "lash"
+[[mass]]
+name = "M"
+mass = "0.5 kg"
+[[element]]
+name = "slot"
+type = "lash"
+between = ["ground", "M"]
+{lash}
+[simulation]
+duration = "10 ms"
+warmup_cycles = 0
+sample_rate = "10 kHz"
+"""
+
+
+@pytest.mark.parametrize(
+    ("lash", "key"),
+    [
+        ('clearance = "-1 mm"\nstiffness = "1e6 N/m"', "element[0].clearance"),
+        ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nlaw = "power"', "element[0].law"),
+        ('clearance = "1 mm"\nstiffness = "-1e6 N/m"', "element[0].stiffness"),
+        ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nrestitution = 0.5\ndamping = "3 N*s/m"', "element[0].restitution"),
+        ('stiffness = "1e6 N/m"', "element[0].clearance"),
+    ],
+)
+def test_malformed_lash_parameters(tmp_path, lash, key):
+    machine = tmp_path / "m.toml"
+    machine.write_text(LASH.replace("{lash}", lash), encoding="utf-8")
+    out = tmp_path / "out.h5"
+    result = CliRunner().invoke(app, ["run", str(machine), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and key in lines[0] and str(machine) in lines[0], result.output
+    assert not out.exists()
