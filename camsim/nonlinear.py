@@ -266,8 +266,12 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         K = steps.size
         d0, dd0, Fz, _, _ = stepper.force(z[None, :], U[:1], chi)
         r0 = float(Fz[0] - kq * d0[0] - cq * dd0[0])
-        if r_prev is not None and r_prev.size == K + 1:
-            r, rd = r_prev
+        if r_prev is not None and r_prev[2] == kq and r_prev[3] == cq:
+            # continue the previous window's remainder: its value and rate at the join
+            # (same linear law), extrapolated linearly
+            r = r_prev[0] + r_prev[1] * (nodes - t)
+            rd = np.full(K + 1, r_prev[1])
+            r[0] = r0
         else:
             r = np.full(K + 1, r0)
             rd = np.zeros(K + 1)
@@ -370,7 +374,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         t, z = nodes[-1], Z[-1]
         cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
         first = False
-        r_prev = None
+        r_prev = (float(r[-1]), float(rd[-1]), kq, cq)
         window = min(window * 2, MAX_WINDOW)
 
 
