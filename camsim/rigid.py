@@ -42,7 +42,7 @@ import itertools
 
 import numpy as np
 
-from camsim.elements import Branch, Contact
+from camsim.elements import Branch
 from camsim.errors import SimulationError
 from camsim.events import EventKind
 
@@ -134,7 +134,7 @@ def resolve(integrator, state, trigger: int, kind: str):
     branches = list(state.branches)
     rigid = [
         (pos, i) for pos, i in enumerate(model.switching)
-        if isinstance(model.elements[i], Contact) and Branch.STUCK in model.branch_options(i)
+        if Branch.STUCK in model.branch_options(i)
     ]
     touching = []
     for pos, i in rigid:

@@ -17,7 +17,6 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
 
 M, G, K, N, CMAX, D, H = 0.5, 9.80665, 1.0e8, 1.5, 200.0, 5.0e-5, 5.0e-3
 
@@ -75,6 +74,10 @@ def reference():
 
 
 def test_adams_impact_drop_against_solve_ivp():
+    # imported here: a module-level ``camsim.simulate`` import during collection would
+    # shadow the lazy ``camsim.simulate`` function for test_api.py (collected later)
+    from camsim.simulate import simulate
+
     t0, v0, duration, rebound, sol = reference()
     r = simulate(load_machine_text(TEXT))
     impact = [e for e in r.events if e.kind == "impact"][0]
