@@ -463,9 +463,10 @@ def _ignore_sigint() -> None:  # pragma: no cover - runs in the worker processes
 class _Serial:
     name = "serial"
 
-    def run(self, tasks):
+    def run(self, tasks, fn=None):  # hook(issue 15): fn, the task function (default run_variant)
+        fn = fn or run_variant
         for i, args in enumerate(tasks):
-            yield i, run_variant(*args)
+            yield i, fn(*args)
 
     def abort(self):
         pass
@@ -486,10 +487,10 @@ class _Pool:
         self.executor = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
         self.futures: list = []
 
-    def run(self, tasks):
+    def run(self, tasks, fn=None):  # hook(issue 15): fn, the task function (default run_variant)
         from concurrent.futures import as_completed
 
-        self.futures = [self.executor.submit(run_variant, *args) for args in tasks]
+        self.futures = [self.executor.submit(fn or run_variant, *args) for args in tasks]
         index = {f: i for i, f in enumerate(self.futures)}
         for fut in as_completed(self.futures):
             yield index[fut], _future_value(fut, tasks[index[fut]])
@@ -597,13 +598,13 @@ class _Dask:
             )
             self.client = distributed.Client(self.cluster, set_as_default=False)
 
-    def run(self, tasks):
+    def run(self, tasks, fn=None):  # hook(issue 15): fn, the task function (default run_variant)
         import uuid
 
         distributed = _import_distributed()
         tag = uuid.uuid4().hex[:12]
         self.futures = [
-            self.client.submit(run_variant, *args, key=f"camsim-variant-{tag}-{i}", pure=False)
+            self.client.submit(fn or run_variant, *args, key=f"camsim-variant-{tag}-{i}", pure=False)
             for i, args in enumerate(tasks)
         ]
         index = {f.key: i for i, f in enumerate(self.futures)}

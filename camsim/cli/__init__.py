@@ -19,6 +19,7 @@ _COMMANDS = (
     "check",
     "sweep",
     "lump",
+    "study",
 )
 for _name in _COMMANDS:
     try:
