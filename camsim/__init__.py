@@ -16,3 +16,11 @@ except PackageNotFoundError:  # running from a source tree that was not installe
     __version__ = "0.0.0+unknown"
 
 __all__ = ["__version__"]
+
+
+def __getattr__(name: str):  # hook(issue 15): `camsim.study(...)` without importing scipy at startup
+    if name == "study":
+        import importlib
+
+        return importlib.import_module("camsim.study")
+    raise AttributeError(f"module 'camsim' has no attribute {name!r}")

@@ -16,8 +16,11 @@ class _ProgressBar:
     def __init__(self) -> None:
         self.progress = None
         self.task = None
+        self.message = ""  # printed when the runs start (after every check passed)
 
     def start(self, total: int, todo: int, executor: str) -> None:
+        if self.message:
+            err_console.print(self.message, markup=False)
         if todo < total:
             err_console.print(f"resuming: {total - todo} of {total} runs already done", markup=False)
         if not err_console.is_terminal or todo == 0:
@@ -171,11 +174,11 @@ def study_command(
         if samples is not None and samples < 1:
             raise InputError(f"--samples {samples}: needs at least 1")
         sens = sensitivity if sensitivity is not None else cfg.get("sensitivity", False)
-        if sens and not json_:
+        if sens:
             from camsim.study.sampling import n_runs
 
             d = len(merge_dists(cfg.get("dist", []), dist))
-            err_console.print(f"sensitivity: Saltelli's design needs N (d + 2) = {n} x {d + 2} = {n_runs(n, d, True)} runs", markup=False)
+            bar.message = f"sensitivity: Saltelli's design needs N (d + 2) = {n} x {d + 2} = {n_runs(n, d, True)} runs"
         try:
             result = study(
                 machine,

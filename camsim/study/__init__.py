@@ -17,6 +17,20 @@ copula, Saltelli design), :mod:`.outputs` (what a run records), :mod:`.statistic
 ``docs/tolerance.md``.
 """
 
+import sys
+import types
+
 from camsim.study.runner import StudyInterrupted, StudyResult, study
 
 __all__ = ["study", "StudyResult", "StudyInterrupted"]
+
+
+
+class _CallableModule(types.ModuleType):
+    """Lets ``camsim.study(...)`` call :func:`study` while ``camsim.study`` stays the package."""
+
+    def __call__(self, *args, **kwargs):
+        return study(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

@@ -416,7 +416,7 @@ def study(
     from camsim.study.store import MemoryRowStore, RowStore, store_path
 
     meta = _meta(source, fixed, parsed, tol_sigma, correlate, method, seed, samples, sensitivity, settings)
-    h5_path = csv_path = store_file = None
+    h5_path = csv_path = store_file = store = None
     if output is not None:
         from camsim.io.atomic import check_writable
         from camsim.study.files import csv_path_for
@@ -428,27 +428,31 @@ def study(
         store_file = store_path(h5_path)
         if resume:
             store = RowStore.resume(store_file, meta)
-        else:
-            if store_file.exists():
-                raise InputError(
-                    f"{h5_path}: an interrupted study left {store_file}; add --resume to continue it, or delete that file to start again"
-                )
-            store = RowStore.create(store_file, columns, meta)
-    else:
-        if resume:
-            raise InputError("--resume: needs the study's output file (-o)")
-        store = MemoryRowStore.create(None, columns, meta)
+        elif store_file.exists():
+            raise InputError(
+                f"{h5_path}: an interrupted study left {store_file}; add --resume to continue it, or delete that file to start again"
+            )
+    elif resume:
+        raise InputError("--resume: needs the study's output file (-o)")
 
-    done = store.done()
+    done = store.done() if store is not None else set()
     todo = [i for i in range(total) if i not in done]
     resumed = len(done)
     executor = None
     interrupted = False
     name = "serial"
     try:
+        # the executor first: an unreachable scheduler must leave nothing behind
         if todo:
             executor = _make_executor(workers, len(todo), scheduler, dask_local)
             name = executor.name
+    except BaseException:
+        if store is not None:
+            store.close()
+        raise
+    if store is None:
+        store = RowStore.create(store_file, columns, meta) if output is not None else MemoryRowStore.create(None, columns, meta)
+    try:
         if on_start is not None:
             on_start(total, len(todo), name)
         finished = resumed
