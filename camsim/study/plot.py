@@ -57,8 +57,15 @@ def _influential(result, q: str, ok: np.ndarray) -> str:
     return best
 
 
-def plot_study(result):
-    """Build the study figure (a :class:`matplotlib.figure.Figure`, not shown)."""
+def plot_study(result, outputs: list[str] | None = None):
+    """Build the study figure (a :class:`matplotlib.figure.Figure`, not shown).
+
+    Parameters
+    ----------
+    result : StudyResult
+    outputs : list of str, optional
+        The outputs to show, in order (default :func:`plotted_outputs`).
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -67,7 +74,7 @@ def plot_study(result):
     from camsim.plot import _STYLE, axis_label
 
     units = dict(result.columns)
-    outputs = plotted_outputs(result)
+    outputs = plotted_outputs(result) if outputs is None else list(outputs)
     sens = bool(result.sensitivity) and any(result.sensitivity.get(q) for q in outputs)
     ncols = 3 if sens else 2
     nrows = max(1, len(outputs))
@@ -85,15 +92,24 @@ def plot_study(result):
             ax.hist(y[np.isfinite(y)], bins=min(50, max(10, int(np.sqrt(y.size)))), color="#4477aa")
             ax.set_xlabel(axis_label(q, unit))
             ax.set_ylabel("runs")
+            finite = y[np.isfinite(y)]
+            lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+            span = hi - lo
+            off_scale = []
             for lim in result.limits:
                 text = lim["expr"]
                 if text.startswith(q) and text[len(q):len(q) + 1] in "<>":
                     from camsim.study.statistics import parse_limit
 
                     threshold = parse_limit(text, {q: unit}).threshold
-                    ax.axvline(threshold, color="#cc3311", lw=1.5)
-                    ax.text(threshold, ax.get_ylim()[1] * 0.95, f" {text}\n P = {lim['probability']:.3g}", color="#cc3311",
-                            va="top", fontsize=8)
+                    label = f"{text[len(q):]}: P = {lim['probability']:.3g}"
+                    if lo - 0.5 * span <= threshold <= hi + 0.5 * span:
+                        ax.axvline(threshold, color="#cc3311", lw=1.5)
+                        ax.text(threshold, ax.get_ylim()[1] * 0.95, f" {label}", color="#cc3311", va="top", fontsize=8)
+                    else:
+                        off_scale.append(f"{label} (limit off scale)")
+            if off_scale:
+                ax.text(0.02, 0.95, "\n".join(off_scale), transform=ax.transAxes, color="#cc3311", va="top", fontsize=8)
             k = _influential(result, q, ok)
             ax = axes[r][1]
             x = rows[f"param:{k}"].to_numpy(dtype=float)[ok]
@@ -115,14 +131,15 @@ def plot_study(result):
                     ax.legend(loc="lower right")
                 ax.set_yticks(pos, [kk.split(".", 1)[-1] for kk in keys])
                 ax.set_xlim(-0.05, 1.05)
-                ax.set_xlabel(f"Sobol' index of {q}")
+                ax.set_xlabel("Sobol' index")
+                ax.set_title(q, fontsize=9)
         if not outputs:
             axes[0][0].text(0.5, 0.5, "no output varies", ha="center", va="center")
         fig.suptitle(f"{result.machine.name}: {result.n_runs} runs ({result.method}, seed {result.seed})")
     return fig
 
 
-def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0) -> Path:
+def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, outputs: list[str] | None = None) -> Path:
     """Write the study figure to ``path`` (format from the suffix: png, svg, pdf), atomically."""
     import matplotlib
 
@@ -134,7 +151,7 @@ def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0) ->
     fmt = target.suffix.lstrip(".").lower()
     if fmt not in _METADATA:
         raise InputError(f"--plot {path}: unknown format '{fmt}' (png, svg or pdf)")
-    fig = plot_study(result)
+    fig = plot_study(result, outputs)
     with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
         fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
     return target

@@ -209,3 +209,12 @@ def test_plot_is_deterministic(tmp_path):
     save_study_plot(res, tmp_path / "b.png")
     assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
     assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_gives_the_same_rows():
+    pytest.importorskip("distributed")
+    serial = study(MACHINE, DISTS, 6, seed=21, workers=1)
+    dask = study(MACHINE, DISTS, 6, seed=21, dask_local=2)
+    assert dask.executor.startswith("Dask LocalCluster")
+    _same_frames(serial.rows, dask.rows)
