@@ -5,22 +5,61 @@ can be done from Python::
 
     from camsim import load_machine, simulate
     machine = load_machine("machines/cdtm.toml")
-    result = simulate(machine)
+    result = simulate(machine, cycles=2)
+    result.scalars()["peak_transducer_force"]       # [N]
+    stiffer = machine.with_values({"element.K12.stiffness": "1.7e6 N/m"})
+
+See ``docs/python-api.md``. Errors a user can cause derive from :class:`InputError`
+(:class:`MachineError` names the file and the key); a run that cannot be completed
+raises :class:`SimulationError`.
 """
 
 from importlib.metadata import PackageNotFoundError, version
+
+from camsim.errors import CamsimError, InputError, MachineError, MachineFileError, ResultFileError, SimulationError
 
 try:
     __version__ = version("camsim")
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+#: Public names imported on first use, so that ``import camsim`` (and the CLI) stays light.
+_LAZY = {
+    "load_machine": "camsim.loader",
+    "Machine": "camsim.machine",
+    "simulate": "camsim.simulate",
+    "RunResult": "camsim.result",
+    "open_result": "camsim.result",
+    "EventKind": "camsim.events",
+}
+#: Subpackages that are also callables: ``camsim.fit(...)``.
+_LAZY_PACKAGES = {"fit": "camsim.fit", "study": "camsim.study"}
+
+__all__ = [
+    "__version__",
+    "CamsimError",
+    "InputError",
+    "MachineError",
+    "MachineFileError",
+    "ResultFileError",
+    "SimulationError",
+    *_LAZY,
+    *_LAZY_PACKAGES,
+]
 
 
-def __getattr__(name: str):  # hook(issue 15): `camsim.study(...)` without importing scipy at startup
-    if name == "study":
-        import importlib
+def __getattr__(name: str):
+    import importlib
 
-        return importlib.import_module("camsim.study")
-    raise AttributeError(f"module 'camsim' has no attribute {name!r}")
+    if name in _LAZY_PACKAGES:
+        return importlib.import_module(_LAZY_PACKAGES[name])
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'camsim' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

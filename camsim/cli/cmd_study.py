@@ -10,42 +10,21 @@ import typer
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 
 
-class _ProgressBar:
-    """A rich progress bar with ETA on stderr, only when stderr is a terminal."""
+class _Start:
+    """What is printed when the runs start (after every check passed), and the progress bar."""
 
-    def __init__(self) -> None:
-        self.progress = None
-        self.task = None
-        self.message = ""  # printed when the runs start (after every check passed)
+    def __init__(self, bar) -> None:
+        self.bar = bar
+        self.message = ""
 
-    def start(self, total: int, todo: int, executor: str) -> None:
+    def __call__(self, total: int, todo: int, executor: str) -> None:
         if self.message:
             err_console.print(self.message, markup=False)
         if todo < total:
             err_console.print(f"resuming: {total - todo} of {total} runs already done", markup=False)
-        if not err_console.is_terminal or todo == 0:
-            return
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-        self.progress = Progress(
-            TextColumn("study ({task.fields[executor]})"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-            console=err_console,
-            transient=True,
-        )
-        self.progress.start()
-        self.task = self.progress.add_task("study", total=total, completed=total - todo, executor=executor)
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.progress is not None:
-            self.progress.update(self.task, completed=done, total=total)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
-            self.progress = None
+        if todo:
+            self.bar.start(total, executor)
+            self.bar(total - todo, total)
 
 
 def _fmt(value: float) -> str:
@@ -130,6 +109,7 @@ def study_command(
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted study (same command): only the missing runs are made."),
     plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Write a figure: histograms with limits, most influential input against each output, Sobol' indices."),
     json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
@@ -139,16 +119,19 @@ def study_command(
     95 % bootstrap intervals; --limit gives the probability of crossing each limit;
     --sensitivity the Sobol' indices. Rows are kept as they finish; after Ctrl-C or a
     kill, run the same command with --resume. Exit 0 when the study ran (failed runs
-    are rows with their reason), 2 on bad input, 130 after Ctrl-C.
+    are rows with their reason), 2 on bad input, 130 after Ctrl-C or SIGTERM.
     """
+    from camsim.cli.progress import Bar
     from camsim.errors import InputError
     from camsim.io.atomic import check_writable
+    from camsim.lifecycle import sigterm_as_interrupt
     from camsim.study import StudyInterrupted, study
     from camsim.study.config import merge_dists, read_config
     from camsim.study.files import csv_path_for
 
-    bar = _ProgressBar()
-    with user_errors():
+    bar = Bar("study", "runs", quiet=quiet)
+    start = _Start(bar)
+    with user_errors(), sigterm_as_interrupt():
         cfg = read_config(config) if config is not None else {}
         if machine is None:
             if "machine" not in cfg:
@@ -178,7 +161,7 @@ def study_command(
             from camsim.study.sampling import n_runs
 
             d = len(merge_dists(cfg.get("dist", []), dist))
-            bar.message = f"sensitivity: Saltelli's design needs N (d + 2) = {n} x {d + 2} = {n_runs(n, d, True)} runs"
+            start.message = f"sensitivity: Saltelli's design needs N (d + 2) = {n} x {d + 2} = {n_runs(n, d, True)} runs"
         try:
             result = study(
                 machine,
@@ -201,11 +184,11 @@ def study_command(
                 output=target,
                 resume=resume,
                 progress=bar,
-                on_start=bar.start,
+                on_start=start,
             )
         except StudyInterrupted as exc:
             bar.close()
-            raise fail(f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store}; run the same command with --resume to finish", 130) from None
+            raise fail(f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store} (and its .journal); run the same command with --resume to finish", 130) from None
         finally:
             bar.close()
         for w in result.warnings:

@@ -17,8 +17,9 @@ torque where the machine has them), read through :func:`run_scalars`, plus one c
 e.g. ``max:masses/M3/acceleration``, ``rms:transducer/force``. The column is named by
 the expression and has the trace's SI unit.
 
-:func:`run_scalars` and :func:`run_trace` are the only two places that know how a run
-result is read, so a change of the result object is a change here alone.
+:func:`run_scalars`, :func:`run_trace` and :func:`run_unit` are the only places that
+read a run result (:class:`camsim.result.RunResult`), so a change of the result object is
+a change here alone.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ import numpy as np
 
 from camsim.errors import InputError
 
-__all__ = ["REDUCERS", "OutputExpr", "parse_output", "run_scalars", "run_trace", "scalar_unit", "trace_unit"]
+__all__ = ["REDUCERS", "OutputExpr", "parse_output", "run_scalars", "run_trace", "run_unit", "scalar_unit", "trace_unit"]
 
 #: Reductions of a trace to one number.
 REDUCERS = ("max", "min", "rms", "mean")
@@ -40,43 +41,23 @@ _TRACE_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2",
 
 
 def run_scalars(result: Any) -> dict[str, Any]:
-    """The flat scalar summary of one run (SI): the adapter to the run result.
-
-    Today :func:`camsim.sweep.summary_row`; becomes ``result.scalars()`` when the run
-    result provides it. ``status`` is dropped (the study sets its own).
-    """
-    scalars = getattr(result, "scalars", None)
-    if callable(scalars):
-        row = dict(scalars())
-    else:
-        from camsim.sweep import summary_row
-
-        row = summary_row(result)
+    """The flat scalar summary of one run [SI] (:meth:`camsim.result.RunResult.scalars`)."""
+    row = dict(result.scalars())
     row.pop("status", None)
     return row
 
 
 def run_trace(result: Any, path: str) -> np.ndarray:
     """The SI samples of the trace at ``path`` of one run (KeyError if it has none)."""
-    trace = getattr(result, "trace", None)
-    if callable(trace):
-        return np.asarray(trace(path), dtype=float)
-    parts = path.strip("/").split("/")
-    if parts[0] == "masses" and len(parts) == 3:
-        return np.asarray(result.masses[parts[1]][parts[2]], dtype=float)
-    if parts[0] == "elements" and len(parts) == 3 and parts[2] == "force":
-        return np.asarray(result.elements[parts[1]], dtype=float)
-    if parts == ["transducer", "force"] and result.transducer_force is not None:
-        return np.asarray(result.transducer_force, dtype=float)
-    if parts == ["cam_contact", "force"]:
-        from camsim.sweep import cam_force
+    return np.asarray(result.trace(path), dtype=float)
 
-        force = cam_force(result)
-        if force is not None:
-            return np.asarray(force, dtype=float)
-    if parts[0] == "cam" and len(parts) == 2 and parts[1] in result.cam:
-        return np.asarray(result.cam[parts[1]], dtype=float)
-    raise KeyError(path)
+
+def run_unit(result: Any, name: str) -> str:
+    """SI unit of a scalar or trace of the run (by its name or path); '' if unknown."""
+    try:
+        return str(result.units(name))
+    except KeyError:
+        return scalar_unit(name)
 
 
 #: SI units of the summary scalars, by name (``peak_<quantity>:<mass>`` by its quantity).
@@ -92,7 +73,7 @@ _SCALAR_UNITS = {
 
 
 def scalar_unit(name: str) -> str:
-    """SI unit of a summary scalar, from its name ('' when it is a count, flag or ratio)."""
+    """SI unit of a summary scalar guessed from its name (for scalars the run does not describe)."""
     if name in _SCALAR_UNITS:
         return _SCALAR_UNITS[name]
     head = name.split(":", 1)[0]
@@ -107,7 +88,7 @@ def scalar_unit(name: str) -> str:
 
 
 def trace_unit(path: str) -> str:
-    """SI unit of the trace at ``path`` (by its last part)."""
+    """SI unit of the trace at ``path`` guessed from its last part."""
     return _TRACE_UNITS.get(path.strip("/").rsplit("/", 1)[-1], "")
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from camsim.errors import InputError, MachineFileError, SimulationError
 from camsim.study.distributions import DEFAULT_TOL_SIGMA, Distribution, parse_dist
-from camsim.study.outputs import OutputExpr, parse_output, run_scalars, scalar_unit
+from camsim.study.outputs import OutputExpr, parse_output, run_scalars, run_unit
 from camsim.study.sampling import (
     METHODS,
     apply_copula,
@@ -111,7 +111,8 @@ class StudyInterrupted(KeyboardInterrupt):
     done, total : int
         Runs stored and runs of the study.
     store : Path or None
-        The row file to continue from with ``resume=True``.
+        The study file, which holds the finished rows (its journal ``<file>.journal``
+        is what ``resume=True`` continues from).
     """
 
     def __init__(self, done: int, total: int, store: Path | None):
@@ -390,11 +391,11 @@ def study(
                 f"--output {e.text}: the run has no trace '{e.path}' (masses/<mass>/<quantity>, elements/<element>/force, "
                 "transducer/force, cam_contact/force, cam/<quantity>)"
             ) from None
-    del nominal_result
     columns: list[tuple[str, str]] = [("run", ""), ("design", "")]
     columns += [(f"param:{d.key}", d.unit) for d in parsed]
-    columns += [(name, scalar_unit(name)) for name in scalar_names]
-    columns += [(e.text, e.unit) for e in exprs]
+    columns += [(name, run_unit(nominal_result, name)) for name in scalar_names]
+    columns += [(e.text, run_unit(nominal_result, e.path)) for e in exprs]
+    del nominal_result
     columns.append(("status", ""))
     units = dict(columns)
     output_names = scalar_names + [e.text for e in exprs]
@@ -412,29 +413,32 @@ def study(
     values = to_values(u, parsed)
     total = n_runs(samples, d, sensitivity)
 
-    # The row store.
-    from camsim.study.store import MemoryRowStore, RowStore, store_path
+    # The row store: a journal beside the output and the output itself as a view of the
+    # finished rows while the study runs (camsim.io.rowstore).
+    from camsim.study.store import MemoryRowStore, open_store
 
     meta = _meta(source, fixed, parsed, tol_sigma, correlate, method, seed, samples, sensitivity, settings)
-    h5_path = csv_path = store_file = store = None
+    h5_path = csv_path = store = None
     if output is not None:
         from camsim.io.atomic import check_writable
+        from camsim.io.rowstore import journal_path_for
         from camsim.study.files import csv_path_for
 
         h5_path = Path(output)
         csv_path = csv_path_for(h5_path)
         check_writable(h5_path)
         check_writable(csv_path)
-        store_file = store_path(h5_path)
         if resume:
-            store = RowStore.resume(store_file, meta)
-        elif store_file.exists():
+            store = open_store(h5_path, columns, meta, base, resume=True)
+        elif journal_path_for(h5_path).exists():
             raise InputError(
-                f"{h5_path}: an interrupted study left {store_file}; add --resume to continue it, or delete that file to start again"
+                f"{h5_path}: an interrupted study left {journal_path_for(h5_path)}; add --resume to continue it, "
+                "or delete that file to start again"
             )
     elif resume:
         raise InputError("--resume: needs the study's output file (-o)")
 
+    column_names = {c for c, _ in columns}
     done = store.done() if store is not None else set()
     todo = [i for i in range(total) if i not in done]
     resumed = len(done)
@@ -451,7 +455,7 @@ def study(
             store.close()
         raise
     if store is None:
-        store = RowStore.create(store_file, columns, meta) if output is not None else MemoryRowStore.create(None, columns, meta)
+        store = open_store(h5_path, columns, meta, base, resume=False) if output is not None else MemoryRowStore.create(None, columns, meta)
     try:
         if on_start is not None:
             on_start(total, len(todo), name)
@@ -461,7 +465,7 @@ def study(
             for k, (row, _) in executor.run(tasks, fn=run_sample):
                 i = todo[k]
                 row = {c: v for c, v in row.items() if not c.startswith("param:")}
-                store.append(i, _stored_row(i, design[i], keys, values[i], row))
+                store.append(i, _stored_row(i, design[i], keys, values[i], row, column_names))
                 finished += 1
                 if progress is not None:
                     progress(finished, total)
@@ -479,7 +483,7 @@ def study(
     stored = store.rows()
     if interrupted:
         store.close()
-        raise StudyInterrupted(len(stored), total, store_file)
+        raise StudyInterrupted(len(stored), total, h5_path)
 
     import pandas as pd
 
@@ -539,23 +543,22 @@ def study(
     if output is not None:
         from camsim.study.files import write_study
 
-        write_study(result, h5_path, csv_path)
-        if hasattr(store, "remove"):
-            store.remove()
-        else:  # the shared RowStore: close, then delete its file
-            store.close()
-            Path(store_file).unlink(missing_ok=True)
+        store.close(complete=True)
+        write_study(result, h5_path, csv_path)  # replaces the view with the final file
+        store.remove_journal()
     else:
         store.close()
     return result
 
 
-def _stored_row(index: int, design: str, keys, values, row: dict) -> dict:
+def _stored_row(index: int, design: str, keys, values, row: dict, names: set[str]) -> dict:
+    """The stored form of one run: run, design, SI inputs, then the run's columns (others dropped)."""
     out: dict[str, Any] = {"run": int(index), "design": design}
     for k, v in zip(keys, values):
         out[f"param:{k}"] = float(v)
     for c, v in row.items():
-        out[c] = v.item() if isinstance(v, np.generic) else v
+        if c in names:
+            out[c] = v.item() if isinstance(v, np.generic) else v
     return out
 
 

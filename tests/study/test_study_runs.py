@@ -28,7 +28,7 @@ from typer.testing import CliRunner
 from camsim.cli import app
 from camsim.io.hdf5 import read_table
 from camsim.study import StudyInterrupted, study
-from camsim.study.store import store_path
+from camsim.io.rowstore import journal_path_for
 
 HERE = Path(__file__).parent
 MACHINE = HERE / "driven_follower.toml"
@@ -53,7 +53,7 @@ def test_same_seed_same_rows_with_one_and_two_workers(tmp_path):
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
     other = study(MACHINE, DISTS, 6, method="lhs", seed=12, workers=1)
     assert not np.array_equal(other.rows["param:mass.F.mass"], one.rows["param:mass.F.mass"])
-    assert not store_path(tmp_path / "a.h5").exists()  # the row file is gone once the files are written
+    assert not journal_path_for(tmp_path / "a.h5").exists()  # the journal is gone once the files are written
 
 
 def test_ctrl_c_then_resume_gives_the_uninterrupted_rows(tmp_path):
@@ -66,7 +66,10 @@ def test_ctrl_c_then_resume_gives_the_uninterrupted_rows(tmp_path):
 
     with pytest.raises(StudyInterrupted) as info:
         study(MACHINE, DISTS, 10, seed=4, workers=1, output=out, progress=stop_after_four)
-    assert info.value.done == 4 and not out.exists()
+    assert info.value.done == 4
+    with h5py.File(out) as f:  # the file holds the finished rows while the study is unfinished
+        assert f.attrs["file_kind"] == "study" and f["study"].attrs["interrupted"]
+        assert list(read_table(f["study/rows"])["run"]) == [0, 1, 2, 3]
     seen = []
     resumed = study(MACHINE, DISTS, 10, seed=4, workers=1, output=out, resume=True, on_start=lambda n, todo, ex: seen.append((n, todo)))
     assert seen == [(10, 6)] and resumed.resumed == 4
@@ -83,7 +86,7 @@ def test_resume_refuses_another_study(tmp_path):
     with pytest.raises(StudyInterrupted):
         study(MACHINE, DISTS, 6, seed=4, workers=1, output=out, progress=stop)
     r = runner.invoke(app, ["study", str(MACHINE), *sum((["--dist", d] for d in DISTS), []), "-n", "6", "--seed", "5", "-o", str(out), "--resume", "--workers", "1"])
-    assert r.exit_code == 2 and "different study" in r.stderr and "seed" in r.stderr
+    assert r.exit_code == 2 and "cannot resume" in r.stderr and "seed" in r.stderr
     r = runner.invoke(app, ["study", str(MACHINE), *sum((["--dist", d] for d in DISTS), []), "-n", "6", "--seed", "4", "-o", str(out), "--workers", "1"])
     assert r.exit_code == 2 and "--resume" in r.stderr  # an interrupted study is not overwritten silently
     r = runner.invoke(app, ["study", str(MACHINE), "--dist", DISTS[0], "-n", "6", "-o", str(tmp_path / "none.h5"), "--resume"])
@@ -98,7 +101,7 @@ def test_sigkill_then_resume_gives_the_uninterrupted_rows(tmp_path):
     subprocess.run(args + ["-o", str(tmp_path / "full.h5")], check=True, capture_output=True, env=env)
     out = tmp_path / "killed.h5"
     proc = subprocess.Popen(args + ["-o", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-    rows = store_path(out)
+    rows = journal_path_for(out)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         if rows.exists() and rows.read_bytes().count(b"\n") >= 12:
@@ -107,7 +110,9 @@ def test_sigkill_then_resume_gives_the_uninterrupted_rows(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     kept = rows.read_bytes().count(b"\n") - 1
-    assert 0 < kept < 40 and not out.exists()
+    assert 0 < kept < 40
+    with h5py.File(out) as f:  # readable after the kill, with (at least most of) the kept rows
+        assert len(f["study/rows"]) <= kept
     done = subprocess.run(args + ["-o", str(out), "--resume"], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
     assert "resuming:" in done.stderr
