@@ -301,9 +301,10 @@ def study(
     dask_local : int, optional
         Start a Dask LocalCluster with this many workers.
     output : path, optional
-        Study file (HDF5 ``/study/rows``) with a CSV beside it; while the study runs its
-        rows are kept in ``<output>.rows`` (removed when the files are written). None:
-        rows in memory only, nothing written.
+        Study file (HDF5 ``/study/rows``) with a CSV beside it. While the study runs,
+        the rows are kept by :class:`camsim.io.rowstore.RowStore`: the journal
+        ``<output>.journal`` (removed when the study is complete) and ``<output>`` as a
+        view of the finished rows. None: rows in memory only, nothing written.
     resume : bool
         Continue the interrupted study writing ``output`` (same inputs and options):
         only the runs not stored are made.
