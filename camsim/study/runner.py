@@ -327,7 +327,7 @@ def study(
     StudyInterrupted
         Ctrl-C: the finished rows are kept for ``resume``.
     """
-    from camsim.study.statistics import limit_probability, parse_limit, summarize
+    from camsim.study.statistics import parse_limit
     from camsim.sweep import MachineSource, _default_workers, _make_executor
 
     if method not in METHODS:
@@ -377,9 +377,8 @@ def study(
     from camsim.simulate import simulate
 
     base = _check_keys(source, fixed, parsed)
-    nominal = [_assignment(d.key, d.nominal) for d in parsed]
     try:
-        nominal_result = simulate(source.load(list(fixed) + nominal), cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
+        nominal_result = simulate(base, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     except SimulationError as exc:
         raise SimulationError(f"the nominal machine does not run: {exc}") from None
     row = run_scalars(nominal_result)
@@ -444,7 +443,6 @@ def study(
     todo = [i for i in range(total) if i not in done]
     resumed = len(done)
     executor = None
-    interrupted = False
     name = "serial"
     try:
         # the executor first: an unreachable scheduler must leave nothing behind
@@ -457,30 +455,9 @@ def study(
         raise
     if store is None:
         store = open_store(h5_path, columns, meta, base, resume=False) if output is not None else MemoryRowStore.create(None, columns, meta)
-    try:
-        if on_start is not None:
-            on_start(total, len(todo), name)
-        finished = resumed
-        if todo:
-            tasks = [(source, tuple(fixed) + tuple(_assignment(k, v) for k, v in zip(keys, values[i])), settings) for i in todo]
-            for k, (row, _) in executor.run(tasks, fn=run_sample):
-                i = todo[k]
-                row = {c: v for c, v in row.items() if not c.startswith("param:")}
-                store.append(i, _stored_row(i, design[i], keys, values[i], row, column_names))
-                finished += 1
-                if progress is not None:
-                    progress(finished, total)
-    except KeyboardInterrupt:
-        interrupted = True
-        if executor is not None:
-            executor.abort()
-    finally:
-        if executor is not None:
-            try:
-                executor.close()
-            except Exception:  # noqa: BLE001 - workers stopped on purpose after Ctrl-C
-                if not interrupted:
-                    raise
+    tasks = [(source, tuple(fixed) + tuple(_assignment(k, v) for k, v in zip(keys, values[i])), settings) for i in todo]
+    interrupted = _run_missing(executor, tasks, todo, store, lambda i, row: _stored_row(i, design[i], keys, values[i], row, column_names),
+                               total, progress, on_start, name)
     stored = store.rows()
     if interrupted:
         store.close()
@@ -490,33 +467,7 @@ def study(
 
     frame = pd.DataFrame([_complete(stored[i], columns) for i in range(total)], columns=[c for c, _ in columns])
     frame = _typed(frame)
-    ok = (frame["status"] == "ok").to_numpy()
-    stats_mask = ok.copy()
-    if sensitivity:
-        stats_mask[2 * samples:] = False  # statistics over blocks A and B (2N independent points)
-    cols = {q: frame[q].to_numpy(dtype=float) for q in output_names}
-    notes: list[str] = []
-    described = [q for q in output_names if np.any(np.isfinite(cols[q][stats_mask]))]
-    for q in output_names:
-        if q not in described:
-            notes.append(f"{q}: no value in any run (left out of the statistics)")
-    stats = summarize({q: cols[q][stats_mask] for q in described}, described, int(seed))
-    limit_rows = [limit_probability(lim, cols[lim.quantity][stats_mask]) for lim in parsed_limits]
-    sens = None
-    ranking: list[tuple[str, float]] = []
-    if sensitivity:
-        from camsim.study.sensitivity import rank_inputs, sobol_from_outputs
-
-        n = samples
-        y = np.array([np.where(ok, cols[q], np.nan) for q in described])  # (s, runs)
-        f_a, f_b = y[:, :n], y[:, n:2 * n]
-        f_ab = np.stack([y[:, (2 + i) * n:(3 + i) * n] for i in range(d)])
-        sens, sens_notes = sobol_from_outputs(f_a, f_b, f_ab, keys, described, int(seed))
-        notes += sens_notes
-        ranking = rank_inputs(sens, [lim.quantity for lim in parsed_limits] or None)
-    failed = int((~ok).sum())
-    if failed:
-        notes.append(f"{failed} of {total} runs failed (their rows hold the reason in 'status'; left out of the statistics)")
+    stats, limit_rows, sens, ranking, notes = _analyse(frame, output_names, parsed_limits, keys, samples, sensitivity, int(seed))
     result = StudyResult(
         rows=frame,
         columns=columns,
@@ -550,6 +501,73 @@ def study(
     else:
         store.close()
     return result
+
+
+def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_start, name) -> bool:
+    """Run the tasks of the missing rows, appending each row as it finishes; True after Ctrl-C."""
+    interrupted = False
+    try:
+        if on_start is not None:
+            on_start(total, len(todo), name)
+        finished = total - len(todo)
+        if todo:
+            for k, (row, _) in executor.run(tasks, fn=run_sample):
+                i = todo[k]
+                row = {c: v for c, v in row.items() if not c.startswith("param:")}
+                store.append(i, stored_row(i, row))
+                finished += 1
+                if progress is not None:
+                    progress(finished, total)
+    except KeyboardInterrupt:
+        interrupted = True
+        if executor is not None:
+            executor.abort()
+    finally:
+        if executor is not None:
+            try:
+                executor.close()
+            except Exception:  # noqa: BLE001 - workers stopped on purpose after Ctrl-C
+                if not interrupted:
+                    raise
+    return interrupted
+
+
+def _analyse(frame, output_names, limits, keys, samples: int, sensitivity: bool, seed: int):
+    """Statistics, limit probabilities and Sobol' indices of the finished rows.
+
+    Failed runs are left out; with ``sensitivity`` the statistics and limits use blocks A
+    and B of Saltelli's design (the first 2N rows: 2N points of the input distribution).
+    """
+    from camsim.study.statistics import limit_probability, summarize
+
+    ok = (frame["status"] == "ok").to_numpy()
+    stats_mask = ok.copy()
+    if sensitivity:
+        stats_mask[2 * samples:] = False
+    cols = {q: frame[q].to_numpy(dtype=float) for q in output_names}
+    notes: list[str] = []
+    described = [q for q in output_names if np.any(np.isfinite(cols[q][stats_mask]))]
+    for q in output_names:
+        if q not in described:
+            notes.append(f"{q}: no value in any run (left out of the statistics)")
+    stats = summarize({q: cols[q][stats_mask] for q in described}, described, seed)
+    limit_rows = [limit_probability(lim, cols[lim.quantity][stats_mask]) for lim in limits]
+    sens = None
+    ranking: list[tuple[str, float]] = []
+    if sensitivity:
+        from camsim.study.sensitivity import rank_inputs, sobol_from_outputs
+
+        n, d = samples, len(keys)
+        y = np.array([np.where(ok, cols[q], np.nan) for q in described])  # (outputs, runs)
+        f_a, f_b = y[:, :n], y[:, n:2 * n]
+        f_ab = np.stack([y[:, (2 + i) * n:(3 + i) * n] for i in range(d)])
+        sens, sens_notes = sobol_from_outputs(f_a, f_b, f_ab, keys, described, seed)
+        notes += sens_notes
+        ranking = rank_inputs(sens, [lim.quantity for lim in limits] or None)
+    failed = int((~ok).sum())
+    if failed:
+        notes.append(f"{failed} of {len(ok)} runs failed (their rows hold the reason in 'status'; left out of the statistics)")
+    return stats, limit_rows, sens, ranking, notes
 
 
 def _stored_row(index: int, design: str, keys, values, row: dict, names: set[str]) -> dict:
