@@ -143,7 +143,7 @@ def study_command(
             from camsim.units import QuantityError, to_si
 
             try:
-                rate = to_si(rate_text, "frequency")
+                rate = to_si(rate_text if isinstance(rate_text, str) else float(rate_text), "frequency")
             except QuantityError as exc:
                 raise InputError(f"--sample-rate: {exc}") from None
         target = out if out is not None else machine.with_name(machine.stem + "_study.h5")

@@ -15,7 +15,7 @@ Example::
     correlate = []
     cycles = 1
     warmup = 1
-    sample_rate = "20 kHz"
+    sample_rate = "20 kHz"                # or a number [Hz]
 
     [study.dist]                          # or: dist = ["KEY=SPEC", ...]
     "element.K23.preload" = "tol:28.12:2.8lbf"
@@ -52,7 +52,7 @@ STUDY_KEYS: dict[str, type | tuple[type, ...]] = {
     "set": list,
     "cycles": int,
     "warmup": int,
-    "sample_rate": str,
+    "sample_rate": (str, int, float),
     "workers": int,
 }
 
