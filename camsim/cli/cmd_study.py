@@ -31,20 +31,27 @@ def _fmt(value: float) -> str:
     return "—" if value is None or (isinstance(value, float) and not math.isfinite(value)) else f"{value:.5g}"
 
 
-def _render(result, err) -> None:
+def _render(result, err, system: str = "si") -> None:
     from rich.table import Table
     from rich.text import Text
+
+    from camsim.display import shown
 
     units = dict(result.columns)
     table = Table(show_edge=False, pad_edge=False, title=f"{result.n_runs} runs ({result.method}, seed {result.seed}), 95 % bootstrap intervals of the mean")
     for head in ("output", "unit", "mean", "mean 95 %", "std", "p1", "p50", "p99", "min", "max"):
         table.add_column(Text(head))
     for q, s in result.stats.items():
+        unit, k = shown(units.get(q, ""), system)
         ci = s["ci95"]["mean"]
+
+        def v(x):
+            return _fmt(None if x is None else x * k)
+
         table.add_row(
-            Text(q), Text(units.get(q, "") or "-"), Text(_fmt(s["mean"])), Text(f"{_fmt(ci[0])} … {_fmt(ci[1])}"),
-            Text(_fmt(s["std"])), Text(_fmt(s["percentiles"]["1"])), Text(_fmt(s["percentiles"]["50"])),
-            Text(_fmt(s["percentiles"]["99"])), Text(_fmt(s["min"])), Text(_fmt(s["max"])),
+            Text(q), Text(unit or "-"), Text(v(s["mean"])), Text(f"{v(ci[0])} … {v(ci[1])}"),
+            Text(v(s["std"])), Text(v(s["percentiles"]["1"])), Text(v(s["percentiles"]["50"])),
+            Text(v(s["percentiles"]["99"])), Text(v(s["min"])), Text(v(s["max"])),
         )
     err.print(table)
     for lim in result.limits:
@@ -110,6 +117,7 @@ def study_command(
     plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Write a figure: histograms with limits, most influential input against each output, Sobol' indices."),
     json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
@@ -132,6 +140,9 @@ def study_command(
     bar = Bar("study", "runs", quiet=quiet)
     start = _Start(bar)
     with user_errors(), sigterm_as_interrupt():
+        from camsim.display import check_unit_system
+
+        check_unit_system(units)
         cfg = read_config(config) if config is not None else {}
         if machine is None:
             if "machine" not in cfg:
@@ -200,5 +211,5 @@ def study_command(
         if json_:
             print_json(result.to_json())
         else:
-            _render(result, err_console)
+            _render(result, err_console, units)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
