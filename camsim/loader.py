@@ -71,7 +71,7 @@ SCHEMA_VERSION = 1
 # --------------------------------------------------------------------------------------
 TOP_KEYS = ("schema", "machine", "cam", "mass", "element", "simulation", "initial")
 MACHINE_KEYS = ("name", "description")
-CAM_KEYS = ("speed", "ratio", "arm", "drives", "start_angle", "segments", "table")
+CAM_KEYS = ("speed", "ratio", "arm", "drives", "start_angle", "segments", "table", "geometry")  # geometry: issue 14
 SEGMENT_KEYS = ("motion", "law", "duration", "lift")
 MASS_KEYS = ("name", "mass")
 ELEMENT_TYPES = ("spring", "preloaded", "contact")
@@ -234,7 +234,11 @@ def override_keys(doc: dict) -> list[str]:
     """
     keys = ["schema"] + [f"machine.{k}" for k in MACHINE_KEYS]
     cam = doc.get("cam")
-    keys += [f"cam.{k}" for k in CAM_KEYS if k != "segments"]
+    keys += [f"cam.{k}" for k in CAM_KEYS if k not in ("segments", "geometry")]
+    from camsim.cam.geometry import GEOMETRY_KEYS, MATERIAL_KEYS  # issue 14
+
+    keys += [f"cam.geometry.{k}" for k in GEOMETRY_KEYS if not k.endswith("_material")]
+    keys += [f"cam.geometry.{m}.{k}" for m in ("cam_material", "follower_material") for k in MATERIAL_KEYS]
     if isinstance(cam, dict) and isinstance(cam.get("segments"), list):
         for i, _ in enumerate(cam["segments"]):
             keys += [f"cam.segments[{i}].{k}" for k in SEGMENT_KEYS]
@@ -317,6 +321,10 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             ],
             "table": None,
         }
+        if cam.geometry is not None:  # issue 14
+            from camsim.cam.geometry import geometry_to_dict
+
+            cam_dict["geometry"] = geometry_to_dict(cam.geometry)
         if cam.table is not None:
             t = cam.table
             cam_dict["table"] = {
@@ -471,6 +479,10 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
         if head_index is not None or leaf not in CAM_KEYS:
             raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
         cam = _table(doc, "cam", source)
+        if leaf == "geometry" and leaf_index is None:  # issue 14: cam.geometry.<key>[.<key>]
+            from camsim.cam.geometry import apply_geometry_override
+
+            return apply_geometry_override(cam, key, rest, value, source)
         if leaf != "segments":
             if leaf_index is not None or rest:
                 raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
@@ -814,8 +826,13 @@ class _Validator:
             segments = self.segments(table["segments"], arm)
         else:
             profile = self.cam_table(table["table"], arm)
+        geometry = None
+        if "geometry" in table:  # issue 14: [cam.geometry]
+            from camsim.cam.geometry import parse_geometry
+
+            geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm)
         return Cam(speed=speed, segments=segments, table=profile, ratio=ratio, arm=arm,
-                   drives=drives, start_angle=start)
+                   drives=drives, start_angle=start, geometry=geometry)
 
     def lift(self, row: dict, path: str, arm: float | None) -> float:
         """A lift at the roller [m]: a length, or an angle times the follower arm."""
