@@ -97,7 +97,23 @@ class RunResult:
         out["events"] = len(self.events)
         out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
         out["warnings"] = list(self.warnings)
+        design = self.design_summary()  # issue 14: cam design scalars when [cam.geometry] is given
+        if design is not None:
+            out["design"] = design
         return out
+
+    # issue 14: cam design quantities, derived from the traces when [cam.geometry] is given
+    def design_traces(self) -> dict:
+        """Cam design traces: path → (SI array, units, long name) (:func:`camsim.cam.design.design_traces`)."""
+        from camsim.cam.design import design_traces
+
+        return design_traces(self)
+
+    def design_summary(self, cs: float | None = None) -> dict | None:
+        """Cam design scalars (:func:`camsim.cam.design.design_summary`); None without geometry."""
+        from camsim.cam.design import design_summary
+
+        return design_summary(self, cs)
 
     def follower_jumps(self) -> bool:
         """True when the follower leaves the cam (negative cam contact force, or a cam contact opens)."""

@@ -68,6 +68,7 @@ def run_command(
     check_against: Path = typer.Option(None, "--check-against", help="After the run, compare the result with this golden file (exit 1 on a regression)."),
     rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (see camsim check)."),
     atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against (SI)."),
+    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
@@ -87,6 +88,9 @@ def run_command(
         loaded = load_machine(machine, overrides=set_)
         target = output if output is not None else default_output(machine)
         check_writable(target)
+        from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
+
+        check_machine(loaded, cs)
         if check_against is not None:
             from camsim.io.results import open_result
 
@@ -99,10 +103,12 @@ def run_command(
         write_run(result, target)
         if json_:
             payload = result.summary()
+            if cs is not None and "design" in payload:  # issue 14
+                payload["design"] = result.design_summary(cs)
             payload["output"] = str(target)
             print_json(payload)
         else:
-            render_run_summary(result, err_console)
+            render_run_summary(result, err_console, cs=cs)
             err_console.print(f"wrote {target}")
         if check_against is not None:
             from camsim.check import check_files, render_report

@@ -93,6 +93,9 @@ def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
         write_trace(group, "cam_contact/force", result.cam_contact_force, "N", "force of the cam on the driven mass", time)
     if result.transducer_force is not None:
         write_trace(group, "transducer/force", result.transducer_force, "N", "force read by the transducer", time)
+    # issue 14: cam design traces (/cam/pressure_angle ..., /cam_contact/normal_force, /camshaft/torque)
+    for path, (data, units, long_name) in result.design_traces().items():
+        write_trace(group, path, data, units, long_name, time)
     write_events(group, result.events)
     group.attrs["no_impact"] = bool(result.no_impact)
     group.attrs["sample_rate"] = float(result.sample_rate)
