@@ -32,12 +32,11 @@ import numpy as np
 from camsim.cam.geometry import (
     CamGeometry,
     Material,
+    geometry_datasets,
     geometry_summary,
-    pitch_curve,
     pitch_radius,
     pressure_angle,
     roller_side_motion,
-    surface_points,
 )
 
 __all__ = [
@@ -251,15 +250,8 @@ def design_traces(result) -> dict[str, tuple[np.ndarray, str, str]]:
         return {}
     _, program, theta, (s, s1, s2, s3) = _kinematics(result)
     phi = pressure_angle(geometry, s, s1)
-    rho = pitch_radius(geometry, s, s1, s2, s3)
-    rho_s = rho - geometry.roller_radius
-    out: dict[str, tuple[np.ndarray, str, str]] = {
-        "cam/pressure_angle": (np.degrees(phi), "deg", "pressure angle (signed)"),
-        "cam/pitch_radius_of_curvature": (rho, "m", "pitch-curve radius of curvature (positive convex)"),
-        "cam/surface_radius_of_curvature": (rho_s, "m", "cam-surface radius of curvature (positive convex)"),
-        "cam/pitch_curve": (pitch_curve(geometry, theta, s, s1), "m", "pitch curve x, y in the cam frame"),
-        "cam/surface": (surface_points(geometry, theta, s, s1), "m", "cam surface x, y in the cam frame"),
-    }
+    rho_s = pitch_radius(geometry, s, s1, s2, s3) - geometry.roller_radius
+    out = geometry_datasets(geometry, program, theta)
     force = _trace(result, "cam_contact/force")
     if force is None:
         return out

@@ -62,6 +62,7 @@ __all__ = [
     "evaluate_program",
     "face_width",
     "find_defects",
+    "geometry_datasets",
     "geometry_key_unit",
     "geometry_summary",
     "geometry_to_dict",
@@ -730,6 +731,26 @@ def evaluate_program(geometry: CamGeometry, program, theta, side: str = "right")
     """:func:`evaluate` at cam angles θ [rad] of a :class:`~camsim.cam.CamProgram`."""
     s, s1, s2, s3 = roller_side_motion(program, theta, side)
     return evaluate(geometry, theta, s, s1, s2, s3)
+
+
+def geometry_datasets(geometry: CamGeometry, program, theta, side: str = "right") -> dict:
+    """The spec's static ``/cam/...`` design datasets at cam angles θ [rad].
+
+    Returns
+    -------
+    dict
+        path → (array, units, long name): ``cam/pressure_angle`` [deg],
+        ``cam/pitch_radius_of_curvature`` [m], ``cam/surface_radius_of_curvature`` [m],
+        ``cam/pitch_curve`` and ``cam/surface`` (N, 2) [m].
+    """
+    trace = evaluate_program(geometry, program, theta, side)
+    return {
+        "cam/pressure_angle": (np.degrees(trace.pressure_angle), "deg", "pressure angle (signed)"),
+        "cam/pitch_radius_of_curvature": (trace.pitch_radius, "m", "pitch-curve radius of curvature (positive convex)"),
+        "cam/surface_radius_of_curvature": (trace.surface_radius, "m", "cam-surface radius of curvature (positive convex)"),
+        "cam/pitch_curve": (trace.pitch_curve, "m", "pitch curve x, y in the cam frame"),
+        "cam/surface": (trace.surface, "m", "cam surface x, y in the cam frame"),
+    }
 
 
 def design_grid(program, per_deg: int = SAMPLES_PER_DEG) -> tuple[np.ndarray, np.ndarray]:
