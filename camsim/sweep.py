@@ -284,6 +284,10 @@ _KEY_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
 
 def key_unit(key: str) -> str:
     """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
+    if key.startswith("cam.geometry."):  # issue 14
+        from camsim.cam.geometry import geometry_key_unit
+
+        return geometry_key_unit(key)
     leaf = key.rsplit(".", 1)[-1]
     if key.startswith("simulation.") and leaf == "duration":
         return "s"
@@ -313,6 +317,11 @@ def machine_value(machine, key: str) -> Any:
             leaf, index = parts[1]
             if leaf == "segments":
                 return d["cam"]["segments"][index][parts[2][0]]
+            if leaf == "geometry":  # issue 14: cam.geometry.<key>[.<key>]
+                value = d["cam"]["geometry"]
+                for name, _ in parts[2:]:
+                    value = value[name]
+                return value
             return d["cam"][leaf]
         if head == "simulation":
             return d["simulation"][parts[1][0]]
@@ -405,6 +414,9 @@ def summary_row(result) -> dict[str, Any]:
     row["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
     residual = result.periodicity_residual
     row["periodicity_residual"] = float(residual) if residual is not None else nan
+    from camsim.cam.design import design_row  # issue 14: design columns with [cam.geometry]
+
+    row.update(design_row(result))
     row["status"] = "ok"
     return row
 
@@ -844,6 +856,9 @@ def run_sweep(
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
     columns = sweep_columns(keys, [m.name for m in base.masses])
+    from camsim.cam.design import design_columns  # issue 14
+
+    columns[-1:-1] = design_columns(base)  # before "status"
 
     executor = _make_executor(workers, len(grid), scheduler, dask_local)
     tasks = [(source, tuple(fixed) + ov, settings) for ov in grid]

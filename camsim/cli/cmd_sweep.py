@@ -58,6 +58,8 @@ def _render(result, err) -> None:
     if len(rows) <= 40:
         table = Table(show_edge=False, pad_edge=False)
         shown = params + ["peak_transducer_force", "min_cam_contact_force", "jump", "impacts", "status"]
+        design = [n for n in ("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque") if n in units]
+        shown[-1:-1] = design  # issue 14: cam design columns with [cam.geometry]
         for name in shown:
             unit = units.get(name, "")
             table.add_column(Text(f"{name.removeprefix('param:')}" + (f" [{unit}]" if unit else "")), overflow="fold")
