@@ -108,6 +108,8 @@ _KEY_UNITS = {
 #: Default limits on |pressure angle| [deg] (spec §2): translating, oscillating.
 DEFAULT_LIMIT_TRANSLATING_DEG = 30.0
 DEFAULT_LIMIT_OSCILLATING_DEG = 35.0
+#: Stand-in for "no such radius" in the extreme searches [m] (finite, for the optimiser).
+_FAR = 1e30
 #: Samples per degree of cam angle for the checks and the summary extremes.
 SAMPLES_PER_DEG = 10
 
@@ -844,8 +846,9 @@ def geometry_summary(geometry: CamGeometry, program, per_deg: int = SAMPLES_PER_
         ``follower``; ``max_pressure_angle`` [deg] (largest |φ|) and
         ``max_pressure_angle_at`` [deg cam angle]; ``pressure_angle_limit`` [deg];
         ``min_pitch_radius`` [m] (smallest convex pitch radius) and ``…_at`` [deg];
-        ``min_surface_radius`` [m] (smallest surface radius where the pitch curve is
-        convex) and ``…_at``; ``min_concave_radius`` [m] (smallest |surface radius|
+        ``min_surface_radius`` [m] (roller: smallest surface radius where the pitch
+        curve is convex, negative when undercut; flat face: smallest Rb + s + s″,
+        ≤ 0 at a cusp) and ``…_at``; ``min_concave_radius`` [m] (smallest |surface radius|
         where concave, None if nowhere) and ``…_at``; for a flat face ``face_width``,
         ``face_min_contact``, ``face_max_contact`` [m]; ``defects`` (list of
         :class:`Defect`); ``warnings`` (list of str).
@@ -864,9 +867,11 @@ def geometry_summary(geometry: CamGeometry, program, per_deg: int = SAMPLES_PER_
             if kind == "phi":
                 return -abs(float(pressure_angle(geometry, ss[0], ss[1])[0]))
             r = float(pitch_radius(geometry, *ss)[0])
+            if kind == "signed":
+                return r
             if kind == "convex":
-                return r if r > 0 else math.inf
-            return -r if r < 0 else math.inf  # concave: smallest |ρ_s| = |ρ| + Rr
+                return r if r > 0 else _FAR
+            return -r if r < 0 else _FAR  # concave: smallest |ρ_s| = |ρ| + Rr
         return f
 
     def extreme(values: np.ndarray, kind: str):
@@ -878,10 +883,15 @@ def geometry_summary(geometry: CamGeometry, program, per_deg: int = SAMPLES_PER_
         return v, math.degrees(x) % 360.0
 
     phi_val, phi_at = extreme(-np.abs(phi), "phi")
-    convex = np.where(rho > 0, rho, np.inf)
-    concave = np.where(rho < 0, -rho, np.inf)
+    convex = np.where(rho > 0, rho, _FAR)
+    concave = np.where(rho < 0, -rho, _FAR)
     rmin, rmin_at = extreme(convex, "convex")
     cmin, cmin_at = extreme(concave, "concave")
+    if rmin is not None and rmin >= _FAR:
+        rmin = rmin_at = None
+    if cmin is not None and cmin >= _FAR:
+        cmin = cmin_at = None
+    smin, smin_at = (rmin, rmin_at) if geometry.is_roller else extreme(rho, "signed")
     out = {
         "follower": geometry.follower,
         "rotation": geometry.rotation,
@@ -892,8 +902,8 @@ def geometry_summary(geometry: CamGeometry, program, per_deg: int = SAMPLES_PER_
         "pressure_angle_limit": math.degrees(geometry.pressure_angle_limit),
         "min_pitch_radius": rmin,
         "min_pitch_radius_at": rmin_at,
-        "min_surface_radius": None if rmin is None else rmin - geometry.roller_radius,
-        "min_surface_radius_at": rmin_at,
+        "min_surface_radius": None if smin is None else smin - geometry.roller_radius,
+        "min_surface_radius_at": smin_at,
         "min_concave_radius": None if cmin is None else cmin + geometry.roller_radius,
         "min_concave_radius_at": cmin_at,
     }
@@ -904,7 +914,7 @@ def geometry_summary(geometry: CamGeometry, program, per_deg: int = SAMPLES_PER_
     warnings = []
     if geometry.is_roller and out["max_pressure_angle"] > out["pressure_angle_limit"]:
         over = np.abs(phi) > geometry.pressure_angle_limit
-        spans = _spans(theta, over)
+        spans = _spans(theta, over) if np.any(over) else f"{phi_at:.4g}"
         warnings.append(
             f"pressure angle {out['max_pressure_angle']:.4g} deg at cam angle {phi_at:.4g} deg exceeds "
             f"max_pressure_angle {out['pressure_angle_limit']:.4g} deg (over it at cam angles {spans})"
