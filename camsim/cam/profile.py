@@ -141,6 +141,15 @@ def write_profile_dxf(
 
     scale = 1.0 / _unit(unit)
     _, insunits, measurement = UNITS[unit]
+    previous = ezdxf.options.write_fixed_meta_data_for_testing
+    ezdxf.options.write_fixed_meta_data_for_testing = True  # fixed dates, GUIDs: reproducible bytes
+    try:
+        return _write_dxf(ezdxf, path, points, geometry, scale, insunits, measurement)
+    finally:
+        ezdxf.options.write_fixed_meta_data_for_testing = previous
+
+
+def _write_dxf(ezdxf, path, points, geometry, scale, insunits, measurement) -> Path:
     doc = ezdxf.new("R2010")
     doc.header["$INSUNITS"] = insunits
     doc.header["$MEASUREMENT"] = measurement
@@ -156,11 +165,6 @@ def write_profile_dxf(
     arm = rb / 10.0
     msp.add_line((-arm, 0.0), (arm, 0.0), dxfattribs={"layer": LAYERS["centre"]})
     msp.add_line((0.0, -arm), (0.0, arm), dxfattribs={"layer": LAYERS["centre"]})
-    previous = ezdxf.options.write_fixed_meta_data_for_testing
-    ezdxf.options.write_fixed_meta_data_for_testing = True  # reproducible bytes
-    try:
-        with atomic_path(path) as tmp:
-            doc.saveas(tmp)
-    finally:
-        ezdxf.options.write_fixed_meta_data_for_testing = previous
+    with atomic_path(path) as tmp:
+        doc.saveas(tmp)
     return Path(path)
