@@ -107,8 +107,8 @@ def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
 
     Left: roller-side lift [mm], velocity [m/s], acceleration [m/s^2], jerk [m/s^3] at
     the cam's speed; pressure angle [deg] with the ± limit; pitch and surface radius of
-    curvature [mm] (the y-range clipped to ±4·Rp so that dwells and near-straight
-    stretches do not flatten the rest). Right: :func:`draw_cam`.
+    curvature [mm] (left out beyond ±4·Rp, where ρ passes through infinity on a
+    nearly straight stretch, so that those do not flatten the rest). Right: :func:`draw_cam`.
     """
     theta, left = design_grid(program, 4)
     s, s1, s2, s3 = (np.array(v) for v in roller_side_motion(program, theta))
@@ -121,8 +121,9 @@ def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
     rho = pitch_radius(geometry, s, s1, s2, s3) * 1e3
     limit = math.degrees(geometry.pressure_angle_limit)
     with matplotlib.rc_context(_STYLE):
-        fig = Figure(figsize=(11.0, 8.0), layout="constrained")
-        grid = fig.add_gridspec(6, 2, width_ratios=(1.0, 1.0))
+        fig = Figure(figsize=(11.0, 8.0))
+        grid = fig.add_gridspec(6, 2, width_ratios=(1.0, 1.0), left=0.07, right=0.98, bottom=0.06, top=0.94,
+                                wspace=0.18, hspace=0.12)
         axes = [fig.add_subplot(grid[0, 0])]
         for i in range(1, 6):
             axes.append(fig.add_subplot(grid[i, 0], sharex=axes[0]))
@@ -143,9 +144,10 @@ def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
         ax.set_ylabel("press. angle [deg]")
         ax = axes[5]
         cap = 4.0 * geometry.prime_radius * 1e3
-        ax.plot(deg, np.clip(rho, -cap, cap), color="tab:green", label="pitch" if geometry.is_roller else "surface")
+        clip = lambda y: np.where(np.abs(y) > cap, np.nan, y)  # noqa: E731 - gaps where ρ passes through ∞
+        ax.plot(deg, clip(rho), color="tab:green", label="pitch" if geometry.is_roller else "surface")
         if geometry.is_roller:
-            ax.plot(deg, np.clip(rho - geometry.roller_radius * 1e3, -cap, cap), color="k", lw=0.9, label="surface")
+            ax.plot(deg, clip(rho - geometry.roller_radius * 1e3), color="k", lw=0.9, label="surface")
             ax.axhline(geometry.roller_radius * 1e3, color="tab:red", ls="--", lw=0.8, label="Rr")
         ax.axhline(0.0, color="0.4", lw=0.6)
         ax.set_ylabel("ρ [mm]")
