@@ -170,3 +170,50 @@ def test_no_geometry_no_design():
     assert result.design_traces() == {}
     assert design_summary(result) is None
     assert "design" not in result.summary()
+
+
+def _datasets(path):
+    import h5py
+
+    out = {}
+    with h5py.File(path) as f:
+        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+def test_geometry_changes_no_existing_trace(tmp_path):
+    """Adding [cam.geometry] adds datasets and changes none of the others (bit for bit)."""
+    from camsim.io.runfile import write_run
+
+    with_geometry = MACHINE.format(ratio=RATIO, geometry=ROLLER, m=M, k=K, p=P)
+    start = with_geometry.index("[cam.geometry]")
+    without = with_geometry[:start] + with_geometry[with_geometry.index("[[mass]]"):]
+    write_run(simulate(load_machine_text(with_geometry)), tmp_path / "a.h5")
+    write_run(simulate(load_machine_text(without)), tmp_path / "b.h5")
+    a, b = _datasets(tmp_path / "a.h5"), _datasets(tmp_path / "b.h5")
+    added = set(a) - set(b)
+    assert added == {"cam/pressure_angle", "cam/pitch_radius_of_curvature", "cam/surface_radius_of_curvature",
+                     "cam/pitch_curve", "cam/surface", "cam_contact/normal_force", "cam_contact/side_load",
+                     "cam_contact/hertz_stress", "camshaft/torque"}
+    assert set(b) <= set(a)
+    for name in b:
+        assert a[name].tobytes() == b[name].tobytes(), name
+
+
+@pytest.mark.slow  # two runs of the thesis machine
+def test_cdtm_geometry_has_the_traces_of_cdtm():
+    """machines/cdtm-geometry.toml runs exactly like machines/cdtm.toml (its numbers are unchanged)."""
+    from pathlib import Path
+
+    from camsim.loader import load_machine
+
+    root = Path(__file__).resolve().parents[2] / "machines"
+    a = simulate(load_machine(root / "cdtm-geometry.toml"), cycles=1, warmup_cycles=0, sample_rate=10_000.0)
+    b = simulate(load_machine(root / "cdtm.toml"), cycles=1, warmup_cycles=0, sample_rate=10_000.0)
+    for name in b.masses:
+        for q in ("displacement", "velocity", "acceleration"):
+            np.testing.assert_array_equal(a.masses[name][q], b.masses[name][q])
+    for name in b.elements:
+        np.testing.assert_array_equal(a.elements[name], b.elements[name])
+    np.testing.assert_array_equal(a.cam_contact_force, b.cam_contact_force)
+    assert a.design_summary()["defects"] == []
