@@ -157,6 +157,18 @@ def test_bad_override_key(tmp_path):
     assert r.exit_code == 2 and "cam.geometry.base_radius" in r.output and "--set" in r.output
 
 
+@pytest.mark.parametrize("option,value,message", [
+    ("--unit", "cm", "--unit: unknown unit 'cm'; use mm or in"),
+    ("--tolerance", "0 um", "--tolerance: must be positive"),
+    ("--tolerance", "1 kg", "--tolerance: expected [length]"),
+])
+def test_bad_export_options(tmp_path, option, value, message):
+    machine = write(tmp_path, GOOD)
+    r = invoke(["cam", machine, "--profile", tmp_path / "p.csv", option, value])
+    assert r.exit_code == 2 and message in r.output
+    assert not (tmp_path / "p.csv").exists()
+
+
 def test_profile_needs_geometry(tmp_path):
     text = MACHINE.format(geometry="")
     text = text.replace("[cam.geometry]\n", "")
