@@ -102,7 +102,8 @@ def render_geometry_checks(summary: dict, console: Console, title: str = "cam ge
     if roller:
         table.add_row("min convex pitch radius", _fmt(mm(summary["min_pitch_radius"])), "mm",
                       _fmt(summary["min_pitch_radius_at"], ".5g"), f"> Rr = {1e3 * summary['roller_radius']:.4g}")
-    table.add_row("min convex surface radius", _fmt(mm(summary["min_surface_radius"])), "mm",
+    table.add_row("min convex surface radius" if roller else "min surface radius Rb+s+s''",
+                  _fmt(mm(summary["min_surface_radius"])), "mm",
                   _fmt(summary["min_surface_radius_at"], ".5g"), "> 0")
     table.add_row("min concave surface radius", _fmt(mm(summary["min_concave_radius"])), "mm",
                   _fmt(summary["min_concave_radius_at"], ".5g"), "")
