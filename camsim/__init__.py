@@ -5,14 +5,56 @@ can be done from Python::
 
     from camsim import load_machine, simulate
     machine = load_machine("machines/cdtm.toml")
-    result = simulate(machine)
+    result = simulate(machine, cycles=2)
+    result.scalars()["peak_transducer_force"]       # [N]
+    stiffer = machine.with_values({"element.K12.stiffness": "1.7e6 N/m"})
+
+See ``docs/python-api.md``. Errors a user can cause derive from :class:`InputError`
+(:class:`MachineError` names the file and the key); a run that cannot be completed
+raises :class:`SimulationError`.
 """
 
 from importlib.metadata import PackageNotFoundError, version
+
+from camsim.errors import CamsimError, InputError, MachineError, MachineFileError, ResultFileError, SimulationError
 
 try:
     __version__ = version("camsim")
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+#: Public names imported on first use, so that ``import camsim`` (and the CLI) stays light.
+_LAZY = {
+    "load_machine": "camsim.loader",
+    "Machine": "camsim.machine",
+    "simulate": "camsim.simulate",
+    "RunResult": "camsim.result",
+    "open_result": "camsim.result",
+    "EventKind": "camsim.events",
+}
+
+__all__ = [
+    "__version__",
+    "CamsimError",
+    "InputError",
+    "MachineError",
+    "MachineFileError",
+    "ResultFileError",
+    "SimulationError",
+    *_LAZY,
+]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'camsim' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

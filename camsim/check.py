@@ -29,7 +29,7 @@ import numpy as np
 
 from camsim.errors import InputError, ResultFileError
 from camsim.io.hdf5 import read_table
-from camsim.io.results import all_datasets, attr_text, file_kind, list_traces, open_result, table_units, time_bases, units_of
+from camsim.io.results import all_datasets, attr_text, file_kind, list_traces, open_h5, table_units, time_bases, units_of
 
 #: Default relative tolerance, relative to each dataset's peak |value| (golden file).
 DEFAULT_RTOL = 1e-6
@@ -261,7 +261,7 @@ def check_files(
     """
     _check_tolerances(rtol, atol)
     report = CheckReport(str(result), str(golden), float(rtol), float(atol))
-    with open_result(result) as rf, open_result(golden) as gf:
+    with open_h5(result) as rf, open_h5(golden) as gf:
         rk, gk = file_kind(rf), file_kind(gf)
         if rk != gk:
             raise ResultFileError(f"{result}: file_kind: {rk}, but the golden file is a {gk} file")

@@ -152,9 +152,9 @@ def compare_files(path_a: str | os.PathLike[str], path_b: str | os.PathLike[str]
         When a file is not a camsim run file, the schemas differ, the grids differ or the
         masses differ.
     """
-    from camsim.io.results import file_kind, open_result
+    from camsim.io.results import file_kind, open_h5
 
-    with open_result(path_a) as fa, open_result(path_b) as fb:
+    with open_h5(path_a) as fa, open_h5(path_b) as fb:
         for path, f in ((path_a, fa), (path_b, fb)):
             if file_kind(f) != "run":
                 raise ResultFileError(f"{path}: not a run file (file_kind {file_kind(f)!r}); compare takes two `camsim run` results")
@@ -182,9 +182,9 @@ def write_file_comparison(comparison: Comparison, path_a, path_b, target) -> Non
     """Write a comparison of two run files: /impact ← A, /no_impact ← B, /difference."""
     from camsim.io.atomic import atomic_path
     from camsim.io.hdf5 import create_file, write_time, write_trace
-    from camsim.io.results import open_result
+    from camsim.io.results import open_h5
 
-    with atomic_path(target) as tmp, create_file(tmp) as out, open_result(path_a) as fa, open_result(path_b) as fb:
+    with atomic_path(target) as tmp, create_file(tmp) as out, open_h5(path_a) as fa, open_h5(path_b) as fb:
         for key in ("camsim_version", "schema", "machine_name", "machine_toml", "machine_sha256", "units_system"):
             if key in fa.attrs:
                 out.attrs[key] = fa.attrs[key]

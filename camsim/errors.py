@@ -38,6 +38,10 @@ class MachineFileError(InputError):
         super().__init__(where + message)
 
 
+#: The name the Python API documents for machine-file errors.
+MachineError = MachineFileError
+
+
 class ResultFileError(InputError):
     """A result file that cannot be read or compared (not HDF5, not camsim, other grid)."""
 

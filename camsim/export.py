@@ -26,7 +26,7 @@ import numpy as np
 
 from camsim.errors import InputError, ResultFileError
 from camsim.io.atomic import atomic_path, check_writable
-from camsim.io.results import file_kind, list_traces, open_result, read_events, table_units, units_of
+from camsim.io.results import file_kind, list_traces, open_h5, read_events, table_units, units_of
 
 #: Groups of a comparison file that hold a time base.
 COMPARE_GROUPS = ("impact", "no_impact", "difference")
@@ -190,7 +190,7 @@ def export_csv(
     InputError, ResultFileError
         Unknown column, wrong file kind, unwritable output; nothing is written then.
     """
-    with open_result(path) as f:
+    with open_h5(path) as f:
         kind = file_kind(f)
         if kind == "compare":
             if group is None:

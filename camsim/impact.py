@@ -314,24 +314,34 @@ def johnson_bounds(
         For an unknown law, a missing or non-positive parameter, a non-positive mass or
         bodies that do not approach.
     """
-    if law == "linear":
-        if stiffness is None:
-            raise InputError('johnson_bounds: law "linear" needs stiffness')
-        if coefficient is not None or exponent is not None:
-            raise InputError('johnson_bounds: law "linear" takes no coefficient or exponent')
-        lower = johnson_linear_lower(stiffness, m1, m2, v1, v2)
-        upper = johnson_linear_upper(stiffness, m2, v1, v2)
-    elif law == "power":
-        if coefficient is None or exponent is None:
-            raise InputError('johnson_bounds: law "power" needs coefficient and exponent')
-        if stiffness is not None:
-            raise InputError('johnson_bounds: law "power" takes no stiffness')
-        lower = johnson_power_lower(coefficient, exponent, m1, m2, v1, v2)
-        upper = johnson_power_upper(coefficient, exponent, m2, v1, v2)
-    else:
+    formulas = {"linear": (johnson_linear, ("stiffness",)), "power": (johnson_power, ("coefficient", "exponent"))}
+    if law not in formulas:
         raise InputError(f'johnson_bounds: law must be "linear" or "power", got {law!r}')
-    lower, upper = float(lower), float(upper)
+    function, needs = formulas[law]
+    given = {"stiffness": stiffness, "coefficient": coefficient, "exponent": exponent}
+    if any(given[k] is None for k in needs):
+        raise InputError(f'johnson_bounds: law "{law}" needs ' + " and ".join(needs))
+    extra = [k for k, v in given.items() if v is not None and k not in needs]
+    if extra:
+        raise InputError(f'johnson_bounds: law "{law}" takes no ' + " or ".join(extra))
+    return function(m1, m2, v1, v2, *(given[k] for k in needs))
+
+
+def johnson_linear(m1, m2, v1, v2, stiffness) -> tuple[float, float]:
+    """Johnson's (lower, upper) peak force [N] of a linear contact k [N/m] (eqs. 3.27, 3.29).
+
+    Masses [kg] (``m1`` may be ``inf``), velocities before impact [m/s].
+    """
+    lower = float(johnson_linear_lower(stiffness, m1, m2, v1, v2))
+    upper = float(johnson_linear_upper(stiffness, m2, v1, v2))
     return min(lower, upper), upper  # equal up to rounding when m1 = inf
+
+
+def johnson_power(m1, m2, v1, v2, coefficient, exponent) -> tuple[float, float]:
+    """Johnson's (lower, upper) peak force [N] of a contact F = C·δ^a (eqs. 3.34, 3.35)."""
+    lower = float(johnson_power_lower(coefficient, exponent, m1, m2, v1, v2))
+    upper = float(johnson_power_upper(coefficient, exponent, m2, v1, v2))
+    return min(lower, upper), upper
 
 
 # ------------------------------------------------------------------------------ Burr

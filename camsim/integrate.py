@@ -32,19 +32,19 @@ import numpy as np
 import scipy.linalg
 
 from camsim.errors import SimulationError, ZenoError
-from camsim.machine import Contact, PreloadedLink
+from camsim.events import Event, EventKind
+from camsim.affine import N_INPUT, Affine
+from camsim.elements import FORCE_TOL, LENGTH_TOL, Branch, GuardKind
+from camsim.model import Configuration, Model
 from camsim.recurrence import linear_recurrence
-from camsim.model import N_INPUT, Affine, Branch, Configuration, Model
 
 #: Degree of the per-step Hermite representation of the cam input.
 HERMITE_DEGREE = 7
 _P = HERMITE_DEGREE
 _FACT = np.array([math.factorial(j) for j in range(_P + 4)], dtype=float)
 
-#: Guard tolerances: a guard within this of zero at the start of a stretch counts as
-#: "just crossed" and is not detected again at the same instant.
-LENGTH_TOL = 1e-13  # [m]
-FORCE_TOL = 1e-9  # [N]
+#: Guard tolerances (LENGTH_TOL [m], FORCE_TOL [N]) are the elements' (camsim.elements.base):
+#: a guard within them of zero at the start of a stretch counts as "just crossed".
 #: A rigid contact sticks when the predicted remaining chatter time is below this [s].
 ZENO_TIME = 1e-11
 #: More events than this at one instant (within TIME_EPS) is a failure to resolve.
@@ -335,27 +335,10 @@ class Guard:
     """A scalar condition that keeps the configuration valid while it is > 0."""
 
     element: int
-    kind: str  # separate, rejoin, close, release, unlift
+    kind: GuardKind
     value: Affine  # one row
     tol: float
     rate: Affine | None = None  # time derivative (linear configurations)
-
-
-@dataclass
-class Event:
-    """One event of a run (times on the simulation clock until shifted for output)."""
-
-    time: float
-    element: str
-    kind: str
-    relative_velocity: float = float("nan")
-    angle_deg: float = float("nan")
-    masses: str = ""
-    johnson_lower: float = float("nan")
-    johnson_upper: float = float("nan")
-    peak_force: float = float("nan")
-    contact_duration: float = float("nan")
-    element_index: int = -1
 
 
 @dataclass
@@ -380,6 +363,38 @@ class State:
     v: np.ndarray
     branches: tuple[Branch, ...]
     v_impacts: dict[int, float]
+
+
+class _GuardContext:
+    """What an element needs to state its guards in one configuration at one state."""
+
+    def __init__(self, integrator: "Integrator", config: Configuration, state: State, index: int):
+        self.integrator = integrator
+        self.config = config
+        self.state = state
+        self.index = index
+        self.damping = integrator.model.damping[index]
+        self.v_impact = state.v_impacts.get(index)
+
+    def deflection(self) -> tuple[Affine, Affine]:
+        """d = x_upper − x_lower and ḋ as affine maps."""
+        return self.integrator._deflection(self.config, self.index)
+
+    def penetration(self) -> tuple[Affine, Affine]:
+        """δ = gap − d and δ̇ of a contact as affine maps."""
+        return self.integrator._delta(self.config, self.index)
+
+    def constraint_force(self) -> Affine:
+        """The compressive force of a constraint (a stuck rigid contact) as an affine map."""
+        k = self.config.stuck_contacts.index(self.index)
+        return self.config.lam.rows(slice(k, k + 1))
+
+    def now(self, value: Affine) -> float:
+        """An affine map evaluated at the current state."""
+        integ = self.integrator
+        z = self.config.state_from_full(self.state.x, self.state.v, *integ.inputs(np.array([self.state.t]))[0, :2])
+        u = integ.inputs(np.array([self.state.t]))
+        return float(value(z[None, :], u)[0, 0])
 
 
 class Integrator:
@@ -512,70 +527,17 @@ class Integrator:
         return Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
 
     def guards(self, state: State, config: Configuration) -> list[Guard]:
-        """Guards of the configuration at ``state`` (open contacts choose by penetration)."""
+        """Guards of the configuration at ``state``, as each element declares them."""
         model = self.model
         out: list[Guard] = []
         for pos, i in enumerate(model.switching):
-            branch = state.branches[pos]
-            element = model.elements[i]
-            if isinstance(element, PreloadedLink):
-                d, _ = self._deflection(config, i)
-                dsep = element.separation_deflection
-                if branch == Branch.JOINED:
-                    g = Affine(-d.Cz, -d.Du, -d.Fn, dsep - d.e)
-                    out.append(Guard(i, "separate", g, LENGTH_TOL))
-                elif branch == Branch.SEPARATED:
-                    g = Affine(d.Cz, d.Du, d.Fn, d.e - dsep)
-                    out.append(Guard(i, "rejoin", g, LENGTH_TOL))
-                continue
-            if not isinstance(element, Contact) or branch == Branch.BILATERAL:
-                continue
-            delta, rate = self._delta(config, i)
-            if branch == Branch.STUCK:
-                k = config.stuck_contacts.index(i)
-                lam = config.lam.rows(slice(k, k + 1))
-                g = Affine(lam.Cz, lam.Du, lam.Fn, lam.e + FORCE_TOL)
-                out.append(Guard(i, "release", g, FORCE_TOL))
-                continue
-            if branch == Branch.CLOSED:
-                if element.law == "linear":
-                    k_, c_, _ = model.linear_branch(i, branch)
-                    force = Affine.combine([(np.array([[k_]]), delta), (np.array([[c_]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
-                    out.append(Guard(i, "release", force, FORCE_TOL))
-                else:  # power law: δ > 0 and the Hunt–Crossley factor > 0
-                    out.append(Guard(i, "release", delta, LENGTH_TOL))
-                    factor = self._hc_factor(i, rate, state.v_impacts.get(i))
-                    if factor is not None:
-                        out.append(Guard(i, "release", factor, 1e-12))
-                continue
-            # OPEN: approaching (δ ≤ 0) or lifted (δ > 0 but the law would pull)
-            z = config.state_from_full(state.x, state.v, *self.inputs(np.array([state.t]))[0, :2])
-            u = self.inputs(np.array([state.t]))
-            delta_now = float(delta(z[None, :], u)[0, 0])
-            if element.law == "restitution" or delta_now <= LENGTH_TOL:
-                g = Affine(-delta.Cz, -delta.Du, -delta.Fn, -delta.e)
-                out.append(Guard(i, "close", g, LENGTH_TOL))
-                continue
-            if element.law == "linear":
-                k_, c_, _ = model.linear_branch(i, Branch.CLOSED)
-                law = Affine.combine([(np.array([[-k_]]), delta), (np.array([[-c_]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
-                out.append(Guard(i, "close", law, FORCE_TOL))
-            else:
-                factor = self._hc_factor(i, rate, state.v_impacts.get(i))
-                if factor is not None:
-                    out.append(Guard(i, "close", Affine(-factor.Cz, -factor.Du, -factor.Fn, -factor.e), 1e-12))
-            out.append(Guard(i, "unlift", delta, LENGTH_TOL))
+            context = _GuardContext(self, config, state, i)
+            for kind, value, tol in model.elements[i].guards(state.branches[pos], context):
+                out.append(Guard(i, kind, value, tol))
         if config.linear:
             for guard in out:
                 guard.rate = self._rate(config, guard.value)
         return out
-
-    def _hc_factor(self, i: int, rate: Affine, v_impact: float | None) -> Affine | None:
-        element = self.model.elements[i]
-        if element.restitution is None or not v_impact:
-            return None
-        beta = 0.75 * (1.0 - element.restitution**2) / v_impact
-        return Affine(beta * rate.Cz, beta * rate.Du, beta * rate.Fn, 1.0 + beta * rate.e)
 
     @staticmethod
     def _rate(config: Configuration, g: Affine) -> Affine:
@@ -894,13 +856,14 @@ class Integrator:
             contacts.append((i, delta.Cz[0], delta.Du[0], float(delta.e[0]), rate.Cz[0], rate.Du[0], float(rate.e[0])))
         A, B, b, L = config.A, config.B, config.b, config.L
         fn = np.zeros(len(contacts))
+        force_of = [self.model.elements[i].nonlinear_force_scalar for i in config.power_contacts]
 
         def rhs(t, z):
             u = cam_input(t)
             for k, (i, dcz, ddu, de, rcz, rdu, re) in enumerate(contacts):
                 delta = dcz @ z + ddu @ u + de
                 rate = rcz @ z + rdu @ u + re
-                fn[k] = self.model.power_force_scalar(i, delta, rate, v_imp.get(i))
+                fn[k] = force_of[k](delta, rate, v_imp.get(i))
             return A @ z + B @ u + b + L @ fn
 
         events = []
@@ -955,7 +918,7 @@ class Integrator:
         u = self.inputs(np.array([state.t]))[0]
         d = state.x @ geo.G + geo.g_s * u[0]
         dd = state.v @ geo.G + geo.g_s * u[1]
-        return getattr(self.model.elements[i], "gap", 0.0) - d, -dd
+        return self.model.elements[i].penetration(d), -dd
 
     def handle(self, state: State, guard: Guard) -> State:
         """Apply the event of ``guard`` at ``state``; returns the state after it."""
@@ -971,35 +934,20 @@ class Integrator:
             self._instant_count = 0
         model = self.model
         i = guard.element
-        element = model.elements[i]
         pos = model.switching.index(i)
         branches = list(state.branches)
         v_imp = dict(state.v_impacts)
-        delta, rate = self.relative_rate(state, i)
-        x, v = state.x.copy(), state.v.copy()
-        kind = guard.kind
-        if kind == "unlift":
-            return State(state.t, x, v, tuple(branches), v_imp)
-        if isinstance(element, PreloadedLink):
-            if kind == "separate":
-                branches[pos] = Branch.SEPARATED
-                self._record(state.t, i, "separation", -rate)
-            else:
-                branches[pos] = Branch.JOINED
-                self._record(state.t, i, "rejoin", rate)
-            return State(state.t, x, v, tuple(branches), v_imp)
-        if kind == "release":
-            branches[pos] = Branch.OPEN
-            self._record(state.t, i, "release", rate)
-            return State(state.t, x, v, tuple(branches), v_imp)
-        # closing
-        self._record(state.t, i, "impact", rate)
-        if element.law != "restitution":
-            branches[pos] = Branch.CLOSED
-            if element.law == "power" and element.restitution is not None:
-                v_imp[i] = max(rate, 1e-12)
-            return State(state.t, x, v, tuple(branches), v_imp)
-        return self._rigid_impact(state, i, pos, branches, v_imp, rate)
+        _, rate = self.relative_rate(state, i)
+        outcome = model.elements[i].outcome(guard.kind, rate)
+        if outcome.event is not None:
+            self._record(state.t, i, outcome.event, outcome.velocity)
+        if outcome.rigid_impact:
+            return self._rigid_impact(state, i, pos, branches, v_imp, rate)
+        if outcome.branch is not None:
+            branches[pos] = outcome.branch
+        if outcome.v_impact is not None:
+            v_imp[i] = outcome.v_impact
+        return State(state.t, state.x.copy(), state.v.copy(), tuple(branches), v_imp)
 
     def _rigid_impact(self, state, i, pos, branches, v_imp, approach):
         """Newton's impact law on a rigid contact; stick when the chatter would not end."""
@@ -1043,11 +991,11 @@ class Integrator:
             v_stuck = velocity_after(0.0)
             branches[pos] = Branch.STUCK
             stuck = State(t, state.x, v_stuck, tuple(branches), v_imp)
-            self._record(t, i, "stick", 0.0)
+            self._record(t, i, EventKind.STICK, 0.0)
             return stuck
         return after
 
-    def _record(self, t: float, i: int, kind: str, relative_velocity: float) -> None:
+    def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float) -> None:
         element = self.model.elements[i]
         self.events.append(
             Event(
@@ -1063,7 +1011,7 @@ class Integrator:
         z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
         fn = self.nonlinear_forces(config, z[None, :], u, state.v_impacts)
         for guard in self.guards(state, config):
-            if guard.kind == "unlift":
+            if guard.kind == GuardKind.UNLIFT:
                 continue
             if guard.value(z[None, :], u, fn)[0, 0] < -guard.tol:
                 return guard

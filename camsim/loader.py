@@ -29,27 +29,21 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from camsim import elements as element_kinds
+from camsim import schema
+from camsim.elements import CAM, FIXED_NODES, GROUND, Damping, Element, Param
 from camsim.errors import MachineFileError
 from camsim.machine import (
-    CAM,
-    CONTACT_LAWS,
-    FIXED_NODES,
-    GROUND,
     LAWS,
     MOTIONS,
     STANDARD_GRAVITY,
     Cam,
     CamTable,
-    Contact,
-    Damping,
-    Element,
     InitialCondition,
     Machine,
     Mass,
-    PreloadedLink,
     Segment,
     Simulation,
-    Spring,
 )
 from camsim.units import QuantityError, to_si, ureg
 
@@ -69,26 +63,23 @@ SCHEMA_VERSION = 1
 # --------------------------------------------------------------------------------------
 # The schema: which keys each table may hold
 # --------------------------------------------------------------------------------------
-TOP_KEYS = ("schema", "machine", "cam", "mass", "element", "simulation", "initial")
-MACHINE_KEYS = ("name", "description")
-CAM_KEYS = ("speed", "ratio", "arm", "drives", "start_angle", "segments", "table", "geometry")  # geometry: issue 14
-SEGMENT_KEYS = ("motion", "law", "duration", "lift")
-MASS_KEYS = ("name", "mass")
-ELEMENT_TYPES = ("spring", "preloaded", "contact")
-ELEMENT_COMMON_KEYS = ("name", "type", "between", "damping", "damping_ratio", "reference_mass")
-ELEMENT_TYPE_KEYS = {
-    "spring": ("stiffness", "preload"),
-    "preloaded": ("push_stiffness", "pull_stiffness", "preload"),
-    "contact": ("gap", "law", "stiffness", "coefficient", "exponent", "restitution", "transducer"),
-}
-#: Contact keys that only some laws accept (the rest are common to all laws).
-_CONTACT_LAW_KEYS = {
-    "linear": ("stiffness", "damping", "damping_ratio", "reference_mass"),
-    "power": ("coefficient", "exponent", "restitution"),
-    "restitution": ("restitution",),
-}
+TOP_KEYS = schema.keys("top")
+MACHINE_KEYS = schema.keys("machine")
+CAM_KEYS = schema.keys("cam")
+SEGMENT_KEYS = schema.keys("cam.segments")
+MASS_KEYS = schema.keys("mass")
+SIMULATION_KEYS = schema.keys("simulation")
+INITIAL_KEYS = schema.keys("initial")
+# Element tables: the keys come from each kind's schema (camsim/elements/).
+ELEMENT_TYPES = element_kinds.element_types()
+ELEMENT_COMMON_KEYS = tuple(p.key for p in element_kinds.COMMON_PARAMS)
+ELEMENT_TYPE_KEYS = {kind: element_kinds.type_keys(kind) for kind in ELEMENT_TYPES}
+# (These two are the kinds registered when the loader was imported; the loader itself asks
+# the registry each time, so a kind registered later — a plug-in — is accepted too.)
 SIMULATION_KEYS = ("cycles", "warmup_cycles", "sample_rate", "gravity", "duration")
 INITIAL_KEYS = ("displacement", "velocity")
+
+_DAMPING_KEYS = ("damping", "damping_ratio", "reference_mass")
 
 #: Tolerance on the sum of segment durations [deg].
 DURATION_TOLERANCE_DEG = 1e-6
@@ -101,28 +92,64 @@ _TABLE_COLUMNS = ("angle", "displacement", "velocity", "acceleration")
 # --------------------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------------------
-def load_machine(path: str | Path, overrides: Sequence[str] = ()) -> Machine:
-    """Read and validate a machine file.
+def load_machine(
+    path: str | os.PathLike[str] | dict, overrides: Sequence[str] | dict[str, Any] = (), *, base_dir: str | Path | None = None
+) -> Machine:
+    """Read and validate a machine file (or a machine given as a dict).
 
     Parameters
     ----------
-    path : str or Path
-        The TOML machine file. A cam ``table`` CSV is looked up relative to it.
-    overrides : sequence of str
-        ``"KEY=VALUE"`` assignments (as from ``--set``), applied before validation.
+    path : str, Path or dict
+        The TOML machine file — a cam ``table`` CSV is looked up relative to it — or the
+        machine document itself as a dict (what ``tomllib.load`` would return; values may
+        be strings with units, as in a file).
+    overrides : sequence of str, or dict
+        ``"KEY=VALUE"`` assignments (as from ``--set``), or ``{KEY: VALUE}``, applied
+        before validation.
+    base_dir : path, optional
+        For a dict: where a cam ``table`` path is relative to (default: the current
+        directory).
 
     Returns
     -------
     Machine
-        The machine in SI units; ``source`` is ``str(path)``.
+        The machine in SI units; ``source`` is ``str(path)`` (``"<dict>"`` for a dict).
 
     Raises
     ------
     MachineFileError
         Missing or unreadable file, invalid TOML, or any invalid key or value.
     """
+    if isinstance(overrides, dict):
+        overrides = assignments(overrides)
+    if isinstance(path, dict):
+        import tomli_w
+
+        try:
+            text = tomli_w.dumps(path)
+        except TypeError as exc:
+            raise MachineFileError("<dict>", "", f"not a machine document: {exc}") from None
+        return load_machine_text(text, source="<dict>", base_dir=Path(base_dir or "."), overrides=overrides)
     text = read_machine_text(path)
     return load_machine_text(text, source=str(path), base_dir=Path(path).parent, overrides=overrides)
+
+
+def assignments(values: dict[str, Any]) -> list[str]:
+    """``{KEY: VALUE}`` → ``["KEY=VALUE", ...]`` in the ``--set`` grammar.
+
+    A value may be a number, a bool or a string with units (``"1.7e6 N/m"``); strings are
+    quoted so that they reach the loader as written.
+    """
+    out = []
+    for key, value in values.items():
+        if isinstance(value, bool):
+            text = "true" if value else "false"
+        elif isinstance(value, (int, float)):
+            text = repr(value)
+        else:
+            text = '"' + str(value).replace("\\", "\\\\").replace('"', '\\"') + '"'
+        out.append(f"{key}={text}")
+    return out
 
 
 def read_machine_text(path: str | os.PathLike[str]) -> str:
@@ -190,7 +217,7 @@ def load_machine_text(
 
         header = "".join(f"# --set {a}\n" for a in overrides)
         text = f"# {source} with command-line overrides:\n{header}" + tomli_w.dumps(doc)
-    return _replace_text(machine, text)
+    return _replace_text(machine, text, base_dir)
 
 
 def apply_override(doc: dict, assignment: str, source: str) -> None:
@@ -247,7 +274,7 @@ def override_keys(doc: dict) -> list[str]:
         keys += [f"mass.{name}.{k}" for k in MASS_KEYS if k != "name"]
     for name, row in _named_rows(doc.get("element")).items():
         kind = row.get("type")
-        extra = ELEMENT_TYPE_KEYS.get(kind, ()) if isinstance(kind, str) else ()
+        extra = element_kinds.type_keys(kind) if isinstance(kind, str) else ()
         keys += [f"element.{name}.{k}" for k in ELEMENT_COMMON_KEYS + extra if k != "name"]
     keys += [f"simulation.{k}" for k in SIMULATION_KEYS]
     driven = cam.get("drives") if isinstance(cam, dict) else None
@@ -271,21 +298,7 @@ def damping_coefficients(machine: Machine, element: Element) -> dict[str, float]
         for a preloaded link, ``{}`` for power-law and restitution contacts (which take
         no viscous damping).
     """
-    damping = element.damping
-    if isinstance(element, PreloadedLink):
-        stiffnesses = {"c_push": element.push_stiffness, "c_pull": element.pull_stiffness}
-    elif isinstance(element, Spring):
-        stiffnesses = {"c": element.stiffness}
-    elif isinstance(element, Contact) and element.law == "linear":
-        stiffnesses = {"c": element.stiffness}
-    else:
-        return {}
-    if damping.coefficient is not None:
-        return {key: damping.coefficient for key in stiffnesses}
-    if damping.ratio is None:
-        return {key: 0.0 for key in stiffnesses}
-    m_ref = machine.mass_of(reference_mass_of(element))
-    return {key: 2.0 * damping.ratio * math.sqrt(k * m_ref) for key, k in stiffnesses.items()}
+    return element.damping_coefficients(lambda: machine.mass_of(reference_mass_of(element)))
 
 
 def reference_mass_of(element: Element) -> str:
@@ -336,24 +349,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             }
     elements = []
     for e in machine.elements:
-        row: dict[str, Any] = {"name": e.name, "lower": e.lower, "upper": e.upper}
-        if isinstance(e, PreloadedLink):
-            row.update(
-                type="preloaded",
-                push_stiffness=e.push_stiffness,
-                pull_stiffness=e.pull_stiffness,
-                preload=e.preload,
-                separation_deflection=e.separation_deflection,
-            )
-        elif isinstance(e, Spring):
-            row.update(type="spring", stiffness=e.stiffness, preload=e.preload)
-        elif isinstance(e, Contact):
-            row.update(type="contact", law=e.law, gap=e.gap, transducer=e.transducer)
-            if e.law == "linear":
-                row["stiffness"] = e.stiffness
-            elif e.law == "power":
-                row.update(coefficient=e.coefficient, exponent=e.exponent)
-            row["restitution"] = e.restitution
+        row: dict[str, Any] = e.describe()
         row["damping"] = e.damping.coefficient
         row["damping_ratio"] = e.damping.ratio
         row["reference_mass"] = (
@@ -530,7 +526,7 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
             valid = MASS_KEYS
         else:
             kind = row.get("type")
-            valid = ELEMENT_COMMON_KEYS + (ELEMENT_TYPE_KEYS.get(kind, ()) if isinstance(kind, str) else ())
+            valid = ELEMENT_COMMON_KEYS + (element_kinds.type_keys(kind) if isinstance(kind, str) else ())
         prefix = f"{head}[{index}]" if head_index is not None else f"{head}.{names[1][0]}"
         if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in valid:
             word = rest[0][0] if rest else ""
@@ -575,10 +571,10 @@ def _table(doc: dict, name: str, source: str) -> dict:
     return table
 
 
-def _replace_text(machine: Machine, text: str) -> Machine:
+def _replace_text(machine: Machine, text: str, base_dir: Path) -> Machine:
     import dataclasses
 
-    return dataclasses.replace(machine, text=text)
+    return dataclasses.replace(machine, text=text, base_dir=str(base_dir))
 
 
 # --------------------------------------------------------------------------------------
@@ -1056,42 +1052,28 @@ class _Validator:
                 raise self.error(f"{path}.name", "must not be empty")
             if any(e.name == name for e in result):
                 raise self.error(f"{path}.name", f'duplicate element name "{name}"')
-            kind = self.choice(row, "type", path, ELEMENT_TYPES, required=True)
-            self.check_keys(row, ELEMENT_COMMON_KEYS + ELEMENT_TYPE_KEYS[kind], path, f"for a {kind} element")
+            kind = self.choice(row, "type", path, element_kinds.element_types(), required=True)
+            self.check_keys(row, ELEMENT_COMMON_KEYS + element_kinds.type_keys(kind), path, f"for a {kind} element")
             lower, upper = self.between(row, path, nodes)
-            if kind == "contact":
-                law = self.choice(row, "law", path, CONTACT_LAWS, required=False) or "linear"
-                key_laws = self.contact_key_laws()
+            laws = element_kinds.laws_of(kind)
+            law = None
+            if laws:
+                law = self.choice(row, "law", path, laws, required=False) or element_kinds.element_class(kind).law_name
+                key_laws = element_kinds.key_laws(kind)
                 for key in row:
                     if key in key_laws and law not in key_laws[key]:
                         takes = " or ".join(f'law = "{x}"' for x in key_laws[key])
-                        hint = ("; a power-law contact is damped through restitution (Hunt-Crossley)"
-                                if key.startswith("damping") and law == "power" else "")
-                        raise self.error(f"{path}.{key}",
-                                         f'not used by a contact with law = "{law}" (only {takes}){hint}')
-            damping = self.damping(row, path, lower, upper, mass_names)
-            common = dict(name=name, lower=lower, upper=upper, damping=damping)
-            if kind == "spring":
-                k = self.quantity(row, "stiffness", path, "stiffness", required=True, minimum=0.0,
-                                  example='"9051 lbf/in"')
-                preload = self.quantity(row, "preload", path, "force", default=0.0)
-                if k == 0.0 and not (damping.coefficient or 0.0) > 0.0:
-                    raise self.error(f"{path}.stiffness", "a spring with zero stiffness needs a positive "
-                                     "damping coefficient (damping = ...), else it does nothing")
-                element: Element = Spring(**common, stiffness=k, preload=preload)
-            elif kind == "preloaded":
-                push = self.quantity(row, "push_stiffness", path, "stiffness", required=True, minimum=0.0,
-                                     strict=True, example='"8144 lbf/in"')
-                pull = self.quantity(row, "pull_stiffness", path, "stiffness", required=True, minimum=0.0,
-                                     strict=True, example='"219 lbf/in"')
-                preload = self.quantity(row, "preload", path, "force", required=True, minimum=0.0,
-                                        strict=True, example='"28.12 lbf"')
-                element = PreloadedLink(**common, push_stiffness=push, pull_stiffness=pull, preload=preload)
-            else:
-                element = self.contact(row, path, common, driven)
-            if damping.ratio is not None and isinstance(element, Spring) and element.stiffness == 0.0:
-                raise self.error(f"{path}.damping_ratio", "a damping ratio needs stiffness > 0; give damping "
-                                 "(a coefficient) instead")
+                        raise self.error(f"{path}.{key}", f'not used by a {kind} with law = "{law}" (only {takes})'
+                                         + self.law_hint(kind, law, key))
+            cls = element_kinds.element_class(kind, law)
+            values: dict[str, Any] = dict(name=name, lower=lower, upper=upper)
+            values["damping"] = self.damping(row, path, lower, upper, mass_names)
+            for p in cls.params:
+                if p.dimension == "string" or p.key in _DAMPING_KEYS:
+                    continue
+                values[p.attribute] = self.param(row, p, path, values)
+            cls.check(values, lambda key, message: self.error(f"{path}.{key}", message), driven)
+            element = cls(**values)
             if driven is not None and CAM in (lower, upper) and driven in (lower, upper):
                 raise self.error(f"{path}.between", f"{driven} is driven by the cam (cam.drives), so an "
                                  f"element between it and the cam never deflects")
@@ -1099,13 +1081,25 @@ class _Validator:
         return result
 
     @staticmethod
-    def contact_key_laws() -> dict[str, tuple[str, ...]]:
-        """For each law-specific contact key, the laws that take it."""
-        table: dict[str, list[str]] = {}
-        for law, keys in _CONTACT_LAW_KEYS.items():
-            for key in keys:
-                table.setdefault(key, []).append(law)
-        return {k: tuple(v) for k, v in table.items()}
+    def law_hint(kind: str, law: str, key: str) -> str:
+        """Why a key is refused for a law, when the law's class says (``refused_hints``)."""
+        hints = element_kinds.element_class(kind, law).refused_hints
+        hint = next((text for prefix, text in hints.items() if key.startswith(prefix)), "")
+        return f"; {hint}" if hint else ""
+
+    def param(self, row: dict, p: Param, path: str, values: dict[str, Any]) -> Any:
+        """One key of an element table, read and checked as its schema says."""
+        if p.dimension == "bool":
+            value = row.get(p.key, p.default)
+            if not isinstance(value, bool):
+                raise self.error(f"{path}.{p.key}", f"expected true or false, got {_fmt(value)}")
+            return value
+        if p.dimension == "number":
+            return self.number(row, p.key, path, required=p.required, default=p.default, minimum=p.minimum,
+                               strict=p.strict, maximum=p.maximum)
+        dimension = f"power_coefficient:{values['exponent']!r}" if p.dimension == "power_coefficient" else p.dimension
+        return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
+                             strict=p.strict, example=p.example)
 
     def between(self, row: dict, path: str, nodes: list[str]) -> tuple[str, str]:
         where = f"{path}.between"
@@ -1138,35 +1132,6 @@ class _Validator:
             if ratio is None:
                 raise self.error(f"{path}.reference_mass", "only used with damping_ratio")
         return Damping(coefficient=coefficient, ratio=ratio, reference_mass=reference)
-
-    def contact(self, row: dict, path: str, common: dict, driven: str | None) -> Contact:
-        law = row.get("law", "linear")
-        gap = self.quantity(row, "gap", path, "length", default=0.0, minimum=0.0)
-        transducer = row.get("transducer", False)
-        if not isinstance(transducer, bool):
-            raise self.error(f"{path}.transducer", f"expected true or false, got {_fmt(transducer)}")
-        extra: dict[str, Any] = {}
-        if law == "linear":
-            extra["stiffness"] = self.quantity(row, "stiffness", path, "stiffness", required=True,
-                                               minimum=0.0, strict=True, example='"8597740 N/m"')
-        elif law == "power":
-            exponent = self.number(row, "exponent", path, required=True, minimum=0.0, strict=True)
-            extra["exponent"] = exponent
-            extra["coefficient"] = self.quantity(
-                row, "coefficient", path, f"power_coefficient:{exponent!r}", required=True, minimum=0.0,
-                strict=True, example='"1.11e7 lbf/in**1.425"')
-            extra["restitution"] = self.number(row, "restitution", path, minimum=0.0, maximum=1.0)
-        else:
-            extra["restitution"] = self.number(row, "restitution", path, required=True, minimum=0.0,
-                                               maximum=1.0)
-        lower, upper = common["lower"], common["upper"]
-        if driven is not None and driven in (lower, upper):
-            other = upper if lower == driven else lower
-            if other in FIXED_NODES:
-                raise self.error(f"{path}.between", f"{driven} is driven by the cam (cam.drives): its motion "
-                                 f"is prescribed, so a contact with {other} could never close or open; "
-                                 "remove cam.drives to let the follower separate")
-        return Contact(**common, gap=gap, law=law, transducer=transducer, **extra)
 
     # -- simulation and initial state -------------------------------------------------
     def simulation(self, doc: dict, cam: Cam | None) -> Simulation:

@@ -13,13 +13,24 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # issue 14: [cam.geometry]
     from camsim.cam.geometry import CamGeometry
 
-GROUND = "ground"
-CAM = "cam"
-FIXED_NODES = (GROUND, CAM)
+# Elements are the element kinds' own classes (camsim/elements/); re-exported here because
+# a Machine is made of them.
+from camsim.elements import (  # noqa: E402,F401 - re-exported
+    CAM,
+    FIXED_NODES,
+    GROUND,
+    Contact,
+    Damping,
+    Element,
+    LinearContact,
+    PowerContact,
+    PreloadedLink,
+    RigidContact,
+    Spring,
+)
 
 MOTIONS = ("rise", "fall", "dwell")
 LAWS = ("cycloidal", "harmonic", "modified-trapezoid", "modified-sine", "poly345", "poly4567")
-CONTACT_LAWS = ("linear", "power", "restitution")
 
 #: Standard gravity [m/s^2] (CGPM 1901), used for ``gravity = true``.
 STANDARD_GRAVITY = 9.80665
@@ -122,94 +133,6 @@ class Mass:
 
 
 @dataclass(frozen=True)
-class Damping:
-    """How an element is damped: a coefficient [N·s/m], or a ratio ζ of critical.
-
-    With a ratio, c = 2ζ·√(k·m_ref) per branch, m_ref being the mass named by
-    ``reference_mass`` (default: the upper node's, or the lower node's when the upper is
-    ground or the cam). At most one of ``coefficient`` and ``ratio`` is set.
-    """
-
-    coefficient: float | None = None
-    ratio: float | None = None
-    reference_mass: str | None = None
-
-
-@dataclass(frozen=True)
-class Element:
-    """Common part of every element: joins ``lower`` and ``upper`` along the axis.
-
-    Deflection d = x_upper − x_lower; force f is tension-positive (acts −f on upper).
-    """
-
-    name: str
-    lower: str
-    upper: str
-    damping: Damping = field(default_factory=Damping)
-
-    @property
-    def nodes(self) -> tuple[str, str]:
-        return (self.lower, self.upper)
-
-
-@dataclass(frozen=True)
-class Spring(Element):
-    """Linear spring: f = P + k·d + c·ḋ. ``stiffness`` k [N/m], ``preload`` P [N]."""
-
-    stiffness: float = 0.0
-    preload: float = 0.0
-
-
-@dataclass(frozen=True)
-class PreloadedLink(Element):
-    """Over-travel link: two parts held together by a preloaded spring.
-
-    Joined (d ≤ d_sep = P/k_push): f = k_push·d + c_push·ḋ.
-    Separated: f = P + k_pull·(d − d_sep) + c_pull·ḋ.
-    ``push_stiffness``, ``pull_stiffness`` [N/m], ``preload`` P [N] > 0.
-    """
-
-    push_stiffness: float = 0.0
-    pull_stiffness: float = 0.0
-    preload: float = 0.0
-
-    @property
-    def separation_deflection(self) -> float:
-        """d_sep = P / k_push [m]."""
-        return self.preload / self.push_stiffness
-
-
-@dataclass(frozen=True)
-class Contact(Element):
-    """Unilateral contact; penetration δ = gap − d, force compressive-positive.
-
-    Attributes
-    ----------
-    gap : float
-        g0 [m] ≥ 0.
-    law : str
-        ``"linear"`` (F = k·δ + c·δ̇), ``"power"`` (F = C·δ^a, Hunt–Crossley damped when
-        ``restitution`` is given) or ``"restitution"`` (rigid, Newton's law).
-    stiffness : float
-        k [N/m] for the linear law.
-    coefficient, exponent : float
-        C [N/m^a] and a for the power law.
-    restitution : float or None
-        e ∈ [0, 1].
-    transducer : bool
-        Its force is summed into ``/transducer/force``.
-    """
-
-    gap: float = 0.0
-    law: str = "linear"
-    stiffness: float = 0.0
-    coefficient: float = 0.0
-    exponent: float = 1.0
-    restitution: float | None = None
-    transducer: bool = False
-
-
-@dataclass(frozen=True)
 class InitialCondition:
     """Initial displacement [m] and/or velocity [m/s] of one free mass."""
 
@@ -271,6 +194,23 @@ class Machine:
     initial: tuple[InitialCondition, ...] = ()
     source: str = "<string>"
     text: str = ""
+    base_dir: str = "."
+
+    def with_values(self, values: dict) -> "Machine":
+        """A modified copy: ``{KEY: VALUE}`` in the ``--set`` grammar, checked like the file.
+
+        >>> stiffer = machine.with_values({"element.K12.stiffness": "1.7e6 N/m"})  # doctest: +SKIP
+
+        Keys and values as on the command line (``cam.speed``, ``mass.M2.mass``,
+        ``element.seat.stiffness``, ``cam.segments[2].lift``, ``simulation.cycles``...);
+        a string value carries its units. Raises :class:`~camsim.errors.MachineFileError`
+        naming the key for an unknown key or a bad value.
+        """
+        from pathlib import Path
+
+        from camsim.loader import assignments, load_machine_text
+
+        return load_machine_text(self.text, source=self.source, base_dir=Path(self.base_dir), overrides=assignments(values))
 
     def mass_of(self, name: str) -> float:
         """Mass [kg] of the mass called ``name``."""
@@ -290,3 +230,9 @@ class Machine:
             if e.name == name:
                 return e
         raise KeyError(name)
+
+__all__ = [
+    "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
+    "PreloadedLink", "RigidContact", "Spring", "Cam", "CamTable", "InitialCondition", "Machine", "Mass",
+    "Segment", "Simulation", "LAWS", "MOTIONS", "STANDARD_GRAVITY",
+]

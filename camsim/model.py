@@ -21,70 +21,15 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
-from enum import Enum
 
 import numpy as np
 import scipy.linalg
 
+from camsim.affine import N_INPUT, Affine
+from camsim.elements import CAM, GROUND, Branch, Element
 from camsim.errors import InputError
-from camsim.machine import CAM, GROUND, Contact, Element, Machine, PreloadedLink, Spring
+from camsim.machine import Machine
 
-#: Number of cam-input channels: s, ṡ, s̈, s⃛.
-N_INPUT = 4
-
-
-class Branch(str, Enum):
-    """Branch states of switching elements."""
-
-    JOINED = "joined"  # preloaded link, d ≤ d_sep
-    SEPARATED = "separated"  # preloaded link, d > d_sep
-    OPEN = "open"  # contact carries no force
-    CLOSED = "closed"  # compliant contact pressing (linear or power law)
-    STUCK = "stuck"  # rigid contact resting closed: a constraint
-    BILATERAL = "bilateral"  # no-impact variant: cam contact that never opens
-
-
-@dataclass
-class Affine:
-    """An affine map  q = Cz·z + Du·u + Fn·F_nl + e  evaluated on arrays.
-
-    Attributes
-    ----------
-    Cz : ndarray (k, m)
-    Du : ndarray (k, 4)
-    Fn : ndarray (k, p)
-    e : ndarray (k,)
-    """
-
-    Cz: np.ndarray
-    Du: np.ndarray
-    Fn: np.ndarray
-    e: np.ndarray
-
-    def __call__(self, z: np.ndarray, u: np.ndarray, fn: np.ndarray | None = None) -> np.ndarray:
-        """Evaluate on samples: z (N, m), u (N, 4), fn (N, p) -> (N, k)."""
-        out = z @ self.Cz.T + u @ self.Du.T + self.e
-        if self.Fn.shape[1] and fn is not None:
-            out = out + fn @ self.Fn.T
-        return out
-
-    def rows(self, index) -> "Affine":
-        return Affine(self.Cz[index], self.Du[index], self.Fn[index], self.e[index])
-
-    @staticmethod
-    def combine(terms: list[tuple[np.ndarray, "Affine"]], const: np.ndarray, du: np.ndarray) -> "Affine":
-        """Σ W_i·Affine_i + du·u + const (W_i are (k, rows_i) weight matrices)."""
-        W0, a0 = terms[0]
-        Cz = W0 @ a0.Cz
-        Du = W0 @ a0.Du + du
-        Fn = W0 @ a0.Fn
-        e = W0 @ a0.e + const
-        for W, a in terms[1:]:
-            Cz = Cz + W @ a.Cz
-            Du = Du + W @ a.Du
-            Fn = Fn + W @ a.Fn
-            e = e + W @ a.e
-        return Affine(Cz, Du, Fn, e)
 
 
 @dataclass
@@ -154,15 +99,11 @@ class Model:
         self.mass = np.array([m.mass for m in machine.free_masses], dtype=float)
         self.gravity = machine.simulation.gravity
         self.driven_mass = machine.mass_of(self.driven) if self.driven else 0.0
-        elements = []
-        for element in machine.elements:
-            if no_impact and isinstance(element, Contact) and CAM not in element.nodes:
-                continue
-            elements.append(element)
+        elements = [e for e in machine.elements if not (no_impact and e.impact_only)]
         self.elements: list[Element] = elements
         self.geometry = [self._geometry(e) for e in elements]
-        self.switching = [i for i, e in enumerate(elements) if isinstance(e, (PreloadedLink, Contact))]
-        self.damping = [self._damping(e) for e in elements]
+        self.switching = [i for i, e in enumerate(elements) if e.branches(no_impact)]
+        self.damping = [e.damping_coefficients(lambda e=e: self.reference_mass(e)) for e in elements]
         self._configs: dict[tuple[Branch, ...], Configuration] = {}
 
     # ------------------------------------------------------------------ geometry
@@ -190,57 +131,14 @@ class Model:
                 return self.machine.mass_of(node)
         raise InputError(f"element {element.name}: no mass to reference its damping ratio to")
 
-    def _damping(self, element: Element) -> dict[str, float]:
-        """Damping coefficient [N·s/m] per branch stiffness name."""
-        d = element.damping
-        stiffnesses: dict[str, float]
-        if isinstance(element, Spring):
-            stiffnesses = {"spring": element.stiffness}
-        elif isinstance(element, PreloadedLink):
-            stiffnesses = {"push": element.push_stiffness, "pull": element.pull_stiffness}
-        elif isinstance(element, Contact) and element.law == "linear":
-            stiffnesses = {"contact": element.stiffness}
-        else:
-            return {}
-        if d.coefficient is not None:
-            return {key: d.coefficient for key in stiffnesses}
-        if d.ratio:
-            m_ref = self.reference_mass(element)
-            return {key: 2.0 * d.ratio * math.sqrt(k * m_ref) for key, k in stiffnesses.items()}
-        return {key: 0.0 for key in stiffnesses}
-
     # ------------------------------------------------------------------ element laws
     def linear_branch(self, index: int, branch: Branch | None) -> tuple[float, float, float] | None:
         """(k, c, f0) with tension f = k·d + c·ḋ + f0 on a linear branch; None if no force."""
-        element = self.elements[index]
-        damp = self.damping[index]
-        if isinstance(element, Spring):
-            return element.stiffness, damp["spring"], element.preload
-        if isinstance(element, PreloadedLink):
-            if branch == Branch.SEPARATED:
-                k = element.pull_stiffness
-                return k, damp["pull"], element.preload - k * element.separation_deflection
-            return element.push_stiffness, damp["push"], 0.0
-        if isinstance(element, Contact):
-            if element.law == "linear" and branch in (Branch.CLOSED, Branch.BILATERAL):
-                # Compressive F = k·δ + c·δ̇ with δ = g0 − d  →  tension f = −F.
-                k = element.stiffness
-                return k, damp["contact"], -k * element.gap
-            return None
-        raise TypeError(type(element).__name__)
+        return self.elements[index].linear_law(branch, self.damping[index])
 
     def branch_options(self, index: int) -> tuple[Branch, ...]:
         """Branches element ``index`` can be on in this model."""
-        element = self.elements[index]
-        if isinstance(element, PreloadedLink):
-            return (Branch.JOINED,) if self.no_impact else (Branch.JOINED, Branch.SEPARATED)
-        if isinstance(element, Contact):
-            if self.no_impact:
-                return (Branch.BILATERAL,)
-            if element.law == "restitution":
-                return (Branch.OPEN, Branch.STUCK)
-            return (Branch.OPEN, Branch.CLOSED)
-        return ()
+        return self.elements[index].branches(self.no_impact)
 
     def all_branch_combinations(self) -> list[tuple[Branch, ...]]:
         return list(itertools.product(*(self.branch_options(i) for i in self.switching)))
@@ -251,12 +149,7 @@ class Model:
         return None
 
     def is_rigid(self, index: int, branch: Branch | None) -> bool:
-        element = self.elements[index]
-        if not isinstance(element, Contact):
-            return False
-        if branch == Branch.STUCK:
-            return True
-        return branch == Branch.BILATERAL and element.law in ("restitution", "power")
+        return self.elements[index].is_constraint(branch)
 
     # ------------------------------------------------------------------ assembly
     def configuration(self, branches: tuple[Branch, ...]) -> Configuration:
@@ -281,8 +174,7 @@ class Model:
             if self.is_rigid(i, branch):
                 rigid.append(i)
                 continue
-            element = self.elements[i]
-            if isinstance(element, Contact) and element.law == "power" and branch == Branch.CLOSED:
+            if self.elements[i].is_nonlinear(branch):
                 power.append(i)
                 continue
             law = self.linear_branch(i, branch)
@@ -380,24 +272,8 @@ class Model:
         return x @ geo.G + geo.g_s * s
 
     def power_force(self, index: int, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None) -> np.ndarray:
-        """Power-law contact force F = C·δ^a·(1 + 3(1−e²)/4·δ̇/v_impact), ≥ 0 [N]."""
-        element = self.elements[index]
-        pen = np.maximum(delta, 0.0)
-        force = element.coefficient * pen**element.exponent
-        if element.restitution is not None and v_impact:
-            factor = 1.0 + 0.75 * (1.0 - element.restitution**2) * delta_rate / v_impact
-            force = force * factor
-        return np.maximum(force, 0.0)
-
-    def power_force_scalar(self, index: int, delta: float, delta_rate: float, v_impact: float | None) -> float:
-        """:meth:`power_force` for one sample, in plain floats (the hot path of a contact phase)."""
-        if delta <= 0.0:
-            return 0.0
-        element = self.elements[index]
-        force = element.coefficient * delta**element.exponent
-        if element.restitution is not None and v_impact:
-            force *= 1.0 + 0.75 * (1.0 - element.restitution**2) * delta_rate / v_impact
-        return force if force > 0.0 else 0.0
+        """Force of a nonlinear (power-law) contact on samples, ≥ 0 [N]."""
+        return self.elements[index].nonlinear_force(delta, delta_rate, v_impact)
 
     def element_forces(
         self,
@@ -419,20 +295,10 @@ class Model:
             geo = self.geometry[i]
             d = x @ geo.G + geo.g_s * s
             dd = v @ geo.G + geo.g_s * sdot
-            branch = self.branch_of(branches, i)
-            if isinstance(element, Contact):
-                if i in config.stuck_contacts:
-                    out[:, i] = lam[:, config.stuck_contacts.index(i)]
-                elif branch in (Branch.CLOSED, Branch.BILATERAL):
-                    if element.law == "linear":
-                        k, c, _ = self.linear_branch(i, branch)
-                        force = k * (element.gap - d) - c * dd
-                        out[:, i] = force if branch == Branch.BILATERAL else np.maximum(force, 0.0)
-                    else:
-                        out[:, i] = self.power_force(i, element.gap - d, -dd, v_impacts.get(i))
-                continue
-            k, c, f0 = self.linear_branch(i, branch)
-            out[:, i] = k * d + c * dd + f0
+            if i in config.stuck_contacts:
+                out[:, i] = lam[:, config.stuck_contacts.index(i)]
+            else:
+                out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i))
         return out
 
     def cam_contact_force(self, forces: np.ndarray, sddot: np.ndarray) -> np.ndarray | None:
@@ -443,7 +309,7 @@ class Model:
         for i, element in enumerate(self.elements):
             if self.driven not in element.nodes:
                 continue
-            sign_on_upper = -1.0 if not isinstance(element, Contact) else 1.0
+            sign_on_upper = 1.0 if element.unilateral else -1.0
             # tension f: −f on upper, +f on lower; contact F: +F on upper, −F on lower.
             on_driven = sign_on_upper if element.upper == self.driven else -sign_on_upper
             total = total - on_driven * forces[:, i]

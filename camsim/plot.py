@@ -32,7 +32,7 @@ from camsim.io.results import (
     file_kind,
     long_name_of,
     names_with,
-    open_result,
+    open_h5,
     read_events,
     require,
     table_units,
@@ -541,9 +541,24 @@ def make_plots(
         For a file that is not a camsim result, a plot family the file does not hold,
         an unknown mass or quantity, an empty window. No figure is returned then.
     """
+    with open_h5(path) as f:
+        return figures_for_file(f, what, masses, quantities, time_window, angle_window, stem=Path(path).stem)
+
+
+def figures_for_file(
+    f: h5py.File,
+    what: Iterable[str] | None = None,
+    masses: Iterable[str] | None = None,
+    quantities: Iterable[str] | None = None,
+    time_window: tuple[float | None, float | None] | None = None,
+    angle_window: tuple[float | None, float | None] | None = None,
+    stem: str = "run",
+) -> dict[str, Figure]:
+    """The figures of :func:`make_plots` from an open result file (or an in-memory image
+    of a :class:`~camsim.result.RunResult`); figure names start with ``stem``."""
     if time_window is not None and angle_window is not None:
         raise InputError("--time and --angle: give one window, not both")
-    stem = _safe(Path(path).stem)
+    stem = _safe(stem)
     wanted_masses = _split(masses)
     wanted_q = _split(quantities) or list(QUANTITIES)
     for q in wanted_q:
@@ -553,66 +568,67 @@ def make_plots(
         if k not in PLOT_KINDS:
             raise InputError(f"--what: unknown plot {k!r} (one of {', '.join(PLOT_KINDS)})")
     figs: dict[str, Figure] = {}
-    with open_result(path) as f:
-        kind = file_kind(f)
-        offers = _OFFERS[kind]
-        explicit = bool(kinds)
-        if not kinds:
-            kinds = list(offers)
-        for k in kinds:
-            if k not in offers:
-                raise ResultFileError(
-                    f"{f.filename}: --what {k}: not available in a {kind} file (this file offers {', '.join(offers)})"
-                )
-        kinds = [k for k in PLOT_KINDS if k in kinds]
-        for k in kinds:
-            if k == "svaj":
-                figs[f"{stem}_cam_svaj"] = plot_svaj(f, time_window, angle_window)
-            elif k == "masses":
-                chosen = _pick_masses(f, names_with(f, "masses", wanted_q[0]), wanted_masses, "/masses")
-                for m in chosen:
-                    for q in wanted_q:
-                        figs[f"{stem}_masses_{_safe(m)}_{q}"] = plot_mass(f, m, q, time_window, angle_window)
-            elif k == "forces":
-                paths = [f"elements/{e}/force" for e in names_with(f, "elements", "force")]
-                paths += [p for p in ("cam_contact/force", "transducer/force") if p in f]
-                if not paths and explicit:
-                    raise ResultFileError(f"{f.filename}: --what forces: no element, cam-contact or transducer forces in the file")
-                for p in paths:
-                    figs[f"{stem}_{_safe(p.replace('/', '_'))}"] = plot_force(f, p, time_window, angle_window)
-            elif k == "compare":
-                if "impact" not in f:
-                    raise ResultFileError(f"{f.filename}: /impact: not in the file (not a comparison file?)")
-                chosen = _pick_masses(f, names_with(f["impact"], "masses", wanted_q[0]), wanted_masses, "/impact/masses")
-                for m in chosen:
-                    for q in wanted_q:
-                        figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window)
-            elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
-                if "cam/pressure_angle" not in f:
-                    if explicit:
-                        raise ResultFileError(f"{f.filename}: --what design: no /cam/pressure_angle (the machine has no [cam.geometry])")
-                    continue
-                from camsim.cam.figures import plot_design_file
+    kind = file_kind(f)
+    offers = _OFFERS[kind]
+    explicit = bool(kinds)
+    if not kinds:
+        kinds = list(offers)
+    for k in kinds:
+        if k not in offers:
+            raise ResultFileError(
+                f"{f.filename}: --what {k}: not available in a {kind} file (this file offers {', '.join(offers)})"
+            )
+    kinds = [k for k in PLOT_KINDS if k in kinds]
+    for k in kinds:
+        if k == "svaj":
+            figs[f"{stem}_cam_svaj"] = plot_svaj(f, time_window, angle_window)
+        elif k == "masses":
+            chosen = _pick_masses(f, names_with(f, "masses", wanted_q[0]), wanted_masses, "/masses")
+            for m in chosen:
+                for q in wanted_q:
+                    figs[f"{stem}_masses_{_safe(m)}_{q}"] = plot_mass(f, m, q, time_window, angle_window)
+        elif k == "forces":
+            paths = [f"elements/{e}/force" for e in names_with(f, "elements", "force")]
+            paths += [p for p in ("cam_contact/force", "transducer/force") if p in f]
+            if not paths and explicit:
+                raise ResultFileError(f"{f.filename}: --what forces: no element, cam-contact or transducer forces in the file")
+            for p in paths:
+                figs[f"{stem}_{_safe(p.replace('/', '_'))}"] = plot_force(f, p, time_window, angle_window)
+        elif k == "compare":
+            if "impact" not in f:
+                raise ResultFileError(f"{f.filename}: /impact: not in the file (not a comparison file?)")
+            chosen = _pick_masses(f, names_with(f["impact"], "masses", wanted_q[0]), wanted_masses, "/impact/masses")
+            for m in chosen:
+                for q in wanted_q:
+                    figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window)
+        elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
+            if "cam/pressure_angle" not in f:
+                if explicit:
+                    raise ResultFileError(f"{f.filename}: --what design: no /cam/pressure_angle (the machine has no [cam.geometry])")
+                continue
+            from camsim.cam.figures import plot_design_file
 
-                figs[f"{stem}_cam_design"] = plot_design_file(f, time_window, angle_window)
-            elif k == "sweep":
-                if time_window is not None or angle_window is not None:
-                    raise InputError("--time/--angle: a sweep plot has no time axis")
-                chosen = _pick_masses(f, sweep_masses(f), wanted_masses, "/sweep/summary")
-                for m in chosen:
-                    figs[f"{stem}_sweep_{_safe(m)}"] = plot_sweep_mass(f, m, wanted_q)
-                extra = {
-                    "forces": (("peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force"), "peak forces"),
-                    "impacts": (("impacts", "max_impact_velocity"), "impacts"),
-                    # issue 14: the design chart (pressure angle, radius, stress, torque vs the parameter)
-                    "design": (("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque"), "cam design"),
-                }
-                if not wanted_masses:
-                    for name, (cols, title) in extra.items():
-                        fig = plot_sweep_columns(f, cols, title)
-                        if fig is not None:
-                            figs[f"{stem}_sweep_{name}"] = fig
+            figs[f"{stem}_cam_design"] = plot_design_file(f, time_window, angle_window)
+        elif k == "sweep":
+            if time_window is not None or angle_window is not None:
+                raise InputError("--time/--angle: a sweep plot has no time axis")
+            chosen = _pick_masses(f, sweep_masses(f), wanted_masses, "/sweep/summary")
+            for m in chosen:
+                figs[f"{stem}_sweep_{_safe(m)}"] = plot_sweep_mass(f, m, wanted_q)
+            extra = {
+                "forces": (("peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force"), "peak forces"),
+                "impacts": (("impacts", "max_impact_velocity"), "impacts"),
+                # issue 14: the design chart (pressure angle, radius, stress, torque vs the parameter)
+                "design": (("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque"), "cam design"),
+            }
+            if not wanted_masses:
+                for name, (cols, title) in extra.items():
+                    fig = plot_sweep_columns(f, cols, title)
+                    if fig is not None:
+                        figs[f"{stem}_sweep_{name}"] = fig
     return figs
+
+
 
 
 def default_output_dir(path: str | os.PathLike[str]) -> Path:

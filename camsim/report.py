@@ -8,13 +8,16 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²).
-LBF = 0.45359237 * 9.80665
+from camsim.display import shown
+from camsim.units import LBF
 
-_UNITS = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
+#: SI unit of each mass quantity (printed as camsim.display.shown gives it).
+_SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 
-def _lbf(newton: float) -> str:
+def _lbf(newton: float, system: str = "si") -> str:
+    if system == "us":
+        return f"{newton / LBF:.4g} lbf ({newton:.4g} N)"
     return f"{newton:.4g} N ({newton / LBF:.4g} lbf)"
 
 
@@ -26,41 +29,46 @@ def _fmt(value, fmt: str = ".4g") -> str:
     return format(value, fmt)
 
 
-def render_run_summary(result, console: Console, cs: float | None = None) -> None:
+def render_run_summary(result, console: Console, system: str = "si", cs: float | None = None) -> None:
     """Print the summary of a :class:`~camsim.simulate.RunResult`.
 
-    ``cs`` is the coefficient of speed fluctuation for the flywheel inertia (machines
-    with ``[cam.geometry]`` only).
+    Every column header carries the unit its values are printed in (escaped, so rich
+    does not take ``[mm]`` for markup); ``system`` is ``"si"`` (mm, m/s, N) or ``"us"``
+    (in, in/s, lbf), see :mod:`camsim.display`. ``cs`` is the coefficient of speed
+    fluctuation for the flywheel inertia (machines with ``[cam.geometry]`` only).
     """
     summary = result.summary()
     title = f"{result.machine.name}" + (" — no-impact variant" if result.no_impact else "")
-    table = Table(title=title, title_justify="left")
+    table = Table(title=escape(title), title_justify="left")
     table.add_column("mass")
-    for quantity, (unit, _) in _UNITS.items():
-        table.add_column(f"peak |{quantity[:5]}.| [{unit}]", justify="right")
-        table.add_column("at t [s]", justify="right")
+    units = {q: shown(u, system) for q, u in _SI_UNITS.items()}
+    for quantity, (unit, _) in units.items():
+        table.add_column(escape(f"peak |{quantity[:5]}.| [{unit}]"), justify="right")
+        table.add_column(escape("at t [s]"), justify="right")
     for name, entry in summary["masses"].items():
-        row = [name]
-        for quantity, (_, scale) in _UNITS.items():
+        row = [escape(name)]
+        for quantity, (_, scale) in units.items():
             row += [_fmt(entry[quantity]["peak"] * scale), _fmt(entry[quantity]["time"], ".5f")]
         table.add_row(*row)
     console.print(table)
     if summary["peak_transducer_force"]:
         p = summary["peak_transducer_force"]
-        console.print(f"peak transducer force: {_lbf(p['value'])} at t = {p['time']:.5f} s")
+        console.print(f"peak transducer force: {_lbf(p['value'], system)} at t = {p['time']:.5f} s", markup=False)
     if summary["max_cam_contact_force"]:
         hi, lo = summary["max_cam_contact_force"], summary["min_cam_contact_force"]
-        console.print(f"cam contact force: max {_lbf(hi['value'])} at t = {hi['time']:.5f} s, min {_lbf(lo['value'])} at t = {lo['time']:.5f} s")
+        console.print(f"cam contact force: max {_lbf(hi['value'], system)} at t = {hi['time']:.5f} s, min {_lbf(lo['value'], system)} at t = {lo['time']:.5f} s", markup=False)
     impacts = result.impacts()
     if impacts:
         t = Table(title="impacts", title_justify="left")
-        for col in ("t [s]", "angle [deg]", "element", "masses", "approach [m/s]", "Johnson lower [N]",
-                    "Johnson upper [N]", "simulated peak [N]", "duration [ms]"):
-            t.add_column(col, justify="right")
+        v_unit, v_scale = shown("m/s", system)
+        f_unit, f_scale = shown("N", system)
+        for col in ("t [s]", "angle [deg]", "element", "masses", f"approach [{v_unit}]", f"Johnson lower [{f_unit}]",
+                    f"Johnson upper [{f_unit}]", f"simulated peak [{f_unit}]", "duration [ms]"):
+            t.add_column(escape(col), justify="right")
         for e in impacts:
             t.add_row(
-                f"{e.time:.6f}", _fmt(e.angle_deg, ".2f"), e.element, e.masses, _fmt(e.relative_velocity),
-                _fmt(e.johnson_lower), _fmt(e.johnson_upper), _fmt(e.peak_force),
+                f"{e.time:.6f}", _fmt(e.angle_deg, ".2f"), escape(e.element), escape(e.masses), _fmt(e.relative_velocity * v_scale),
+                _fmt(e.johnson_lower * f_scale), _fmt(e.johnson_upper * f_scale), _fmt(e.peak_force * f_scale),
                 _fmt(e.contact_duration * 1e3 if not math.isnan(e.contact_duration) else float("nan")),
             )
         console.print(t)

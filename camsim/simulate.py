@@ -7,132 +7,32 @@ HDF5 writer, the plots and the summary table all read.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from camsim.cam.program import CamProgram
 from camsim.errors import InputError, SimulationError
-from camsim.impact import johnson_bounds
-from camsim.integrate import FORCE_TOL, LENGTH_TOL, Event, Integrator, State, Stretch
-from camsim.machine import CAM, GROUND, Contact, Machine, PreloadedLink
-from camsim.model import Branch, Model
+from camsim.events import Event, EventKind, EventTable
+from camsim.elements import CAM, GROUND, Branch
+from camsim.integrate import Integrator, State, Stretch
+from camsim.machine import Machine
+from camsim.model import Model
+from camsim.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
 SAMPLES_PER_PERIOD = 12
-
-
-@dataclass
-class RunResult:
-    """Traces and events of one run, all SI, on a uniform time grid.
-
-    Attributes
-    ----------
-    machine : Machine
-    time : ndarray (N,)
-        [s], 0 at the start of the first recorded cycle.
-    cam : dict
-        ``angle`` [deg] (continuing past 360), ``displacement`` [m], ``velocity`` [m/s],
-        ``acceleration`` [m/s^2], ``jerk`` [m/s^3] on the model axis.
-    masses : dict
-        name → {``displacement``, ``velocity``, ``acceleration``} (a driven mass too).
-    elements : dict
-        name → force [N] (tension-positive springs/links, compressive-positive contacts).
-    cam_contact_force : ndarray or None
-        Force of the cam on the driven mass [N].
-    transducer_force : ndarray or None
-        Sum of the contacts marked ``transducer = true`` [N].
-    events : list of Event
-        Events of the recorded window, times on the ``time`` base.
-    periodicity_residual : float
-        Largest difference between the state at the start of the first recorded cycle and
-        one revolution before, relative to each quantity's peak (NaN when not computed).
-    warnings : list of str
-    no_impact : bool
-        True for the no-impact variant (spec §4).
-    """
-
-    machine: Machine
-    time: np.ndarray
-    cam: dict[str, np.ndarray]
-    masses: dict[str, dict[str, np.ndarray]]
-    elements: dict[str, np.ndarray]
-    cam_contact_force: np.ndarray | None
-    transducer_force: np.ndarray | None
-    events: list[Event]
-    periodicity_residual: float
-    warnings: list[str] = field(default_factory=list)
-    no_impact: bool = False
-    boundaries_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    sample_rate: float = 0.0
-
-    def impacts(self) -> list[Event]:
-        """Impact-like events (contacts closing and links rejoining)."""
-        return [e for e in self.events if e.kind in ("impact", "rejoin")]
-
-    def summary(self) -> dict:
-        """Peaks, forces, impacts and residual as plain JSON-able values (SI)."""
-        out: dict = {"machine": self.machine.name, "no_impact": self.no_impact, "masses": {}}
-        for name, traces in self.masses.items():
-            entry = {}
-            for quantity, data in traces.items():
-                k = int(np.argmax(np.abs(data))) if data.size else 0
-                entry[quantity] = {"peak": float(np.abs(data[k])) if data.size else 0.0, "time": float(self.time[k]) if data.size else 0.0}
-            out["masses"][name] = entry
-        if self.transducer_force is not None and self.transducer_force.size:
-            k = int(np.argmax(self.transducer_force))
-            out["peak_transducer_force"] = {"value": float(self.transducer_force[k]), "time": float(self.time[k])}
-        else:
-            out["peak_transducer_force"] = None
-        if self.cam_contact_force is not None and self.cam_contact_force.size:
-            kmax = int(np.argmax(self.cam_contact_force))
-            kmin = int(np.argmin(self.cam_contact_force))
-            out["max_cam_contact_force"] = {"value": float(self.cam_contact_force[kmax]), "time": float(self.time[kmax])}
-            out["min_cam_contact_force"] = {"value": float(self.cam_contact_force[kmin]), "time": float(self.time[kmin])}
-        else:
-            out["max_cam_contact_force"] = out["min_cam_contact_force"] = None
-        out["jump"] = self.follower_jumps()
-        out["impacts"] = [event_dict(e) for e in self.impacts()]
-        out["events"] = len(self.events)
-        out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
-        out["warnings"] = list(self.warnings)
-        design = self.design_summary()  # issue 14: cam design scalars when [cam.geometry] is given
-        if design is not None:
-            out["design"] = design
-        return out
-
-    # issue 14: cam design quantities, derived from the traces when [cam.geometry] is given
-    def design_traces(self) -> dict:
-        """Cam design traces: path → (SI array, units, long name) (:func:`camsim.cam.design.design_traces`)."""
-        from camsim.cam.design import design_traces
-
-        return design_traces(self)
-
-    def design_summary(self, cs: float | None = None) -> dict | None:
-        """Cam design scalars (:func:`camsim.cam.design.design_summary`); None without geometry."""
-        from camsim.cam.design import design_summary
-
-        return design_summary(self, cs)
-
-    def follower_jumps(self) -> bool:
-        """True when the follower leaves the cam (negative cam contact force, or a cam contact opens)."""
-        if self.cam_contact_force is not None and self.cam_contact_force.size and float(np.min(self.cam_contact_force)) < 0:
-            return True
-        cam_contacts = {e.name for e in self.machine.elements if isinstance(e, Contact) and CAM in e.nodes}
-        return any(ev.kind == "release" and ev.element in cam_contacts for ev in self.events)
-
-
-def event_dict(event: Event) -> dict:
-    """An event as a JSON-able dict (NaN → None)."""
-    out = {}
-    for key in ("time", "angle_deg", "element", "kind", "masses", "relative_velocity", "johnson_lower",
-                "johnson_upper", "peak_force", "contact_duration"):
-        value = getattr(event, key, None)
-        if isinstance(value, float) and math.isnan(value):
-            value = None
-        out[key] = value
-    return out
+#: A linear static equilibrium whose stiffness matrix is worse conditioned than this has
+#: no unique solution (a mass held by nothing stiff): ask for an [initial] state instead.
+#: 1e14 leaves two digits of a double for the positions.
+EQUILIBRIUM_MAX_CONDITION = 1e14
+#: A nonlinear (power-law) static equilibrium is accepted when its force residual is below
+#: this fraction of the residual at the unloaded position (1e-6: well below any reported digit).
+EQUILIBRIUM_RESIDUAL = 1e-6
+#: Penetrations [m] from which Powell's method is started in turn: δ^a has no slope at
+#: δ = 0, which can stall the first try (0.1 µm .. 0.1 mm spans seats from hard to soft).
+EQUILIBRIUM_STARTS = (0.0, 1e-6, 1e-5, 1e-4)
 
 
 # ---------------------------------------------------------------------- initial state
@@ -164,7 +64,7 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
                 q = np.linalg.solve(A21, -rhs) if nq else np.zeros(0)
             except np.linalg.LinAlgError:
                 q = None
-            if q is not None and nq and np.linalg.cond(A21) > 1e14:
+            if q is not None and nq and np.linalg.cond(A21) > EQUILIBRIUM_MAX_CONDITION:
                 q = None
         else:
             q = _nonlinear_static(model, integrator, config, u, t0)
@@ -201,9 +101,9 @@ def _nonlinear_static(model, integrator, config, u, t0):
     # penetrations (δ^a has no slope at δ = 0, which can stall the first try).
     guess = np.zeros(nq)
     best = None
-    for scale in (0.0, 1e-6, 1e-5, 1e-4):
+    for scale in EQUILIBRIUM_STARTS:
         sol = optimize.root(residual, guess + scale, method="hybr", options={"xtol": 1e-14})
-        if sol.success and np.max(np.abs(residual(sol.x))) < 1e-6 * max(1.0, np.max(np.abs(residual(guess)))):
+        if sol.success and np.max(np.abs(residual(sol.x))) < EQUILIBRIUM_RESIDUAL * max(1.0, np.max(np.abs(residual(guess)))):
             best = sol.x
             break
     return best
@@ -216,26 +116,12 @@ def _consistent_branches(model: Model, integrator: Integrator, state: State) -> 
     u = integrator.inputs(np.array([state.t]))
     z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
     for pos, i in enumerate(model.switching):
-        element = model.elements[i]
-        branch = branches[pos]
-        if branch == Branch.BILATERAL:
-            continue
-        if isinstance(element, PreloadedLink):
-            d = float(model.deflection(i, state.x, u[0, 0]))
-            branches[pos] = Branch.SEPARATED if d > element.separation_deflection + LENGTH_TOL else Branch.JOINED
-            continue
-        delta, _ = integrator.relative_rate(state, i)
-        if branch == Branch.STUCK:
-            k = config.stuck_contacts.index(i)
-            lam = config.lam(z[None, :], u)[0, k]
-            if lam < -FORCE_TOL:
-                branches[pos] = Branch.OPEN
-        elif branch == Branch.CLOSED:
-            if delta <= 0:
-                branches[pos] = Branch.OPEN
-        else:
-            if delta > LENGTH_TOL:
-                branches[pos] = Branch.STUCK if element.law == "restitution" else Branch.CLOSED
+        d = float(model.deflection(i, state.x, u[0, 0]))
+
+        def constraint_force(i=i) -> float:
+            return float(config.lam(z[None, :], u)[0, config.stuck_contacts.index(i)])
+
+        branches[pos] = model.elements[i].branch_at_rest(branches[pos], d, constraint_force)
     return tuple(branches)
 
 
@@ -264,26 +150,12 @@ def initial_state(model: Model, integrator: Integrator, t0: float) -> State:
     branches = []
     u = integrator.inputs(np.array([t0]))[0]
     for i in model.switching:
-        element = model.elements[i]
         geo = model.geometry[i]
         d = x @ geo.G + geo.g_s * u[0]
-        if isinstance(element, PreloadedLink):
-            branches.append(Branch.SEPARATED if d > element.separation_deflection and not model.no_impact else Branch.JOINED)
-        elif model.no_impact:
-            branches.append(Branch.BILATERAL)
-        else:
-            delta = element.gap - d
-            if delta > LENGTH_TOL:
-                if element.law == "restitution":
-                    raise InputError(
-                        f"{machine.source}: initial: the initial state penetrates the rigid contact "
-                        f"{element.name} by {delta:.3g} m"
-                    )
-                branches.append(Branch.CLOSED)
-            elif element.law == "restitution" and abs(delta) <= LENGTH_TOL:
-                branches.append(Branch.STUCK)
-            else:
-                branches.append(Branch.OPEN)
+        try:
+            branches.append(model.elements[i].branch_from_state(d, model.no_impact))
+        except ValueError as exc:
+            raise InputError(f"{machine.source}: initial: {exc}") from None
     return State(t0, x, v, tuple(branches), {})
 
 
@@ -457,12 +329,12 @@ def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, 
             masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
     elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
     cam_force = model.cam_contact_force(forces, u[:, 2])
-    transducer_idx = [i for i, e in enumerate(model.elements) if isinstance(e, Contact) and e.transducer]
+    transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
     # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
     angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(t)
     cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
-    events = _events(machine, model, cam, integrator.events, t_rec, t_end, time, elements)
+    events = EventTable(_events(machine, model, cam, integrator.events, t_rec, t_end, time, elements))
     if cam_force is not None:
         events.extend(_jump_rows(cam, time, cam_force, t_rec, model.driven))
         events.sort(key=lambda e: e.time)
@@ -487,7 +359,7 @@ def _events(machine, model, cam, raw: list[Event], t_rec, t_end, time, element_f
     for k, ev in enumerate(recorded):
         ev = replace(ev, time=ev.time - t_rec)
         ev.angle_deg = float(np.degrees(cam.angle(np.array([ev.time]))[0])) if machine.cam is not None else float("nan")
-        if ev.kind in ("impact", "rejoin"):
+        if ev.kind.is_impact:
             _annotate(model, ev, recorded[k + 1 :], t_rec, time, element_forces)
         out.append(ev)
     return out
@@ -510,30 +382,20 @@ def _annotate(model: Model, ev: Event, later: list[Event], t_rec, time, element_
     m1 = finite[1] if len(finite) > 1 else math.inf
     v = ev.relative_velocity
     try:
-        if isinstance(element, PreloadedLink):
-            lower, upper = johnson_bounds("linear", m1, m2, v, 0.0, stiffness=element.push_stiffness)
-        elif element.law == "linear":
-            lower, upper = johnson_bounds("linear", m1, m2, v, 0.0, stiffness=element.stiffness)
-        elif element.law == "power":
-            lower, upper = johnson_bounds("power", m1, m2, v, 0.0, coefficient=element.coefficient, exponent=element.exponent)
-        else:
-            lower = upper = math.inf  # a rigid stop: an impulse, no finite peak
+        bounds = element.johnson_bounds(m1, m2, v)
     except InputError:
         return
-    ev.johnson_lower, ev.johnson_upper = float(lower), float(upper)
-    end_kind = "separation" if isinstance(element, PreloadedLink) else "release"
+    if bounds is None:
+        return
+    ev.johnson_lower, ev.johnson_upper = (float(b) for b in bounds)
     t_close = ev.time
-    t_open = next((e.time - t_rec for e in later if e.element == element.name and e.kind == end_kind), None)
+    t_open = next((e.time - t_rec for e in later if e.element == element.name and e.kind == element.closing_ends), None)
     if t_open is not None:
         ev.contact_duration = t_open - t_close
     t_stop = t_open if t_open is not None else time[-1] + 1e-12
     window = (time >= t_close - 1e-12) & (time <= t_stop + 1e-12)
-    if isinstance(element, Contact) and element.law == "restitution":
-        return
-    force = element_forces[element.name][window]
-    if isinstance(element, PreloadedLink):
-        force = element.preload - force  # compression at the interface of the two parts
-    if force.size:
+    force = element.impact_force(element_forces[element.name][window])
+    if force is not None and force.size:
         ev.peak_force = _peak(force)
 
 
@@ -563,7 +425,7 @@ def _jump_rows(cam, time, cam_force, t_rec, driven) -> list[Event]:
         else:
             f0, f1 = cam_force[k - 1], cam_force[k]
             t_cross = time[k - 1] + (time[k] - time[k - 1]) * f0 / (f0 - f1)
-        ev = Event(time=float(t_cross), element="cam", kind="jump", masses=f"cam/{driven}")
+        ev = Event(time=float(t_cross), element="cam", kind=EventKind.JUMP, masses=f"cam/{driven}")
         ev.angle_deg = float(np.degrees(cam.angle(np.array([t_cross]))[0]))
         rows.append(ev)
     return rows

@@ -52,11 +52,20 @@ __all__ = [
     "write_sweep",
     "sweep_columns",
     "csv_path_for",
+    "finish_sweep",
     "JUMP_RESOLUTION_RPM",
 ]
 
 #: Width of the speed bracket at which the jump-onset bisection stops [rpm].
 JUMP_RESOLUTION_RPM = 0.1
+#: Default largest number of variants run without confirmation (``--max-variants``).
+DEFAULT_MAX_VARIANTS = 1000
+#: Seconds to wait for a Dask scheduler before giving up.
+SCHEDULER_TIMEOUT_S = 5.0
+
+#: Columns after the parameters and the run's scalars (:func:`camsim.result.scalar_columns`).
+STATUS_COLUMN = ("status", "")
+_RPM = 0.1
 #: Default largest number of variants run without confirmation (``--max-variants``).
 DEFAULT_MAX_VARIANTS = 1000
 #: Seconds to wait for a Dask scheduler before giving up.
@@ -73,34 +82,7 @@ FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
     ("periodicity_residual", ""),
     ("status", ""),
 )
-_PEAK_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _RPM = 60.0 / (2.0 * math.pi)  # rad/s -> rpm
-
-#: SI unit of each machine key leaf, for the ``param:<key>`` columns.
-_KEY_UNITS = {
-    "speed": "rad/s",
-    "ratio": "",
-    "arm": "m",
-    "start_angle": "rad",
-    "lift": "m",
-    "mass": "kg",
-    "stiffness": "N/m",
-    "push_stiffness": "N/m",
-    "pull_stiffness": "N/m",
-    "preload": "N",
-    "gap": "m",
-    "exponent": "",
-    "restitution": "",
-    "damping": "N*s/m",
-    "damping_ratio": "",
-    "cycles": "",
-    "warmup_cycles": "",
-    "sample_rate": "Hz",
-    "gravity": "m/s^2",
-    "displacement": "m",
-    "velocity": "m/s",
-}
-
 
 # --------------------------------------------------------------------------------------
 # Inputs
@@ -284,16 +266,9 @@ _KEY_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
 
 def key_unit(key: str) -> str:
     """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
-    if key.startswith("cam.geometry."):  # issue 14
-        from camsim.cam.geometry import geometry_key_unit
+    from camsim.schema import key_unit as schema_key_unit
 
-        return geometry_key_unit(key)
-    leaf = key.rsplit(".", 1)[-1]
-    if key.startswith("simulation.") and leaf == "duration":
-        return "s"
-    if key.startswith("cam.segments") and leaf == "duration":
-        return "rad"
-    return _KEY_UNITS.get(leaf, "")
+    return schema_key_unit(key)
 
 
 def machine_value(machine, key: str) -> Any:
@@ -371,54 +346,9 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
 
 
-def cam_force(result) -> np.ndarray | None:
-    """Force of the cam on the follower [N], compressive-positive.
-
-    :attr:`RunResult.cam_contact_force` for a machine whose cam drives a mass; for a cam
-    that acts through contact elements (``between = ["cam", ...]``), the sum of their
-    forces; None when the machine has neither.
-    """
-    if result.cam_contact_force is not None:
-        return result.cam_contact_force
-    from camsim.machine import CAM, Contact
-
-    names = [e.name for e in result.machine.elements if isinstance(e, Contact) and CAM in e.nodes and e.name in result.elements]
-    if not names:
-        return None
-    return np.sum([np.asarray(result.elements[n], dtype=float) for n in names], axis=0)
-
-
 def summary_row(result) -> dict[str, Any]:
-    """The summary columns of one :class:`~camsim.simulate.RunResult` (SI; NaN if absent).
-
-    Peaks are the largest absolute sampled values over the recorded window, as in
-    :meth:`RunResult.summary`; the cam contact force is :func:`cam_force`; ``jump`` is
-    :meth:`RunResult.follower_jumps`; ``max_impact_velocity`` is the largest
-    |relative velocity| of the impact and rejoin events.
-    """
-    nan = float("nan")
-    row: dict[str, Any] = {}
-    for name, traces in result.masses.items():
-        for quantity in ("displacement", "velocity", "acceleration"):
-            data = traces[quantity]
-            row[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
-    tf = result.transducer_force
-    row["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
-    cf = cam_force(result)
-    row["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
-    row["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
-    row["jump"] = bool(result.follower_jumps())
-    impacts = result.impacts()
-    row["impacts"] = len(impacts)
-    speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
-    row["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
-    residual = result.periodicity_residual
-    row["periodicity_residual"] = float(residual) if residual is not None else nan
-    from camsim.cam.design import design_row  # issue 14: design columns with [cam.geometry]
-
-    row.update(design_row(result))
-    row["status"] = "ok"
-    return row
+    """The summary columns of one run: :meth:`RunResult.scalars` and ``status = "ok"``."""
+    return {**result.scalars(), "status": "ok"}
 
 
 def run_variant(source: MachineSource, overrides: Sequence[str], settings: SweepSettings) -> tuple[dict[str, Any], Any]:
@@ -466,12 +396,6 @@ def run_variant(source: MachineSource, overrides: Sequence[str], settings: Sweep
 # --------------------------------------------------------------------------------------
 # Executors
 # --------------------------------------------------------------------------------------
-def _ignore_sigint() -> None:  # pragma: no cover - runs in the worker processes
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 class _Serial:
     name = "serial"
 
@@ -495,7 +419,10 @@ class _Pool:
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = workers
-        self.executor = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
+        from camsim.lifecycle import guard_worker
+
+        # issue 16: workers ignore Ctrl-C and die with this process (even on SIGKILL)
+        self.executor = ProcessPoolExecutor(max_workers=workers, initializer=guard_worker, initargs=(os.getpid(),))
         self.futures: list = []
 
     def run(self, tasks):
@@ -519,6 +446,10 @@ class _Pool:
         self.executor.shutdown(wait=True)
 
 
+#: Key marking a row that an executor failure (a killed worker) produced, not the variant.
+_EXECUTOR_ERROR = "_executor_error"
+
+
 def _future_value(fut, args):
     """The result of a finished future; an executor failure becomes a failed row."""
     try:
@@ -526,7 +457,8 @@ def _future_value(fut, args):
     except Exception as exc:  # noqa: BLE001 - e.g. a worker process killed
         source, overrides, _ = args
         params = {f"param:{a.partition('=')[0].strip()}": _text_value(a, a.partition("=")[0].strip()) for a in overrides}
-        return {**params, "status": _one_line(exc)}, None
+        # issue 16: marked so that it is not stored as the variant's result (--resume reruns it)
+        return {**params, "status": _one_line(exc), _EXECUTOR_ERROR: True}, None
 
 
 def _import_distributed():
@@ -608,6 +540,10 @@ class _Dask:
                 silence_logs=logging.ERROR,
             )
             self.client = distributed.Client(self.cluster, set_as_default=False)
+            # issue 16: the worker processes die with this process (their nannies live in it)
+            from camsim.lifecycle import guard_worker
+
+            self.client.run(guard_worker, None, False)
 
     def run(self, tasks):
         import uuid
@@ -676,6 +612,15 @@ class SweepResult:
         True when Ctrl-C stopped the sweep; unfinished rows have status ``"cancelled"``.
     executor : str
         What ran the variants.
+    notes : list of str
+        Remarks for the reader (e.g. why the jump onset was not refined).
+    journal : Path or None
+        The row journal when the sweep was stored as it ran (``output``).
+    resumed : int
+        Rows taken from the journal of an earlier run (``resume``).
+    executor_failures : int
+        Variants whose row is an executor failure (e.g. a killed worker process), not a
+        result of the variant: not stored in the journal, so ``resume`` reruns them.
     """
 
     rows: list[dict[str, Any]]
@@ -691,6 +636,9 @@ class SweepResult:
     interrupted: bool = False
     executor: str = "serial"
     notes: list[str] = field(default_factory=list)
+    journal: Path | None = None
+    resumed: int = 0
+    executor_failures: int = 0
 
     @property
     def failed(self) -> list[int]:
@@ -704,11 +652,9 @@ class SweepResult:
 
 def sweep_columns(keys: Sequence[str], masses: Sequence[str]) -> list[tuple[str, str]]:
     """The column names and SI units of a sweep over ``keys`` of a machine with ``masses``."""
-    cols = [(f"param:{k}", key_unit(k)) for k in keys]
-    for m in masses:
-        for q in ("displacement", "velocity", "acceleration"):
-            cols.append((f"peak_{q}:{m}", _PEAK_UNITS[q]))
-    return cols + list(FIXED_COLUMNS)
+    from camsim.result import scalar_columns
+
+    return [(f"param:{k}", key_unit(k)) for k in keys] + scalar_columns(list(masses)) + [STATUS_COLUMN]
 
 
 def _complete_row(row: dict[str, Any], columns: Sequence[tuple[str, str]]) -> dict[str, Any]:
@@ -770,6 +716,8 @@ def run_sweep(
     max_variants: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_start: Callable[[int, str], None] | None = None,
+    output: str | os.PathLike[str] | None = None,
+    resume: bool = False,
 ) -> SweepResult:
     """Run a machine over the grid of all combinations of the varied keys.
 
@@ -806,6 +754,16 @@ def run_sweep(
         Called as ``progress(done, total)`` after each finished variant.
     on_start : callable, optional
         Called as ``on_start(n_variants, executor_name)`` once the checks passed.
+    output : path, optional
+        The sweep file: each row is stored as its variant finishes (a
+        :class:`~camsim.io.rowstore.RowStore`: journal ``<output>.journal``, and the
+        HDF5 file rewritten atomically, readable while the sweep runs), so a killed
+        sweep keeps every finished row. :func:`write_sweep` later replaces the file
+        with the final table; :func:`finish_sweep` then removes the journal.
+    resume : bool
+        With ``output``: run only the variants missing from its journal (the job must
+        be the same: machine text, ranges, ``--set``, run settings); the rows are the
+        ones an uninterrupted sweep gives. Without a journal: a fresh sweep.
 
     Returns
     -------
@@ -856,23 +814,46 @@ def run_sweep(
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
     columns = sweep_columns(keys, [m.name for m in base.masses])
-    from camsim.cam.design import design_columns  # issue 14
+    from camsim.cam.design import design_columns  # issue 14: design columns with [cam.geometry]
 
     columns[-1:-1] = design_columns(base)  # before "status"
-
-    executor = _make_executor(workers, len(grid), scheduler, dask_local)
-    tasks = [(source, tuple(fixed) + ov, settings) for ov in grid]
+    if resume and keep_traces:
+        raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
+    executor = _make_executor(workers, len(grid), scheduler, dask_local)  # checks the scheduler first
+    store = None
+    if output is not None:  # issue 16: rows stored as they finish
+        try:
+            store, stored = _open_store(output, resume, columns, _sweep_meta(source, vary, values, fixed, settings), base)
+        except BaseException:
+            executor.close()
+            raise
+        for i, row in stored.items():
+            if 0 <= i < len(grid):
+                raw[i] = row
+    todo = [i for i in range(len(grid)) if raw[i] is None]
+    tasks = [(source, tuple(fixed) + grid[i], settings) for i in todo]
     runs: list[Any] = [None] * len(grid) if keep_traces else []
     interrupted = False
+    lost = 0
     onset = bracket = None
     notes: list[str] = []
     try:
         if on_start is not None:
             on_start(len(grid), executor.name)
-        done = 0
-        for i, (row, result) in executor.run(tasks):
+        done = len(grid) - len(todo)
+        if progress is not None and done:
+            progress(done, len(grid))
+        for k, (row, result) in executor.run(tasks):
+            i = todo[k]
+            # the --set keys are not columns; only the varied ones
+            transient = row.pop(_EXECUTOR_ERROR, False)
+            row = {name: v for name, v in row.items() if not name.startswith("param:") or name[6:] in keys}
             raw[i] = row
+            if transient:
+                lost += 1
+            elif store is not None:
+                store.append(i, row)
             if keep_traces:
                 runs[i] = result
             done += 1
@@ -887,6 +868,8 @@ def run_sweep(
         interrupted = True
         executor.abort()
     finally:
+        if store is not None:
+            store.close()
         if not interrupted:
             executor.close()
         else:
@@ -902,9 +885,6 @@ def run_sweep(
                 f"param:{a.partition('=')[0].strip()}": _text_value(a, a.partition("=")[0].strip()) for a in grid[i]
             }
             row = {**params, "status": "cancelled"}
-        else:
-            # the --set keys are not columns; only the varied ones
-            row = {k: v for k, v in row.items() if not k.startswith("param:") or k[6:] in keys}
         rows.append(_complete_row(row, columns))
     _unify_params(rows, grid, keys)
     first = _first_jump(rows, keys)
@@ -922,7 +902,55 @@ def run_sweep(
         interrupted=interrupted,
         executor=executor.name,
         notes=notes,
+        journal=None if store is None else store.journal,
+        resumed=len(grid) - len(todo),
+        executor_failures=lost,
     )
+
+
+def _sweep_meta(source: MachineSource, vary, values, fixed, settings: SweepSettings) -> dict[str, Any]:
+    """What identifies a sweep for ``--resume``: same meta, same grid, same rows."""
+    import hashlib
+
+    return {
+        "kind": "sweep",
+        "machine_sha256": hashlib.sha256(source.text.encode("utf-8")).hexdigest(),
+        "vary": list(vary),
+        "values": list(values),
+        "set": list(fixed),
+        "cycles": settings.cycles,
+        "warmup_cycles": settings.warmup_cycles,
+        "sample_rate": settings.sample_rate,
+    }
+
+
+def _open_store(output, resume: bool, columns, meta, machine):
+    """The RowStore of a sweep at ``output`` and the rows it already holds."""
+    from camsim.io.rowstore import RowStore, journal_path_for
+    from camsim.io.runfile import write_root_attributes
+
+    def decorate(f) -> None:
+        write_root_attributes(f, machine, "sweep")
+        f.create_group("sweep", track_order=True).attrs["interrupted"] = True
+
+    kwargs = {"table": "sweep/summary", "decorate": decorate}
+    if resume and journal_path_for(output).exists():
+        store = RowStore.resume(output, meta, **kwargs)
+        if store.columns != [tuple(c) for c in columns]:
+            store.close()
+            raise InputError(f"{store.journal}: cannot resume: the stored columns differ from this sweep's")
+    else:
+        store = RowStore.create(output, columns, meta, **kwargs)
+    return store, store.rows()
+
+
+def finish_sweep(result: SweepResult) -> None:
+    """Remove the journal of a sweep that ran every variant (after :func:`write_sweep`).
+
+    Kept when the sweep was interrupted or a worker failed, for ``--resume``.
+    """
+    if result.journal is not None and not result.interrupted and not result.executor_failures:
+        Path(result.journal).unlink(missing_ok=True)
 
 
 def _first_jump(rows, keys) -> tuple[int, float] | None:

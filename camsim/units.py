@@ -144,3 +144,7 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
     if not math.isfinite(number):
         raise QuantityError(f'expected a finite {shown}, got "{value}"')
     return number
+
+
+#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²), for human tables.
+LBF = 0.45359237 * 9.80665

@@ -16,6 +16,22 @@ import pytest
 
 from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
 
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``slow`` run in CI (``CI=true``, as ``.ci/run`` has it) or with
+    ``CAMSIM_SLOW=1``; the default ``pytest`` skips them to stay under three minutes.
+    ``pytest -m slow`` selects them explicitly."""
+    import os
+
+    if os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get("CAMSIM_SLOW") == "1":
+        return
+    if "slow" in (config.getoption("-m") or ""):
+        return
+    skip = pytest.mark.skip(reason="slow: runs in CI (CI=true) or with CAMSIM_SLOW=1")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
 #: Cam speed of the synthetic run [rad/s]: 120 rpm, one cycle in 0.5 s.
 OMEGA = 4.0 * np.pi
 #: Initial cam angle of the synthetic run [deg] (so that the angle passes 360).

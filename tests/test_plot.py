@@ -23,7 +23,7 @@ from typer.testing import CliRunner
 
 from camsim.cli import app
 from camsim.errors import InputError, ResultFileError
-from camsim.io.results import open_result
+from camsim.io.results import open_h5
 from camsim.plot import make_plots, plot_compare, plot_force, plot_mass, plot_svaj, plot_sweep_mass, save_figures
 
 runner = CliRunner()
@@ -36,7 +36,7 @@ def _ylabels(fig):
 
 
 def test_svaj_figure(run_file):
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig = plot_svaj(f)
     assert len(fig.axes) == 4
     assert _ylabels(fig) == ["displacement [m]", "velocity [m/s]", "acceleration [m/s²]", "jerk [m/s³]"]
@@ -50,7 +50,7 @@ def test_svaj_figure(run_file):
 
 
 def test_svaj_angle_window(run_file):
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig = plot_svaj(f, angle_window=(90.0, 180.0))
     x = fig.axes[0].get_lines()[0].get_xdata()
     assert x.min() >= 90.0 and x.max() <= 180.0 and x.size > 10
@@ -59,7 +59,7 @@ def test_svaj_angle_window(run_file):
 
 
 def test_mass_figure_marks_impacts(run_file):
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig = plot_mass(f, "M3", "acceleration")
         data = f["masses/M3/acceleration"][()]
     (ax,) = fig.axes
@@ -74,13 +74,13 @@ def test_mass_figure_marks_impacts(run_file):
 
 
 def test_mass_without_impacts_has_no_marks(run_file):
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig = plot_mass(f, "M1", "velocity")
     assert len(fig.axes[0].collections) == 0 and len(fig.axes[0].texts) == 0
 
 
 def test_time_window_keeps_impacts_inside(run_file):
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig = plot_mass(f, "M3", "displacement", time_window=(0.2, None))
     ax = fig.axes[0]
     t = ax.get_lines()[0].get_xdata()
@@ -89,7 +89,7 @@ def test_time_window_keeps_impacts_inside(run_file):
 
 
 def test_cam_contact_force_shades_jump(run_file):
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         contact = plot_force(f, "cam_contact/force")
         transducer = plot_force(f, "transducer/force")
         seat = plot_force(f, "elements/seat/force")
@@ -101,7 +101,7 @@ def test_cam_contact_force_shades_jump(run_file):
 
 
 def test_compare_figure(compare_file):
-    with open_result(compare_file) as f:
+    with open_h5(compare_file) as f:
         fig = plot_compare(f, "M2", "velocity")
         diff = f["difference/masses/M2/velocity"][()]
     top, bottom = fig.axes
@@ -112,7 +112,7 @@ def test_compare_figure(compare_file):
 
 
 def test_sweep_figure_skips_failed_points(sweep_file):
-    with open_result(sweep_file) as f:
+    with open_h5(sweep_file) as f:
         fig = plot_sweep_mass(f, "M2")
     assert len(fig.axes) == 3
     # speeds are stored in rad/s and shown in rpm (× 60/2π)
@@ -219,7 +219,7 @@ def test_cli_unwritable_output_and_bad_files(run_file, not_camsim_h5, not_hdf5, 
 
 def test_save_is_deterministic(run_file, tmp_path):
     """The same file plotted twice gives the same bytes (no dates, fixed SVG ids)."""
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig1, fig2 = plot_svaj(f), plot_svaj(f)
     (a,) = save_figures({"x": fig1}, tmp_path / "a", "svg")
     (b,) = save_figures({"x": fig2}, tmp_path / "b", "svg")
@@ -229,7 +229,7 @@ def test_save_is_deterministic(run_file, tmp_path):
 def test_baseline_image(run_file, tmp_path):
     from matplotlib.testing.compare import compare_images
 
-    with open_result(run_file) as f:
+    with open_h5(run_file) as f:
         fig = plot_mass(f, "M3", "displacement")
     (actual,) = save_figures({"mass_M3_displacement": fig}, tmp_path, "png", dpi=60)
     expected = BASELINE / "mass_M3_displacement.png"

@@ -201,16 +201,32 @@ def check_machine(machine, cs: float | None = None) -> None:
 
 
 def _trace(result, name: str):
-    """The one place that reads a run result (switches to ``RunResult.trace`` later)."""
-    if name == "cam_contact/force":
-        from camsim.sweep import cam_force
+    """The one place that reads a run result's base quantities.
 
-        return cam_force(result)
+    Not through ``RunResult.trace``: the design traces are themselves part of the
+    result's traces, computed from these.
+    """
+    if name == "cam_contact/force":
+        return result.cam_force  # the driven mass's, or the sum of the cam's contacts
     if name.startswith("cam/"):
         return result.cam[name[4:]]
     if name == "time":
         return result.time
     raise KeyError(name)
+
+
+def _design_traces_of(result) -> dict[str, tuple[np.ndarray, str, str]]:
+    """The design traces, from the result's own (cached) traces when it has them."""
+    traces = getattr(result, "traces", None)
+    if traces is None:
+        return design_traces(result)
+    return {path: (t.data, t.units, t.long_name) for path, t in traces().items() if path in _DESIGN_PATHS}
+
+
+_DESIGN_PATHS = (
+    "cam/pressure_angle", "cam/pitch_radius_of_curvature", "cam/surface_radius_of_curvature", "cam/pitch_curve",
+    "cam/surface", "cam_contact/normal_force", "cam_contact/side_load", "cam_contact/hertz_stress", "camshaft/torque",
+)
 
 
 def _geometry(result) -> CamGeometry | None:
@@ -314,7 +330,7 @@ def design_summary(result, cs: float | None = None) -> dict | None:
     static = geometry_summary(geometry, program)
     out = {k: v for k, v in static.items() if k not in ("defects",)}
     out["defects"] = [d.describe(geometry) for d in static["defects"]]
-    traces = design_traces(result)
+    traces = _design_traces_of(result)
     time = _trace(result, "time")
     nan = None
     out.update(peak_normal_force=nan, peak_hertz_stress=nan, peak_hertz_stress_time=nan, peak_torque=nan,

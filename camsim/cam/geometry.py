@@ -44,12 +44,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from camsim.elements import Param
 from camsim.errors import MachineFileError
 
 __all__ = [
     "FOLLOWERS",
     "GEOMETRY_KEYS",
+    "GEOMETRY_PARAMS",
     "MATERIAL_KEYS",
+    "MATERIAL_PARAMS",
     "STEEL",
     "CamGeometry",
     "Defect",
@@ -77,33 +80,34 @@ __all__ = [
 
 FOLLOWERS = ("translating-roller", "translating-flat", "oscillating-roller")
 ROTATIONS = ("ccw", "cw")
-GEOMETRY_KEYS = (
-    "follower",
-    "base_radius",
-    "roller_radius",
-    "offset",
-    "pivot_distance",
-    "arm_length",
-    "rotation",
-    "width",
-    "cam_material",
-    "follower_material",
-    "max_pressure_angle",
+#: The keys of ``[cam.geometry]`` (the schema's description: docs, ``--set``/``--vary`` units).
+GEOMETRY_PARAMS: tuple[Param, ...] = (
+    Param("follower", "string", "`translating-roller`, `translating-flat` or `oscillating-roller`", required=True),
+    Param("base_radius", "length", "Rb, the smallest radius of the cam surface", required=True, minimum=0.0,
+          strict=True),
+    Param("roller_radius", "length", "Rr < Rb, roller followers (required there, **not allowed** for a flat "
+          "face); the prime circle is Rp = Rb + Rr", minimum=0.0, strict=True),
+    Param("offset", "length", "ε, translating followers only: the axis displaced from the cam centre, positive "
+          "toward the side the cam surface comes from; \\|ε\\| < Rp for a roller", default=0.0),
+    Param("pivot_distance", "length", "cam centre to arm pivot, `oscillating-roller` (required there); "
+          "\\|C − L\\| < Rp < C + L", minimum=0.0, strict=True),
+    Param("arm_length", "length", "pivot to roller centre L, `oscillating-roller`; default `cam.arm` (equal to it "
+          "if both are given)", minimum=0.0, strict=True),
+    Param("rotation", "string", "`ccw` or `cw`, as the profile is drawn", default="ccw"),
+    Param("width", "length", "face width in contact (for the Hertz stress; none: no stress)", minimum=0.0,
+          strict=True),
+    Param("cam_material", "table", "`youngs_modulus`, `poisson_ratio` (below); default steel"),
+    Param("follower_material", "table", "`youngs_modulus`, `poisson_ratio` (below); default steel"),
+    Param("max_pressure_angle", "angle", "a warning above it; < 90°; bare number = degrees; default 30° "
+          "translating, 35° oscillating", minimum=0.0, strict=True),
 )
-MATERIAL_KEYS = ("youngs_modulus", "poisson_ratio")
-
-#: SI unit of each geometry key (``""`` for numbers and strings), for sweep columns.
-_KEY_UNITS = {
-    "base_radius": "m",
-    "roller_radius": "m",
-    "offset": "m",
-    "pivot_distance": "m",
-    "arm_length": "m",
-    "width": "m",
-    "max_pressure_angle": "rad",
-    "youngs_modulus": "Pa",
-    "poisson_ratio": "",
-}
+#: The keys of ``cam_material`` and ``follower_material``.
+MATERIAL_PARAMS: tuple[Param, ...] = (
+    Param("youngs_modulus", "pressure", "E (steel 206.8 GPa)", default=206.8e9, minimum=0.0, strict=True),
+    Param("poisson_ratio", "number", "ν, in [0, 0.5) (steel 0.28)", default=0.28, minimum=0.0),
+)
+GEOMETRY_KEYS = tuple(p.key for p in GEOMETRY_PARAMS)
+MATERIAL_KEYS = tuple(p.key for p in MATERIAL_PARAMS)
 
 #: Default limits on |pressure angle| [deg] (spec §2): translating, oscillating.
 DEFAULT_LIMIT_TRANSLATING_DEG = 30.0
@@ -491,7 +495,8 @@ def apply_geometry_override(cam: dict, key: str, rest: list[tuple[str, int | Non
 
 def geometry_key_unit(key: str) -> str:
     """SI unit of an override key ``cam.geometry.…`` (``""`` for numbers and strings)."""
-    return _KEY_UNITS.get(key.rsplit(".", 1)[-1], "")
+    leaf = key.rsplit(".", 1)[-1]
+    return next((p.unit for p in (*GEOMETRY_PARAMS, *MATERIAL_PARAMS) if p.key == leaf), "")
 
 
 def geometry_to_dict(geometry: CamGeometry | None) -> dict | None:

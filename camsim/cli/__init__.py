@@ -21,11 +21,9 @@ _COMMANDS = (
     "lump",
 )
 for _name in _COMMANDS:
-    try:
-        importlib.import_module(f"camsim.cli.cmd_{_name}")
-    except ModuleNotFoundError as _exc:  # a command still being written is simply absent
-        if _exc.name != f"camsim.cli.cmd_{_name}":
-            raise
+    # Every command is part of camsim: an import error is a bug and must surface. (A
+    # missing optional extra is reported when the command needs it, by camsim.extras.)
+    importlib.import_module(f"camsim.cli.cmd_{_name}")
 
 
 def main() -> None:

@@ -22,6 +22,7 @@ from rich.console import Console
 
 from camsim import __version__
 from camsim.errors import InputError, SimulationError
+from camsim.units import QuantityError, to_si
 
 #: Human output: stderr, colours only on a terminal; wide enough for the tables in logs.
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -75,6 +76,18 @@ def user_errors() -> Iterator[None]:
     except KeyboardInterrupt:
         err_console.print("camsim: interrupted; nothing was written under the output name")
         raise typer.Exit(code=130) from None
+
+
+def parse_sample_rate(text: str | None) -> float | None:
+    if text is None:
+        return None
+    try:
+        value = to_si(text, "frequency")
+    except QuantityError as exc:
+        raise fail(f"--sample-rate: {exc}") from None
+    if value <= 0:
+        raise fail("--sample-rate: must be positive")
+    return value
 
 
 def print_json(payload: Any) -> None:

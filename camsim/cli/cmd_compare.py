@@ -10,19 +10,23 @@ from rich.table import Table
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 
-_UNITS = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
+_SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 
-def render_comparison(comparison, console) -> None:
+def render_comparison(comparison, console, system: str = "si") -> None:
+    from rich.markup import escape
+
+    from camsim.display import shown
+
     a, b = comparison.labels
-    table = Table(title=f"{a} vs {b}: difference = 100·(A − B)/max|A|", title_justify="left")
-    for column in ("mass", "quantity", f"peak A ({a})", f"peak B ({b})", "largest |difference| [%]", "at t [s]"):
-        table.add_column(column, justify="right" if column not in ("mass", "quantity") else "left")
+    table = Table(title=escape(f"{a} vs {b}: difference = 100·(A − B)/max|A|"), title_justify="left")
+    for column in ("mass", "quantity [unit]", f"peak A ({a})", f"peak B ({b})", "largest |difference| [%]", "at t [s]"):
+        table.add_column(escape(column), justify="right" if column not in ("mass", "quantity [unit]") else "left")
     for row in comparison.rows():
-        unit, scale = _UNITS[row.quantity]
+        unit, scale = shown(_SI_UNITS[row.quantity], system)
         diff = row.max_difference_percent
         table.add_row(
-            row.mass, f"{row.quantity} [{unit}]", f"{row.peak_impact * scale:.4g}", f"{row.peak_no_impact * scale:.4g}",
+            escape(row.mass), escape(f"{row.quantity} [{unit}]"), f"{row.peak_impact * scale:.4g}", f"{row.peak_no_impact * scale:.4g}",
             f"{diff:.3g}" if math.isfinite(diff) else "∞", f"{row.time:.5f}",
         )
     console.print(table)
@@ -54,6 +58,8 @@ def compare_command(
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate, e.g. "50 kHz".'),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key, e.g. --set cam.speed="150 rpm" (repeatable).'),
     json_: bool = typer.Option(False, "--json", help="Print the comparison table as JSON on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    units: str = typer.Option("si", "--units", help="Units of the human table: si (mm, m/s) or us (in, in/s). Files and --json are always SI."),
 ) -> None:
     """Compare the machine with impact and over-travel against its no-impact variant (thesis §8.4).
 
@@ -63,10 +69,14 @@ def compare_command(
     100·(impact − no impact)/max|impact| with its time. With two run files (two designs,
     two speeds): the same table for A against B when their time grids match.
     """
-    from camsim.cli.cmd_run import ProgressAfterOneSecond, parse_sample_rate
+    from camsim.cli.app import parse_sample_rate
+    from camsim.cli.progress import FractionBar
+    from camsim.display import check_unit_system
+    from camsim.lifecycle import sigterm_as_interrupt
     from camsim.compare import compare_files, compare_machine, write_file_comparison
 
-    with user_errors():
+    with user_errors(), sigterm_as_interrupt():
+        check_unit_system(units)
         if len(inputs) == 2:
             if set_ or cycles or warmup is not None or sample_rate:
                 raise fail("--set, --cycles, --warmup and --sample-rate apply to a machine file, not to two result files")
@@ -87,7 +97,7 @@ def compare_command(
             from camsim.cam.design import check_machine  # issue 14: undercut/cusp is an error
 
             check_machine(machine)
-            progress = ProgressAfterOneSecond("comparing")
+            progress = FractionBar("compare (impact, no impact)", "%", 100.0, quiet=quiet)
             try:
                 comparison = compare_machine(machine, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, progress=progress)
             finally:
@@ -108,8 +118,8 @@ def compare_command(
             payload["output"] = str(output) if output is not None else None
             print_json(payload)
         else:
-            render_comparison(comparison, err_console)
-            if design_rows:
+            render_comparison(comparison, err_console, units)
+            if design_rows:  # issue 14
                 render_design_comparison(design_rows, err_console)
             if output is not None:
                 err_console.print(f"wrote {output}")

@@ -21,8 +21,7 @@ from camsim.errors import InputError
 from camsim.io.forcedeflection import read_force_deflection_csv
 from camsim.units import QuantityError, to_si
 
-#: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²).
-LBF = 0.45359237 * 9.80665
+from camsim.units import LBF  # noqa: E402
 
 impact_app = typer.Typer(
     name="impact",

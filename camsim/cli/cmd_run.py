@@ -2,57 +2,16 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
-from camsim.units import QuantityError, to_si
+from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm.h5`` (next to the input)."""
     return machine_path.with_name(machine_path.stem + suffix + ".h5")
-
-
-def parse_sample_rate(text: str | None) -> float | None:
-    if text is None:
-        return None
-    try:
-        value = to_si(text, "frequency")
-    except QuantityError as exc:
-        raise fail(f"--sample-rate: {exc}") from None
-    if value <= 0:
-        raise fail("--sample-rate: must be positive")
-    return value
-
-
-class ProgressAfterOneSecond:
-    """A progress bar on stderr that appears only for runs longer than a second on a terminal."""
-
-    def __init__(self, description: str):
-        self.description = description
-        self.start = time.monotonic()
-        self.progress = None
-        self.task = None
-
-    def __call__(self, fraction: float) -> None:
-        if not err_console.is_terminal:
-            return
-        if self.progress is None:
-            if time.monotonic() - self.start < 1.0:
-                return
-            from rich.progress import Progress
-
-            self.progress = Progress(console=err_console, transient=True)
-            self.progress.start()
-            self.task = self.progress.add_task(self.description, total=1.0)
-        self.progress.update(self.task, completed=fraction)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
 
 
 @app.command("run")
@@ -68,34 +27,51 @@ def run_command(
     check_against: Path = typer.Option(None, "--check-against", help="After the run, compare the result with this golden file (exit 1 on a regression)."),
     rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (see camsim check)."),
     atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against (SI)."),
+    max_output: str = typer.Option("2GB", "--max-output", metavar="SIZE", help="Refuse (exit 2, before integrating) a run whose estimated output is larger, e.g. 500MB, 10GB; the message gives the estimate."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
     cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
     The summary (peaks per mass, forces, impacts with their approach velocities and
-    Johnson bounds, periodicity residual) goes to stderr. Exit 0 on success, 1 when the
-    run fails (diverges, unresolved chatter) or --check-against finds a regression,
-    2 on bad input.
+    Johnson bounds, periodicity residual) goes to stderr. Before integrating, the
+    output size is estimated; above --max-output the run is refused (exit 2) unless
+    --yes. The file is written atomically: Ctrl-C or SIGTERM leaves the previous result
+    and no temporary file (exit 130). Exit 0 on success, 1 when the run fails
+    (diverges, unresolved chatter) or --check-against finds a regression, 2 on bad input.
     """
-    from camsim.io.atomic import check_writable
+    from camsim.budget import check_budget, estimate_run, parse_size
+    from camsim.cli.progress import FractionBar
+    from camsim.display import check_unit_system
+    from camsim.io.atomic import check_writable, remove_stale_temps
     from camsim.io.runfile import write_run
+    from camsim.lifecycle import sigterm_as_interrupt
     from camsim.loader import load_machine
     from camsim.report import render_run_summary
     from camsim.simulate import simulate
 
     rate = parse_sample_rate(sample_rate)
-    with user_errors():
+    with user_errors(), sigterm_as_interrupt():
+        check_unit_system(units)
+        limit = parse_size(max_output)
         loaded = load_machine(machine, overrides=set_)
         target = output if output is not None else default_output(machine)
         check_writable(target)
         from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
 
         check_machine(loaded, cs)
+        remove_stale_temps(target)  # left by a run that was killed outright
+        estimate = estimate_run(loaded, cycles=cycles, warmup_cycles=warmup, sample_rate=rate)
+        if not yes:
+            check_budget(estimate, limit, str(machine))
         if check_against is not None:
-            from camsim.io.results import open_result
+            from camsim.io.results import open_h5
 
-            open_result(check_against).close()
-        progress = ProgressAfterOneSecond(f"simulating {loaded.name}")
+            open_h5(check_against).close()
+        revs = estimate.revolutions  # seconds for a machine without a cam
+        progress = FractionBar("run", "rev" if revs else "s", revs or estimate.recorded_s, quiet=quiet)
         try:
             result = simulate(loaded, no_impact=no_impact, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, progress=progress)
         finally:
@@ -108,7 +84,7 @@ def run_command(
             payload["output"] = str(target)
             print_json(payload)
         else:
-            render_run_summary(result, err_console, cs=cs)
+            render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
         if check_against is not None:
             from camsim.check import check_files, render_report

@@ -15,56 +15,26 @@ def _default_output(machine: Path) -> Path:
     return machine.with_name(machine.stem + "_sweep.h5")
 
 
-class _ProgressBar:
-    """A rich progress bar on stderr, only when stderr is a terminal."""
-
-    def __init__(self) -> None:
-        self.progress = None
-        self.task = None
-
-    def start(self, total: int, executor: str) -> None:
-        if not err_console.is_terminal:
-            return
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-        self.progress = Progress(
-            TextColumn("sweep ({task.fields[executor]})"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-            console=err_console,
-            transient=True,
-        )
-        self.progress.start()
-        self.task = self.progress.add_task("sweep", total=total, executor=executor)
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.progress is not None:
-            self.progress.update(self.task, completed=done, total=total)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
-            self.progress = None
-
-
-def _render(result, err) -> None:
+def _render(result, err, system: str = "si") -> None:
     from rich.table import Table
     from rich.text import Text
+
+    from camsim.display import shown
 
     rows = result.rows
     params = [name for name, _ in result.columns if name.startswith("param:")]
     units = dict(result.columns)
     if len(rows) <= 40:
         table = Table(show_edge=False, pad_edge=False)
-        shown = params + ["peak_transducer_force", "min_cam_contact_force", "jump", "impacts", "status"]
+        columns = params + ["peak_transducer_force", "min_cam_contact_force", "jump", "impacts", "status"]
         design = [n for n in ("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque") if n in units]
-        shown[-1:-1] = design  # issue 14: cam design columns with [cam.geometry]
-        for name in shown:
-            unit = units.get(name, "")
+        columns[-1:-1] = design  # issue 14: cam design columns with [cam.geometry]
+        display = {name: shown(units.get(name, ""), system) for name in columns}
+        for name in columns:
+            unit = display[name][0]
             table.add_column(Text(f"{name.removeprefix('param:')}" + (f" [{unit}]" if unit else "")), overflow="fold")
         for row in rows:
-            table.add_row(*[Text(_cell(row[name])) for name in shown])
+            table.add_row(*[Text(_cell(_scaled(row[name], display[name][1]))) for name in columns])
         err.print(table)
     ok = sum(r["status"] == "ok" for r in rows)
     cancelled = sum(r["status"] == "cancelled" for r in rows)
@@ -88,6 +58,12 @@ def _render(result, err) -> None:
             )
     for note in result.notes:
         err.print(f"note: {note}", markup=False)
+
+
+def _scaled(value, factor: float):
+    if isinstance(value, float) and factor != 1.0:
+        return value * factor
+    return value
 
 
 def _cell(value) -> str:
@@ -132,6 +108,9 @@ def sweep_command(
     cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per variant (overrides simulation.cycles)."),
     warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first (overrides simulation.warmup_cycles)."),
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare number: Hz). Default: the machine file\'s. Peaks are taken over the samples.'),
+    resume: bool = typer.Option(False, "--resume", help="Continue an interrupted sweep into the same output: run only the variants missing from <output>.journal (same machine, ranges, --set and settings, else exit 2). Without a journal: a fresh sweep."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    units: str = typer.Option("si", "--units", help="Units of the human table: si (N, m) or us (lbf, in). Files and --json are always SI."),
 ) -> None:
     """Run MACHINE for every combination of the varied keys; one summary row per variant.
 
@@ -140,17 +119,23 @@ def sweep_command(
     max_cam_contact_force, min_cam_contact_force [N]; jump; impacts;
     max_impact_velocity [m/s]; periodicity_residual; status ("ok" or the error of a
     variant that failed; the sweep goes on). For a cam.speed sweep the lowest swept
-    speed at which the follower jumps is reported. Exit 0 when the sweep ran (failed
-    variants are in the table), 2 on bad input, 130 after Ctrl-C (finished rows are
-    written, the rest marked "cancelled").
+    speed at which the follower jumps is reported. Each row is stored as its variant
+    finishes (<output>.journal, and the HDF5 file, readable while the sweep runs), so a
+    killed sweep keeps its finished rows: rerun with --resume. Exit 0 when the sweep
+    ran (failed variants are in the table), 2 on bad input, 130 after Ctrl-C or
+    SIGTERM (finished rows are written, the rest marked "cancelled").
     """
-    from camsim.cli.cmd_run import parse_sample_rate
+    from camsim.cli.app import parse_sample_rate
     from camsim.io.atomic import check_writable
-    from camsim.sweep import csv_path_for, jsonable_rows, run_sweep, write_sweep
+    from camsim.cli.progress import Bar
+    from camsim.lifecycle import sigterm_as_interrupt
+    from camsim.sweep import csv_path_for, finish_sweep, jsonable_rows, run_sweep, write_sweep
+    from camsim.display import check_unit_system
 
     rate = parse_sample_rate(sample_rate)
-    bar = _ProgressBar()
-    with user_errors():
+    bar = Bar("sweep", "variants", quiet=quiet)
+    with user_errors(), sigterm_as_interrupt():
+        check_unit_system(units)
         target = output if output is not None else _default_output(machine)
         check_writable(target)
         check_writable(csv_path_for(target))
@@ -171,10 +156,13 @@ def sweep_command(
                 max_variants=None if yes else max_variants,
                 progress=bar,
                 on_start=bar.start,
+                output=target,
+                resume=resume,
             )
         finally:
             bar.close()
         h5_path, csv_path = write_sweep(result, target)
+        finish_sweep(result)
         if json_:
             print_json(
                 {
@@ -186,11 +174,20 @@ def sweep_command(
                 }
             )
         else:
-            _render(result, err_console)
+            if result.resumed:
+                err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
+            _render(result, err_console, units)
             err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
+        if result.executor_failures and not result.interrupted:
+            err_console.print(
+                f"warning: {result.executor_failures} variants did not run (a worker process failed); "
+                "rerun with --resume to run them",
+                style="yellow",
+                markup=False,
+            )
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
             raise fail(
-                f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled')",
+                f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled'); rerun with --resume to complete it",
                 130,
             )

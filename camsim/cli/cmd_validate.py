@@ -14,7 +14,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
-from camsim.machine import Contact, Machine, PreloadedLink, Spring
+from camsim.elements import Param
+from camsim.machine import Machine
 
 
 @app.command("validate")
@@ -55,6 +56,21 @@ def _g(x: float | None, unit: str = "") -> str:
     if x is None:
         return "-"
     return f"{x:.6g} {unit}".strip()
+
+
+def _shown(p: Param, element) -> bool:
+    """Parameters worth a column: not the damping keys (their own column), not unset ones."""
+    if p.dimension == "string" or p.key in ("damping", "damping_ratio", "reference_mass"):
+        return False
+    value = getattr(element, p.attribute)
+    return value is not None and value is not False
+
+
+def _param_text(p: Param, value) -> str:
+    if value is True:
+        return p.key
+    unit = p.unit.replace("exponent", "a") if p.unit else ""
+    return f"{p.key} {value:.6g} {unit}".strip()
 
 
 def _print_machine(machine: Machine) -> None:
@@ -105,36 +121,16 @@ def _print_machine(machine: Machine) -> None:
     for col in ("name", "type", "between", "parameters", "damping"):
         elements.add_column(col)
     for e in machine.elements:
-        if isinstance(e, PreloadedLink):
-            kind = "preloaded"
-            params = (f"k_push {e.push_stiffness:.6g} N/m, k_pull {e.pull_stiffness:.6g} N/m, "
-                      f"preload {e.preload:.6g} N, d_sep {e.separation_deflection:.6g} m")
-        elif isinstance(e, Spring):
-            kind = "spring"
-            params = f"k {e.stiffness:.6g} N/m, preload {e.preload:.6g} N"
-        elif isinstance(e, Contact):
-            kind = f"contact ({e.law})"
-            params = f"gap {e.gap:.6g} m"
-            if e.law == "linear":
-                params += f", k {e.stiffness:.6g} N/m"
-            elif e.law == "power":
-                params += f", C {e.coefficient:.6g} N/m^{e.exponent:g}, a {e.exponent:g}"
-            if e.restitution is not None:
-                params += f", e {e.restitution:g}"
-            if e.transducer:
-                params += ", transducer"
-        else:  # pragma: no cover - the loader builds only the three kinds
-            kind, params = type(e).__name__, ""
+        kind = f"{e.type_name} ({e.law_name})" if e.law_name else e.type_name
+        params = ", ".join(_param_text(p, getattr(e, p.attribute)) for p in e.params if _shown(p, e))
         coefficients = damping_coefficients(machine, e)
         if e.damping.ratio is not None:
             damping = f"zeta {e.damping.ratio:g} (m_ref {reference_mass_of(e)}): " + ", ".join(
                 f"{k} {v:.6g} N*s/m" for k, v in coefficients.items())
         elif e.damping.coefficient is not None:
             damping = ", ".join(f"{k} {v:.6g} N*s/m" for k, v in coefficients.items())
-        elif isinstance(e, Contact) and e.law == "power" and e.restitution is not None:
-            damping = "Hunt-Crossley"
         else:
-            damping = "none"
+            damping = e.damping_note() or "none"
         elements.add_row(*(escape(x) for x in (e.name, kind, f"{e.lower} -> {e.upper}", params, damping)))
     err_console.print(elements)
 

@@ -33,7 +33,7 @@ SUPPORTED_SCHEMAS = (1,)
 FILE_KINDS = ("run", "compare", "sweep", "cam")
 
 
-def open_result(path: str | os.PathLike[str]) -> h5py.File:
+def open_h5(path: str | os.PathLike[str]) -> h5py.File:
     """Open a camsim result file read-only, after checking that it is one.
 
     Parameters

@@ -21,9 +21,9 @@ import math
 import numpy as np
 import pytest
 
-from camsim.cam.design import design_summary, flywheel_inertia
+from camsim.cam.design import design_summary, design_traces, flywheel_inertia
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
+from camsim import simulate  # the public API (not the submodule: see tests/test_api.py)
 
 H, RATIO, M, K, P = 0.020, 0.5, 2.0, 3000.0, 40.0
 RB, RR, EPS, WIDTH = 0.040, 0.012, 0.004, 0.008
@@ -90,7 +90,7 @@ def roller_run():
 
 def test_torque_is_the_moment_of_the_normal_force(roller_run):
     result = roller_run
-    traces = result.design_traces()
+    traces = design_traces(result)
     theta = np.radians(result.cam["angle"])
     s, s1, _ = hand_motion(theta)
     fc = result.cam_contact_force
@@ -111,6 +111,10 @@ def test_torque_is_the_moment_of_the_normal_force(roller_run):
     np.testing.assert_allclose(traces["cam_contact/side_load"][0], RATIO * fc * np.tan(phi), rtol=0,
                                atol=1e-12 * np.max(np.abs(fn)))
     assert traces["camshaft/torque"][1] == "N*m" and traces["cam/pressure_angle"][1] == "deg"
+    # the run result (the hub) carries them, with their units
+    np.testing.assert_array_equal(result.trace("camshaft/torque"), torque)
+    assert result.units("camshaft/torque") == "N*m" and result.units("peak_hertz_stress") == "Pa"
+    assert result.scalars()["peak_torque"] == pytest.approx(np.max(np.abs(torque)), rel=1e-15)
 
 
 def test_zero_net_work_and_energy_fluctuation_of_a_conservative_machine(roller_run):
@@ -125,7 +129,7 @@ def test_zero_net_work_and_energy_fluctuation_of_a_conservative_machine(roller_r
     assert summary["energy_fluctuation"] == pytest.approx(np.ptp(energy), rel=1e-6)
     assert summary["flywheel_inertia"] == pytest.approx(summary["energy_fluctuation"] / (0.05 * (2 * math.pi) ** 2), rel=1e-15)
     assert flywheel_inertia(10.0, 0.02, 100.0) == pytest.approx(10.0 / (0.02 * 1e4))
-    torque = result.design_traces()["camshaft/torque"][0]
+    torque = design_traces(result)["camshaft/torque"][0]
     assert summary["rms_torque"] == pytest.approx(math.sqrt(np.mean(torque**2)), rel=1e-12)
     assert summary["peak_torque"] == pytest.approx(np.max(np.abs(torque)), rel=1e-15)
 
@@ -139,7 +143,7 @@ def _norton_hertz(force, r1, r2):
 
 def test_hertz_against_norton_line_contact(roller_run):
     result = roller_run
-    stress = result.design_traces()["cam_contact/hertz_stress"][0]
+    stress = design_traces(result)["cam_contact/hertz_stress"][0]
     theta = np.radians(result.cam["angle"])
     s, s1, s2 = hand_motion(theta)
     y = math.sqrt((RB + RR) ** 2 - EPS**2) + s
@@ -153,7 +157,7 @@ def test_hertz_against_norton_line_contact(roller_run):
 
 def test_flat_face_hertz_and_no_side_load():
     result = run(FLAT)
-    traces = result.design_traces()
+    traces = design_traces(result)
     theta = np.radians(result.cam["angle"])
     s, _, s2 = hand_motion(theta)
     fn = RATIO * result.cam_contact_force  # φ = 0
@@ -167,9 +171,9 @@ def test_no_geometry_no_design():
     start = text.index("[cam.geometry]")
     text = text[:start] + text[text.index("[[mass]]"):]
     result = simulate(load_machine_text(text))
-    assert result.design_traces() == {}
+    assert design_traces(result) == {}
     assert design_summary(result) is None
-    assert "design" not in result.summary()
+    assert "design" not in result.summary() and "peak_torque" not in result.scalars()
 
 
 def _datasets(path):
@@ -216,4 +220,4 @@ def test_cdtm_geometry_has_the_traces_of_cdtm():
     for name in b.elements:
         np.testing.assert_array_equal(a.elements[name], b.elements[name])
     np.testing.assert_array_equal(a.cam_contact_force, b.cam_contact_force)
-    assert a.design_summary()["defects"] == []
+    assert design_summary(a)["defects"] == []

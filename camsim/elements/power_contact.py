@@ -1,0 +1,109 @@
+"""``law = "power"``: F = C·δ^a, optionally Hunt–Crossley damped, F = C·δ^a·(1 + χ·δ̇) (spec §3).
+
+The thesis's common-velocity contact (eq. 3.30; C and a from a log-log fit). While closed
+its force is nonlinear: the integrator carries it as F_nl. With ``restitution`` e the
+damping is χ = 3(1 − e²)/(4·v) with v the approach speed of the impact that closed the
+contact; a contact closed from the start has no damping until its first impact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from camsim.affine import Affine
+from camsim.elements.base import FACTOR_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, register
+from camsim.elements.contact import CONTACT_PARAMS, Contact
+from camsim.events import EventKind
+
+
+@register
+@dataclass(frozen=True)
+class PowerContact(Contact):
+    """Power-law contact: ``coefficient`` C [N/m^a], ``exponent`` a > 0, ``restitution`` e."""
+
+    coefficient: float = 0.0
+    exponent: float = 1.0
+
+    law_name: ClassVar[str] = "power"
+    summary: ClassVar[str] = "compliant contact F = C·δ^a, Hunt–Crossley damped with restitution"
+    params: ClassVar[tuple[Param, ...]] = (
+        *CONTACT_PARAMS,
+        Param("exponent", "number", "a", required=True, minimum=0.0, strict=True),
+        Param("coefficient", "power_coefficient", "C of F = C·δ^a, e.g. `\"1.11e7 lbf/in**1.425\"` (the unit's "
+              "length exponent must equal `exponent`)", required=True, minimum=0.0,
+              strict=True, example='"1.11e7 lbf/in**1.425"'),
+        Param("restitution", "number", "coefficient of restitution: Hunt–Crossley damping (none when absent)", minimum=0.0, maximum=1.0),
+    )
+
+    refused_hints: ClassVar[dict[str, str]] = {
+        "damping": "a power-law contact is damped through restitution (Hunt-Crossley)",
+    }
+
+    def damping_note(self):
+        return "Hunt-Crossley" if self.restitution is not None else None
+
+    def is_nonlinear(self, branch):
+        return branch == Branch.CLOSED
+
+    def is_constraint(self, branch):
+        # Made bilateral for the no-impact variant, the contact holds its nodes together.
+        return branch == Branch.BILATERAL
+
+    def nonlinear_force(self, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None) -> np.ndarray:
+        """F = C·δ^a·(1 + 3(1−e²)/4·δ̇/v_impact), ≥ 0 [N] on samples."""
+        pen = np.maximum(delta, 0.0)
+        force = self.coefficient * pen**self.exponent
+        if self.restitution is not None and v_impact:
+            factor = 1.0 + 0.75 * (1.0 - self.restitution**2) * delta_rate / v_impact
+            force = force * factor
+        return np.maximum(force, 0.0)
+
+    def nonlinear_force_scalar(self, delta: float, delta_rate: float, v_impact: float | None) -> float:
+        """:meth:`nonlinear_force` for one sample, in plain floats (the hot path of a contact phase)."""
+        if delta <= 0.0:
+            return 0.0
+        force = self.coefficient * delta**self.exponent
+        if self.restitution is not None and v_impact:
+            force *= 1.0 + 0.75 * (1.0 - self.restitution**2) * delta_rate / v_impact
+        return force if force > 0.0 else 0.0
+
+    def force(self, branch, d, d_rate, damping, v_impact):
+        if branch != Branch.CLOSED:
+            return np.zeros_like(d)
+        return self.nonlinear_force(self.gap - d, -d_rate, v_impact)
+
+    def _factor(self, ctx) -> Affine | None:
+        """The Hunt–Crossley factor 1 + χ·δ̇ as an affine guard (None when undamped)."""
+        v_impact = ctx.v_impact
+        if self.restitution is None or not v_impact:
+            return None
+        _, rate = ctx.penetration()
+        beta = 0.75 * (1.0 - self.restitution**2) / v_impact
+        return Affine(beta * rate.Cz, beta * rate.Du, beta * rate.Fn, 1.0 + beta * rate.e)
+
+    def closed_guards(self, branch, ctx):
+        # δ > 0 and the Hunt–Crossley factor > 0
+        delta, _ = ctx.penetration()
+        out = [(GuardKind.RELEASE, delta, LENGTH_TOL)]
+        factor = self._factor(ctx)
+        if factor is not None:
+            out.append((GuardKind.RELEASE, factor, FACTOR_TOL))
+        return out
+
+    def lifted_guards(self, ctx):
+        factor = self._factor(ctx)
+        if factor is None:
+            return []
+        return [(GuardKind.CLOSE, Affine(-factor.Cz, -factor.Du, -factor.Fn, -factor.e), FACTOR_TOL)]
+
+    def closing(self, rate):
+        v_impact = max(rate, 1e-12) if self.restitution is not None else None
+        return Outcome(Branch.CLOSED, EventKind.IMPACT, rate, v_impact=v_impact)
+
+    def johnson_bounds(self, m1, m2, v):
+        from camsim.impact import johnson_power
+
+        return johnson_power(m1, m2, v, 0.0, self.coefficient, self.exponent)
