@@ -34,7 +34,7 @@ import scipy.linalg
 from camsim.errors import SimulationError, ZenoError
 from camsim.events import Event, EventKind
 from camsim.affine import N_INPUT, Affine
-from camsim.elements import FORCE_TOL, LENGTH_TOL, Branch, GuardKind
+from camsim.elements import Branch, GuardKind
 from camsim.model import Configuration, Model
 from camsim.recurrence import linear_recurrence
 

@@ -19,6 +19,7 @@ _COMMANDS = (
     "check",
     "sweep",
     "lump",
+    "fit",
 )
 for _name in _COMMANDS:
     # Every command is part of camsim: an import error is a bug and must surface. (A
