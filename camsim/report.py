@@ -30,7 +30,7 @@ def _fmt(value, fmt: str = ".4g") -> str:
 
 
 def render_run_summary(result, console: Console, system: str = "si", cs: float | None = None) -> None:
-    """Print the summary of a :class:`~camsim.simulate.RunResult`.
+    """Print the summary of a :class:`~camsim.simulation.RunResult`.
 
     Every column header carries the unit its values are printed in (escaped, so rich
     does not take ``[mm]`` for markup); ``system`` is ``"si"`` (mm, m/s, N) or ``"us"``

@@ -1,6 +1,6 @@
 """The run result: the hub every command, writer and plot reads.
 
-:func:`camsim.simulate.simulate` returns a :class:`RunResult`; :func:`open_result` reads
+:func:`camsim.simulation.simulate` returns a :class:`RunResult`; :func:`open_result` reads
 the same object back from an HDF5 file. Every derived quantity (peaks, the cam force and
 its extremes, the jump flag, impact summaries, the flat scalars of sweeps and studies) is
 computed here, once, so ``run``, ``sweep``, ``compare``, ``study`` and ``fit`` cannot

@@ -126,7 +126,7 @@ class SweepSettings:
     sample_rate : float, optional
         Output sample rate [Hz]. Peaks are taken over the samples, so they depend on it.
     keep_traces : bool
-        Return each variant's :class:`~camsim.simulate.RunResult` too.
+        Return each variant's :class:`~camsim.simulation.RunResult` too.
     """
 
     cycles: int | None = None
@@ -374,7 +374,7 @@ def run_variant(source: MachineSource, overrides: Sequence[str], settings: Sweep
     result : RunResult or None
         The run, when ``settings.keep_traces`` and the run succeeded.
     """
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     machine = None
     try:

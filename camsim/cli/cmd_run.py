@@ -50,7 +50,7 @@ def run_command(
     from camsim.lifecycle import sigterm_as_interrupt
     from camsim.loader import load_machine
     from camsim.report import render_run_summary
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     rate = parse_sample_rate(sample_rate)
     with user_errors(), sigterm_as_interrupt():

@@ -142,8 +142,7 @@ def test_bad_input_one_line_exit_2_nothing_written(oscillator, tmp_path, args, n
 def test_interrupted_run_leaves_no_file(oscillator, tmp_path, monkeypatch):
     import importlib
 
-    simulate_module = importlib.import_module("camsim.simulate")  # not camsim.simulate: the package's lazy
-    # attribute of that name may be the function (camsim/__init__.py), depending on test order
+    simulate_module = importlib.import_module("camsim.simulation")
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -158,7 +157,7 @@ def test_interrupted_run_leaves_no_file(oscillator, tmp_path, monkeypatch):
 def test_failed_run_exit_1(oscillator, tmp_path, monkeypatch):
     import importlib
 
-    simulate_module = importlib.import_module("camsim.simulate")  # see test_interrupted_run_leaves_no_file
+    simulate_module = importlib.import_module("camsim.simulation")
 
     def diverges(*args, **kwargs):
         raise SimulationError("the run diverged before t = 0.1 s (non-finite state)")
