@@ -27,7 +27,7 @@ except PackageNotFoundError:  # running from a source tree that was not installe
 _LAZY = {
     "load_machine": "camsim.loader",
     "Machine": "camsim.machine",
-    "simulate": "camsim.simulate",
+    "simulate": "camsim.simulation",
     "RunResult": "camsim.result",
     "open_result": "camsim.result",
     "EventKind": "camsim.events",

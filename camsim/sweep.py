@@ -126,7 +126,7 @@ class SweepSettings:
     sample_rate : float, optional
         Output sample rate [Hz]. Peaks are taken over the samples, so they depend on it.
     keep_traces : bool
-        Return each variant's :class:`~camsim.simulate.RunResult` too.
+        Return each variant's :class:`~camsim.simulation.RunResult` too.
     """
 
     cycles: int | None = None
@@ -292,6 +292,11 @@ def machine_value(machine, key: str) -> Any:
             leaf, index = parts[1]
             if leaf == "segments":
                 return d["cam"]["segments"][index][parts[2][0]]
+            if leaf == "geometry":  # issue 14: cam.geometry.<key>[.<key>]
+                value = d["cam"]["geometry"]
+                for name, _ in parts[2:]:
+                    value = value[name]
+                return value
             return d["cam"][leaf]
         if head == "simulation":
             return d["simulation"][parts[1][0]]
@@ -369,7 +374,7 @@ def run_variant(source: MachineSource, overrides: Sequence[str], settings: Sweep
     result : RunResult or None
         The run, when ``settings.keep_traces`` and the run succeeded.
     """
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     machine = None
     try:
@@ -810,6 +815,9 @@ def run_sweep(
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
     columns = sweep_columns(keys, [m.name for m in base.masses])
+    from camsim.cam.design import design_columns  # issue 14: design columns with [cam.geometry]
+
+    columns[-1:-1] = design_columns(base)  # before "status"
     if resume and keep_traces:
         raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
