@@ -89,7 +89,7 @@ def run_sample(source, overrides: Sequence[str], settings: RunSettings) -> tuple
     None
         (The executors' second slot, which a sweep uses for traces.)
     """
-    from camsim.simulate import simulate
+    from camsim import simulate
 
     try:
         machine = source.load(overrides)
@@ -374,7 +374,7 @@ def study(
     source = machine if isinstance(machine, MachineSource) else MachineSource.from_path(machine)
 
     # The nominal machine: key checks, the output columns.
-    from camsim.simulate import simulate
+    from camsim import simulate
 
     base = _check_keys(source, fixed, parsed)
     try:
