@@ -199,7 +199,17 @@ def study_command(
             )
         except StudyInterrupted as exc:
             bar.close()
-            raise fail(f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store} (and its .journal); run the same command with --resume to finish", 130) from None
+            if exc.lost:
+                raise fail(
+                    f"{exc.lost} runs did not run (a worker process failed); {exc.done} of {exc.total} are kept in "
+                    f"{exc.store} (and its .journal); run the same command with --resume to run the rest",
+                    1,
+                ) from None
+            raise fail(
+                f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store} (and its .journal); "
+                "run the same command with --resume to finish",
+                130,
+            ) from None
         finally:
             bar.close()
         for w in result.warnings:

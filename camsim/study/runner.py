@@ -104,7 +104,7 @@ def run_sample(source, overrides: Sequence[str], settings: RunSettings) -> tuple
 
 
 class StudyInterrupted(KeyboardInterrupt):
-    """Ctrl-C stopped a study; its finished rows are kept in the row store.
+    """Ctrl-C stopped a study, or worker processes failed; the finished rows are kept.
 
     Attributes
     ----------
@@ -113,11 +113,13 @@ class StudyInterrupted(KeyboardInterrupt):
     store : Path or None
         The study file, which holds the finished rows (its journal ``<file>.journal``
         is what ``resume=True`` continues from).
+    lost : int
+        Runs that did not run because their worker process failed (0 after Ctrl-C).
     """
 
-    def __init__(self, done: int, total: int, store: Path | None):
+    def __init__(self, done: int, total: int, store: Path | None, lost: int = 0):
         super().__init__(f"{done} of {total} runs done")
-        self.done, self.total, self.store = done, total, store
+        self.done, self.total, self.store, self.lost = done, total, store, lost
 
 
 @dataclass
@@ -456,12 +458,12 @@ def study(
     if store is None:
         store = open_store(h5_path, columns, meta, base, resume=False) if output is not None else MemoryRowStore.create(None, columns, meta)
     tasks = [(source, tuple(fixed) + tuple(_assignment(k, v) for k, v in zip(keys, values[i])), settings) for i in todo]
-    interrupted = _run_missing(executor, tasks, todo, store, lambda i, row: _stored_row(i, design[i], keys, values[i], row, column_names),
+    interrupted, lost = _run_missing(executor, tasks, todo, store, lambda i, row: _stored_row(i, design[i], keys, values[i], row, column_names),
                                total, progress, on_start, name)
     stored = store.rows()
-    if interrupted:
+    if interrupted or lost:
         store.close()
-        raise StudyInterrupted(len(stored), total, h5_path)
+        raise StudyInterrupted(len(stored), total, h5_path, lost=lost)
 
     import pandas as pd
 
@@ -503,9 +505,20 @@ def study(
     return result
 
 
-def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_start, name) -> bool:
-    """Run the tasks of the missing rows, appending each row as it finishes; True after Ctrl-C."""
+def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_start, name) -> tuple[bool, int]:
+    """Run the tasks of the missing rows, appending each row as it finishes.
+
+    Returns
+    -------
+    interrupted : bool
+        Ctrl-C (or SIGTERM) stopped the runs.
+    lost : int
+        Runs whose worker process failed (not stored: a resume runs them again).
+    """
+    from camsim.sweep import _EXECUTOR_ERROR
+
     interrupted = False
+    lost = 0
     try:
         if on_start is not None:
             on_start(total, len(todo), name)
@@ -513,6 +526,9 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
         if todo:
             for k, (row, _) in executor.run(tasks, fn=run_sample):
                 i = todo[k]
+                if row.get(_EXECUTOR_ERROR):
+                    lost += 1
+                    continue
                 row = {c: v for c, v in row.items() if not c.startswith("param:")}
                 store.append(i, stored_row(i, row))
                 finished += 1
@@ -529,7 +545,7 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
             except Exception:  # noqa: BLE001 - workers stopped on purpose after Ctrl-C
                 if not interrupted:
                     raise
-    return interrupted
+    return interrupted, lost
 
 
 def _analyse(frame, output_names, limits, keys, samples: int, sensitivity: bool, seed: int):

@@ -225,3 +225,28 @@ def test_dask_local_cluster_gives_the_same_rows():
     dask = study(MACHINE, DISTS, 6, seed=21, dask_local=2)
     assert dask.executor.startswith("Dask LocalCluster")
     _same_frames(serial.rows, dask.rows)
+
+
+def test_a_failed_worker_is_not_stored_so_resume_runs_it_again():
+    """A run lost with its worker process (the executors' marked row) is not a stored row."""
+    from camsim.study.runner import _run_missing
+    from camsim.study.store import MemoryRowStore
+    from camsim.sweep import _EXECUTOR_ERROR
+
+    class Executor:
+        name = "fake"
+
+        def run(self, tasks, fn=None):
+            yield 0, ({"status": "BrokenProcessPool: a worker died", _EXECUTOR_ERROR: True}, None)
+            yield 1, ({"min_cam_contact_force": 1.0, "status": "ok"}, None)
+
+        def abort(self):
+            pass
+
+        def close(self):
+            pass
+
+    store = MemoryRowStore.create(None, [("run", ""), ("min_cam_contact_force", "N"), ("status", "")], {})
+    interrupted, lost = _run_missing(Executor(), [(), ()], [5, 6], store, lambda i, row: {"run": i, **row}, 7, None, None, "fake")
+    assert (interrupted, lost) == (False, 1)
+    assert store.done() == {6}
