@@ -330,7 +330,8 @@ def study(
         Ctrl-C: the finished rows are kept for ``resume``.
     """
     from camsim.study.statistics import parse_limit
-    from camsim.sweep import MachineSource, _default_workers, _make_executor
+    from camsim.executors import default_workers, make_executor
+    from camsim.sweep import MachineSource
 
     if method not in METHODS:
         raise InputError(f"--method {method}: unknown sampling method (one of {', '.join(METHODS)})")
@@ -370,7 +371,7 @@ def study(
     settings = RunSettings(outputs=tuple(exprs), cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     if scheduler is not None and dask_local is not None:
         raise InputError("--scheduler and --dask-local: give one of them, not both")
-    workers = _default_workers() if workers is None else workers
+    workers = default_workers() if workers is None else workers
     if workers < 1:
         raise InputError(f"--workers {workers}: needs at least 1")
     source = machine if isinstance(machine, MachineSource) else MachineSource.from_path(machine)
@@ -449,7 +450,7 @@ def study(
     try:
         # the executor first: an unreachable scheduler must leave nothing behind
         if todo:
-            executor = _make_executor(workers, len(todo), scheduler, dask_local)
+            executor = make_executor(workers, len(todo), scheduler, dask_local)
             name = executor.name
     except BaseException:
         if store is not None:
@@ -515,7 +516,7 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
     lost : int
         Runs whose worker process failed (not stored: a resume runs them again).
     """
-    from camsim.sweep import _EXECUTOR_ERROR
+    from camsim.executors import EXECUTOR_ERROR
 
     interrupted = False
     lost = 0
@@ -526,7 +527,7 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
         if todo:
             for k, (row, _) in executor.run(tasks, fn=run_sample):
                 i = todo[k]
-                if row.get(_EXECUTOR_ERROR):
+                if row.get(EXECUTOR_ERROR):
                     lost += 1
                     continue
                 row = {c: v for c, v in row.items() if not c.startswith("param:")}

@@ -231,7 +231,7 @@ def test_a_failed_worker_is_not_stored_so_resume_runs_it_again():
     """A run lost with its worker process (the executors' marked row) is not a stored row."""
     from camsim.study.runner import _run_missing
     from camsim.study.store import MemoryRowStore
-    from camsim.sweep import _EXECUTOR_ERROR
+    from camsim.executors import EXECUTOR_ERROR as _EXECUTOR_ERROR
 
     class Executor:
         name = "fake"
