@@ -40,7 +40,7 @@ import scipy  # noqa: E402
 import camsim.integrate as integrate  # noqa: E402
 from camsim.loader import load_machine, load_machine_text  # noqa: E402
 from camsim.restitution import linear_damping_ratio  # noqa: E402
-from camsim.simulate import simulate  # noqa: E402
+from camsim import simulate  # noqa: E402
 
 POWER = ROOT / "machines" / "cdtm-power.toml"
 LBF = 4.4482216152605  # [N]

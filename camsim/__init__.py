@@ -27,13 +27,13 @@ except PackageNotFoundError:  # running from a source tree that was not installe
 _LAZY = {
     "load_machine": "camsim.loader",
     "Machine": "camsim.machine",
-    "simulate": "camsim.simulate",
+    "simulate": "camsim.simulation",
     "RunResult": "camsim.result",
     "open_result": "camsim.result",
     "EventKind": "camsim.events",
 }
 #: Subpackages that are also callables: ``camsim.fit(...)``.
-_LAZY_PACKAGES = {"fit": "camsim.fit"}
+_LAZY_PACKAGES = {"fit": "camsim.fit", "study": "camsim.study"}
 
 __all__ = [
     "__version__",

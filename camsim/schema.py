@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from camsim import elements as element_kinds
+from camsim.cam import geometry as _geometry
 from camsim.elements import COMMON_PARAMS, Param
 
 #: The fixed tables, by their name in the machine file.
@@ -45,7 +46,11 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("start_angle", "angle", "θ0; bare number = degrees", default=0.0),
         Param("segments", "array of tables", "the segment table (below); exactly one of `segments` and `table`"),
         Param("table", "string", "path of a CSV profile, relative to the machine file (below)"),
+        Param("geometry", "table", "the cam's shape, for the design checks (`[cam.geometry]`, below)"),
     ),
+    # issue 14: [cam.geometry] and its material tables (keys owned by camsim.cam.geometry)
+    "cam.geometry": _geometry.GEOMETRY_PARAMS,
+    "cam.geometry.material": _geometry.MATERIAL_PARAMS,
     "cam.segments": (
         Param("motion", "string", "`rise`, `fall` or `dwell`", required=True),
         Param("law", "string", "`cycloidal`, `harmonic`, `modified-trapezoid`, `modified-sine`, `poly345`, "
@@ -111,6 +116,8 @@ def key_param(key: str) -> Param | None:
         return ELEMENT_PARAMS.get(leaf)
     if head == "cam" and len(names) == 3 and names[1] == "segments":
         table = "cam.segments"
+    elif head == "cam" and len(names) >= 3 and names[1] == "geometry":  # issue 14
+        table = "cam.geometry" if len(names) == 3 else "cam.geometry.material"
     elif head in ("mass", "initial"):
         table = head
     else:

@@ -23,7 +23,7 @@ import numpy as np
 
 from camsim.fit.measured import write_measured
 from camsim.loader import load_machine
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 from camsim.units import ureg
 
 HERE = Path(__file__).resolve().parent

@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 
 from camsim.loader import load_machine_text  # noqa: E402
 from camsim.restitution import DAMPING_MODELS, hc_rebound, linear_damping_ratio, linear_restitution  # noqa: E402
-from camsim.simulate import simulate  # noqa: E402
+from camsim import simulate  # noqa: E402
 
 LABELS = {
     "exact": "exact (default)",

@@ -74,7 +74,7 @@ THESIS_GRAVITY = "386.4 in/s^2"
 def run(path: Path, overrides=(), **options):
     """Simulate a machine file with ``--set``-style overrides."""
     from camsim.loader import load_machine
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     return simulate(load_machine(path, overrides=list(overrides)), **options)
 

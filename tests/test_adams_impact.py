@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from camsim import simulate
 from camsim.loader import load_machine_text
 
 M, G, K, N, CMAX, D, H = 0.5, 9.80665, 1.0e8, 1.5, 200.0, 5.0e-5, 5.0e-3
@@ -74,10 +75,6 @@ def reference():
 
 
 def test_adams_impact_drop_against_solve_ivp():
-    # imported here: a module-level ``camsim.simulate`` import during collection would
-    # shadow the lazy ``camsim.simulate`` function for test_api.py (collected later)
-    from camsim.simulate import simulate
-
     t0, v0, duration, rebound, sol = reference()
     r = simulate(load_machine_text(TEXT))
     impact = [e for e in r.events if e.kind == "impact"][0]

@@ -1,4 +1,4 @@
-"""The code on docs/python-api.md and docs/architecture.md runs as printed.
+"""The code on docs/python-api.md, docs/architecture.md and docs/cam-design.md runs as printed.
 
 Each page's ```python blocks run in order, in one namespace, in a fresh interpreter
 (a page may register an element kind; the registry is per process) from the repository
@@ -22,7 +22,7 @@ def _blocks(page: Path) -> str:
     return "\n\n".join(re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S))
 
 
-@pytest.mark.parametrize("page", ["python-api.md", "architecture.md"])
+@pytest.mark.parametrize("page", ["python-api.md", "architecture.md", "cam-design.md"])
 def test_page_snippets_run(page):
     code = _blocks(ROOT / "docs" / page)
     assert code.strip(), f"no python blocks in docs/{page}"

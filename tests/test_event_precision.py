@@ -27,7 +27,7 @@ import pytest
 from scipy.optimize import brentq
 
 from camsim.loader import load_machine
-from camsim.simulate import simulate
+from camsim import simulate
 
 MACHINE = Path(__file__).resolve().parents[1] / "machines" / "barkan-follower.toml"
 M, K, P, H, BETA = 0.5, 2000.0, 20.0, 0.020, math.pi / 2  # the file's values (SI)

@@ -17,7 +17,7 @@ import math
 import pytest
 
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
+from camsim import simulate
 
 M, V, C, O, K = 0.5, 0.5, 2e-3, 0.3e-3, 1e6
 

@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 import camsim.integrate as integrate
 import camsim.nonlinear as nonlinear
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
+from camsim import simulate
 
 M, G, C, K, CD, H, RPM = 1.0, 9.80665, 1.0e9, 1.0e4, 20.0, 0.5e-3, 600.0
 

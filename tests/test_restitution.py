@@ -30,7 +30,7 @@ from camsim.restitution import (
     linear_damping_ratio,
     linear_restitution,
 )
-from camsim.simulate import simulate
+from camsim import simulate
 from tests.reference.scenarios import ContactRelease
 
 

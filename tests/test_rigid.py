@@ -21,7 +21,7 @@ import pytest
 
 from camsim.loader import load_machine_text
 from camsim.rigid import solve_lcp
-from camsim.simulate import simulate
+from camsim import simulate
 
 G = 9.80665
 

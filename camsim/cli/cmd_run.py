@@ -31,6 +31,7 @@ def run_command(
     yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
+    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
@@ -49,7 +50,7 @@ def run_command(
     from camsim.lifecycle import sigterm_as_interrupt
     from camsim.loader import load_machine
     from camsim.report import render_run_summary
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     rate = parse_sample_rate(sample_rate)
     with user_errors(), sigterm_as_interrupt():
@@ -58,6 +59,9 @@ def run_command(
         loaded = load_machine(machine, overrides=set_)
         target = output if output is not None else default_output(machine)
         check_writable(target)
+        from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
+
+        check_machine(loaded, cs)
         remove_stale_temps(target)  # left by a run that was killed outright
         estimate = estimate_run(loaded, cycles=cycles, warmup_cycles=warmup, sample_rate=rate)
         if not yes:
@@ -75,10 +79,12 @@ def run_command(
         write_run(result, target)
         if json_:
             payload = result.summary()
+            if cs is not None and "design" in payload:  # issue 14
+                payload["design"] = result.design_summary(cs)
             payload["output"] = str(target)
             print_json(payload)
         else:
-            render_run_summary(result, err_console, units)
+            render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
         if check_against is not None:
             from camsim.check import check_files, render_report

@@ -205,7 +205,6 @@ def fit(
     if objective.size == 0:
         raise InputError("fit: nothing to fit to: give a MEASURED.csv file or at least one --target")
     all_params = list(parameters) + ([_Shift(shift_bound)] if shift_bound is not None else [])
-    n_all = len(all_params)
     settings = SweepSettings(cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     evaluator = Evaluator(source, fixed, [p.key for p in parameters], objective.paths, settings, workers)
     problem = Problem(params=all_params, n_sim=len(parameters), evaluator=evaluator, objective=objective)

@@ -71,7 +71,7 @@ class Evaluator:
     def __init__(self, source, fixed: Sequence[str], keys: Sequence[str], paths: Sequence[str], settings, workers: int = 1):
         from dataclasses import replace
 
-        from camsim.sweep import _make_executor
+        from camsim.executors import make_executor
 
         self.source = source
         self.fixed = tuple(fixed)
@@ -80,7 +80,7 @@ class Evaluator:
         self.settings = replace(settings, keep_traces=True)
         self.cache: dict[tuple[float, ...], Run] = {}
         self.count = 0
-        self.executor = _make_executor(max(1, workers), max(1, min(workers, 2 * len(self.keys))), None, None)
+        self.executor = make_executor(max(1, workers), max(1, min(workers, 2 * len(self.keys))), None, None)
 
     def overrides(self, x: Sequence[float]) -> tuple[str, ...]:
         """The ``KEY=VALUE`` overrides (SI) that set the parameters to ``x``."""

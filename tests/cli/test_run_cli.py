@@ -140,12 +140,14 @@ def test_bad_input_one_line_exit_2_nothing_written(oscillator, tmp_path, args, n
 
 
 def test_interrupted_run_leaves_no_file(oscillator, tmp_path, monkeypatch):
-    import camsim.simulate
+    import importlib
+
+    simulate_module = importlib.import_module("camsim.simulation")
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(camsim.simulate, "simulate", interrupted)
+    monkeypatch.setattr(simulate_module, "simulate", interrupted)
     out = tmp_path / "o.h5"
     result = run(["run", str(oscillator), "-o", str(out)])
     assert result.exit_code == 130
@@ -153,12 +155,14 @@ def test_interrupted_run_leaves_no_file(oscillator, tmp_path, monkeypatch):
 
 
 def test_failed_run_exit_1(oscillator, tmp_path, monkeypatch):
-    import camsim.simulate
+    import importlib
+
+    simulate_module = importlib.import_module("camsim.simulation")
 
     def diverges(*args, **kwargs):
         raise SimulationError("the run diverged before t = 0.1 s (non-finite state)")
 
-    monkeypatch.setattr(camsim.simulate, "simulate", diverges)
+    monkeypatch.setattr(simulate_module, "simulate", diverges)
     result = run(["run", str(oscillator), "-o", str(tmp_path / "o.h5")])
     assert result.exit_code == 1
     assert "diverged" in result.output

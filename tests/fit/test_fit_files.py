@@ -23,7 +23,7 @@ from camsim.fit import fit, fitted_text
 from camsim.fit.measured import write_measured
 from camsim.fit.result import FitResult
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 from camsim.sweep import machine_value
 
 runner = CliRunner()

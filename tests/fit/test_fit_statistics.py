@@ -27,7 +27,7 @@ from camsim.fit import fit
 from camsim.fit.measured import write_measured
 from camsim.fit.objective import estimate_sigma
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 
 
 def _closed_form_force(t):
