@@ -439,9 +439,22 @@ class _FastInput:
         self.powers = np.arange(_P + 1)
         self.last = nodes.size - 2
 
+        self.h = h
+        self.t1 = float(self.starts[1]) if self.starts.size > 1 else math.inf
+
+    def index(self, t: float) -> int:
+        """The step holding t (the first from its start node on)."""
+        if t < self.t1:
+            return 0
+        k = 1 + int((t - self.t1) / self.h)
+        if k > self.last:
+            return self.last
+        if t < self.starts[k]:  # rounding at a node
+            k -= 1
+        return k
+
     def __call__(self, t):
-        k = int(np.searchsorted(self.starts, t, side="right")) - 1
-        k = 0 if k < 0 else (self.last if k > self.last else k)
+        k = self.index(t)
         return self.C[k] @ ((t - self.starts[k]) ** self.powers)
 
 
@@ -466,11 +479,16 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     me = np.array([stepper.de, stepper.re])
     force_of = stepper.element.nonlinear_force_scalar
     v_impact = stepper.v_impact
+    # per step: the cam input's polynomial pushed through B and the contact's rows
+    BC = np.einsum("mc,kcj->kmj", B, cam_input.C)
+    MC = np.einsum("rc,kcj->krj", Mu, cam_input.C)
+    starts, powers, index = cam_input.starts, cam_input.powers, cam_input.index
 
     def rhs(t, z):
-        u = cam_input(t)
-        d, dd = Mz @ z + Mu @ u + me
-        return A @ z + B @ u + b + L * force_of(d, dd, v_impact)
+        k = index(t)
+        p = (t - starts[k]) ** powers
+        d, dd = Mz @ z + MC[k] @ p + me
+        return A @ z + BC[k] @ p + b + L * force_of(d, dd, v_impact)
 
     events = []
     u0 = cam_input(state.t)
