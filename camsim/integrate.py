@@ -529,7 +529,9 @@ class Integrator:
     def _delta(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
         """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps."""
         d, rate = self._deflection(config, i)
-        gap = self.model.elements[i].gap
+        sign, gap = self.model.elements[i].contact_side(self.model.branch_of(config.branches, i))
+        if sign < 0:  # the upper side of a two-sided element: δ = d − gap (issue 12 hook)
+            return Affine(d.Cz, d.Du, d.Fn, d.e - gap), rate
         return Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
 
     def guards(self, state: State, config: Configuration) -> list[Guard]:
@@ -951,7 +953,8 @@ class Integrator:
         if guard.kind != GuardKind.UNLIFT and Branch.STUCK in model.branch_options(i):
             return resolve_rigid(self, state, i, guard.kind)  # issue 12 hook: rigid contacts as one LCP
         _, rate = self.relative_rate(state, i)
-        outcome = model.elements[i].outcome(guard.kind, rate)
+        d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0]))
+        outcome = model.elements[i].outcome_at(guard.kind, rate, d)  # issue 12 hook: two-sided elements
         if outcome.event is not None:
             self._record(state.t, i, outcome.event, outcome.velocity)
         if outcome.rigid_impact:

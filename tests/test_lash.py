@@ -22,7 +22,7 @@ from camsim import simulate
 M, V, C, O, K = 0.5, 0.5, 2e-3, 0.3e-3, 1e6
 
 
-def _machine(extra="", duration="30 ms"):
+def _machine(extra="", duration="30 ms", stiff=f'stiffness = "{K} N/m"'):
     return load_machine_text(f"""
 schema = 1
 [machine]
@@ -36,7 +36,7 @@ type = "lash"
 between = ["ground", "M"]
 clearance = "{C} m"
 offset = "{O} m"
-stiffness = "{K} N/m"
+{stiff}
 {extra}
 [initial.M]
 displacement = "0 m"
