@@ -309,3 +309,53 @@ def test_rigid_yoke_sticks_and_releases():
         np.testing.assert_allclose(f[sel], expected_f, rtol=0, atol=1e-9 * peak)
     flight = (r.time > t_r) & (r.time < t_i)
     assert not np.any(f[flight])
+
+
+def test_rigid_lash_chatter_ends_in_stick_under_gravity():
+    """A mass dropped h = 10 mm inside a rigid lash (e = 0.5) bounces on the lower side.
+
+    Reference: Newton's law with free flight under gravity, impact n at speed eⁿ·v0 and the
+    flights 2eⁿv0/g accumulating at t∞ = t0 + 2·e·v0/(g·(1 − e)), t0 = √(2h/g),
+    v0 = √(2gh); then it rests (one ``stick``) and the lower side carries the weight m·g
+    (tension-positive: −m·g). The lower side sits at d = 0 (offset = c/2), so that the
+    Zeno cut-off acts as on a seat at gap 0 (tests/test_engine_analytic.py). Tolerances:
+    times 1e-9 s, speeds 1e-9 relative, force 1e-9 relative.
+    """
+    g, h, e, m, c = 9.80665, 0.010, 0.5, 0.01, 0.020
+    r = simulate(load_machine_text(f"""
+schema = 1
+[machine]
+name = "chatter"
+[[mass]]
+name = "M"
+mass = "{m} kg"
+[[element]]
+name = "slot"
+type = "lash"
+law = "restitution"
+restitution = {e}
+between = ["ground", "M"]
+clearance = "{c} m"
+offset = "{c / 2} m"
+[initial.M]
+displacement = "{h} m"
+velocity = "0 m/s"
+[simulation]
+gravity = true
+duration = "0.3 s"
+warmup_cycles = 0
+sample_rate = "10 kHz"
+"""))
+    t0, v0 = math.sqrt(2 * h / g), math.sqrt(2 * g * h)
+    impacts = [ev for ev in r.events if ev.kind == "impact"]
+    t = t0
+    for n, ev in enumerate(impacts[:10]):
+        assert ev.time == pytest.approx(t, abs=1e-9)
+        assert ev.relative_velocity == pytest.approx(v0 * e**n, rel=1e-9)
+        t += 2 * e**(n + 1) * v0 / g
+    sticks = [ev for ev in r.events if ev.kind == "stick"]
+    t_inf = t0 + 2 * e * v0 / (g * (1 - e))
+    assert len(sticks) == 1 and sticks[0].time == pytest.approx(t_inf, abs=1e-9)
+    assert r.events[-1].kind == "stick"
+    after = r.time > t_inf + 1e-3
+    np.testing.assert_allclose(r.elements["slot"][after], -m * g, rtol=1e-9)
