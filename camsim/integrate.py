@@ -1027,11 +1027,17 @@ class Integrator:
         raise ZenoError(f"cannot find a consistent contact state at t = {state.t:.12g} s")
 
     # ------------------------------------------------------------------ driver
-    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None):
-        """Integrate from ``state`` to ``t_end``; yield stretches recorded from ``record_from``.
+    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
+            on_stretch=None):
+        """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
         e.g. the start of a cycle for the periodicity residual.
+
+        ``on_stretch(stretch, t)``, when given, receives each recorded stretch instead of the
+        returned list (which stays empty: memory does not grow with the run), called once
+        every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
+        and later stretches' samples all lie at or after ``t`` (camsim.stream).
         """
         stretches: list[Stretch] = []
         state = self.settle(state)
@@ -1054,16 +1060,21 @@ class Integrator:
             t_stop = boundaries[bi] if bi < len(boundaries) else t_end
             record = t_stop > record_from - TIME_EPS
             new_state, stretch, guard = self.advance(state, t_stop, record)
+            kept = None
             if stretch is not None:
                 keep = stretch.t >= record_from - 1e-7 * self.h
                 if np.any(keep):
-                    stretches.append(Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts))
+                    kept = Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts)
+                    if on_stretch is None:
+                        stretches.append(kept)
             if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):
                 raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
             state = new_state
             if guard is not None:
                 state = self.handle(state, guard)
                 state = self.settle(state)
+            if on_stretch is not None and kept is not None:  # streaming hook (camsim.stream)
+                on_stretch(kept, state.t)
             if progress is not None:
                 progress(state.t)
             count += 1
