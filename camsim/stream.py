@@ -49,7 +49,7 @@ from camsim.simulate import (
     stretch_samples,
 )
 
-__all__ = ["simulate_to_file", "StreamedRun", "trace_layout", "select_traces", "FLUSH"]
+__all__ = ["simulate_to_file", "StreamedRun", "trace_layout", "machine_trace_layout", "select_traces", "FLUSH"]
 
 #: Output samples assembled before they are appended to the file and dropped.
 FLUSH = 65536
@@ -78,6 +78,17 @@ def _empty_result(run: RunSetup, events=None) -> RunResult:
 def trace_layout(run: RunSetup) -> dict:
     """Path → :class:`~camsim.result.Trace` (empty data) of every trace this run has, in file order."""
     return _empty_result(run).traces()
+
+
+def machine_trace_layout(machine, no_impact: bool = False) -> dict:
+    """:func:`trace_layout` of a machine before any run (builds its model; milliseconds)."""
+    from camsim.cam.program import CamProgram
+    from camsim.model import Model
+
+    cam = CamProgram(machine.cam)
+    run = RunSetup(machine, Model(machine, no_impact=no_impact), cam, None, 0.0, 0.0, 1.0, [], no_impact,
+                   cam.period if machine.cam is not None else None)
+    return trace_layout(run)
 
 
 def select_traces(paths, record: list[str] | None, summary_only: bool) -> list[str]:
