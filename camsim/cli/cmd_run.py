@@ -57,7 +57,7 @@ def run_command(
     from camsim.lifecycle import sigterm_as_interrupt
     from camsim.loader import load_machine
     from camsim.report import render_run_summary
-    from camsim.stream import machine_trace_layout, select_traces, simulate_to_file
+    from camsim.stream import limit_heap_growth, machine_trace_layout, select_traces, simulate_to_file
 
     rate = parse_sample_rate(sample_rate)
     patterns = [p.strip() for item in record for p in item.split(",") if p.strip()]
@@ -83,6 +83,7 @@ def run_command(
             from camsim.io.results import open_h5
 
             open_h5(check_against).close()
+        limit_heap_growth()  # memory must not grow with revolutions (camsim.stream)
         revs = estimate.revolutions  # seconds for a machine without a cam
         progress = FractionBar("run", "rev" if revs else "s", revs or estimate.recorded_s, quiet=quiet)
         try:

@@ -54,6 +54,8 @@ class TraceStreamWriter:
         self.paths = [p for p in layout if p in set(record)]
         self.samples = 0
         self._datasets: dict[str, h5py.Dataset] = {}
+        self._pending: dict[str, list[np.ndarray]] = {path: [] for path in self.paths}
+        self._waiting = 0
         options = dict(COMPRESSION) if compress else {}
         cam_paths = [p for p in self.paths if p.startswith("cam/")]
         time = None
@@ -72,7 +74,10 @@ class TraceStreamWriter:
                 group.create_dataset("cam/boundaries_deg", data=np.asarray(boundaries_deg, dtype=float)).attrs["units"] = "deg"
 
     def append(self, traces: Mapping) -> None:
-        """Append one piece of every stored trace (path → Trace, all on one time base)."""
+        """Append one piece of every stored trace (path → Trace, all on one time base).
+
+        Samples are written in whole chunks (the rest waits for the next piece or
+        :meth:`finish`), so HDF5 never rereads a partial chunk and needs no chunk cache."""
         if not self.paths:
             return
         keep = None
@@ -82,19 +87,30 @@ class TraceStreamWriter:
                 return
             if time[0] < self.keep_from:
                 keep = time >= self.keep_from
-        n = None
         for path in self.paths:
             data = traces[path].data
-            if keep is not None:
-                data = data[keep]
+            self._pending[path].append(np.asarray(data[keep] if keep is not None else data, dtype=np.float64))
+        self._waiting += self._pending[self.paths[0]][-1].shape[0]
+        if self._waiting >= CHUNK:
+            self._write(self._waiting // CHUNK * CHUNK)
+
+    def _write(self, n: int) -> None:
+        """Write the first ``n`` waiting samples of every trace."""
+        if n <= 0:
+            return
+        for path in self.paths:
+            parts = self._pending[path]
+            data = np.concatenate(parts) if len(parts) > 1 else parts[0]
             dset = self._datasets[path]
-            n = data.shape[0]
             dset.resize((self.samples + n,))
-            dset[self.samples:] = np.ascontiguousarray(data, dtype=np.float64)
-        self.samples += n or 0
+            dset[self.samples:] = data[:n]
+            self._pending[path] = [data[n:]] if n < data.shape[0] else []
+        self.samples += n
+        self._waiting -= n
 
     def finish(self, result) -> None:
         """The event table, the run attributes and the summary (after the last piece)."""
+        self._write(self._waiting)
         write_events(self.group, result.events)
         self.group.attrs["no_impact"] = bool(result.no_impact)
         self.group.attrs["sample_rate"] = float(result.sample_rate)
