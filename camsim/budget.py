@@ -80,10 +80,15 @@ class Estimate:
 
 
 def count_traces(machine) -> int:
-    """Traces a run of ``machine`` writes (time and cam traces included)."""
+    """Traces a run of ``machine`` writes (time and cam traces included).
+
+    The layout (spec §7) has the five cam traces even without a cam (zeros); the cam
+    contact force when the cam drives a mass. ``camsim run`` counts the paths of
+    :func:`camsim.stream.machine_trace_layout` instead, which also knows ``--record``.
+    """
     n = 1  # time
-    if machine.cam is not None:
-        n += 5  # cam angle, displacement, velocity, acceleration, jerk
+    n += 5  # cam angle, displacement, velocity, acceleration, jerk
+    if machine.cam is not None and machine.cam.drives:
         n += 1  # cam contact force
     n += 3 * len(machine.masses)
     n += len(machine.elements)

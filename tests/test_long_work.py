@@ -279,8 +279,9 @@ runner = CliRunner()
         # 3 x 3 masses, 4 elements, cam contact, transducer)
         ("cdtm.toml", "simulation.cycles=100000", 100000 * 0.5 * 50e3 + 1, 21),
         ("cdtm.toml", "simulation.sample_rate=1e12Hz", 1 * 0.5 * 1e12 + 1, 21),
-        # ball drop: no cam; time, 3 traces of the ball, 1 element, the transducer
-        ("ball-drop.toml", "simulation.duration=1e6s", None, 6),
+        # ball drop: no cam; time, the 5 cam traces (zeros: the layout is the same), 3 traces
+        # of the ball, 1 element, the transducer
+        ("ball-drop.toml", "simulation.duration=1e6s", None, 11),
     ],
 )
 def test_size_guard_refuses_before_integrating(tmp_path, machine, override, samples, traces):
@@ -344,17 +345,17 @@ def test_killed_run_leaves_previous_result_and_next_run_removes_its_temp(tmp_pat
 
 def test_sigterm_and_sigint_remove_the_temporary_file(tmp_path, monkeypatch):
     """The temporary file is removed when the write is interrupted (Ctrl-C, or SIGTERM -> KeyboardInterrupt)."""
-    import camsim.io.runfile as runfile
+    from camsim.io.streamfile import TraceStreamWriter
 
     out = tmp_path / "r.h5"
-    original = runfile.write_run_group
+    original = TraceStreamWriter.finish
 
-    def interrupted(group, result):
-        original(group, result)
+    def interrupted(self, result):
+        original(self, result)  # the traces are all in the temporary file (streamed)
         os.kill(os.getpid(), signal.SIGTERM)  # arrives while the temporary file exists
         time.sleep(1.0)
 
-    monkeypatch.setattr(runfile, "write_run_group", interrupted)
+    monkeypatch.setattr(TraceStreamWriter, "finish", interrupted)
     res = runner.invoke(app, ["run", str(BARKAN), "-o", str(out), "--cycles", "1", "--warmup", "0", "--sample-rate", "2kHz"])
     assert res.exit_code == 130
     assert list(tmp_path.iterdir()) == []
