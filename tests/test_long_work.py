@@ -364,18 +364,29 @@ def test_sigterm_and_sigint_remove_the_temporary_file(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_sigkill_run_at_random_moments(tmp_path):
     """20 runs killed with SIGKILL at seeded random moments: the previous result stays
-    intact (bytes), and after the next complete run no temporary file remains."""
+    intact (bytes), and after the next complete run no temporary file remains.
+
+    The run streams its traces into its temporary file from the start of the
+    integration: a kill mid-run leaves that file (pid-tagged), which the next run of the
+    same output removes as soon as it starts, so at most one is ever there."""
     out = tmp_path / "r.h5"
     base = CAMSIM + ["run", str(BARKAN), "-o", str(out), "--warmup", "0", "--sample-rate", "20kHz", "-q", "--cycles", "40"]
+    started = time.monotonic()
     subprocess.run(base, env=env(), check=True, capture_output=True)
+    duration = time.monotonic() - started  # start-up, integration and streaming, close
     previous = out.read_bytes()
     rng = random.Random(1616)
+    left_mid_stream = 0
     for trial in range(20):
         proc = subprocess.Popen(base, env=env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(0.3, 2.5))
+        time.sleep(rng.uniform(0.1, 1.0) * duration)
         proc.kill()
         proc.wait()
         assert out.read_bytes() == previous, trial  # deterministic output: a finished run writes the same bytes
+        temps = [p.name for p in tmp_path.iterdir() if p.name != "r.h5"]
+        assert len(temps) <= 1, (trial, temps)  # a run that got going removed the older one
+        left_mid_stream += any(f".{proc.pid}." in name for name in temps)
+    assert left_mid_stream >= 1  # some kills landed while the traces were streaming
     subprocess.run(base, env=env(), check=True, capture_output=True)
     assert out.read_bytes() == previous
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.h5"]
