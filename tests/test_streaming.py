@@ -185,6 +185,10 @@ def test_summary_only_stores_events_and_summary(tmp_path, cdtm_reference):
         assert _same(f["events"]["peak_force"], peaks)
         for key, value in cdtm_reference.scalars().items():
             assert _same(float(f["summary"].attrs[key]), float(value)), key
+    from camsim import ResultFileError, open_result
+
+    with pytest.raises(ResultFileError, match="holds only some traces \\(none; recorded with --record or --summary-only\\)"):
+        open_result(out)
 
 
 def test_compress_stores_the_same_values_gzipped(tmp_path, cdtm_reference):
