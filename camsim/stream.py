@@ -275,7 +275,6 @@ class StreamAssembler:
         self._seen = 0
         self.events = EventTable()
         self._open: list[_ImpactWindow] = []
-        self._closed: list[_ImpactWindow] = []
         self._last_cf: tuple[float, float] | None = None
         self._jumps: list = []
         self._samples = 0
@@ -361,7 +360,10 @@ class StreamAssembler:
             w.add(time, traces["elements"][w.element.name])
         still = []
         for w in self._open:
-            (self._closed if w.t_stop + 1e-12 < time[-1] else still).append(w)
+            if w.t_stop + 1e-12 < time[-1]:  # no later sample can belong to it: done
+                w.finish()
+            else:
+                still.append(w)
         self._open = still
         cf = traces["cam_contact_force"]
         if cf is not None:
@@ -403,7 +405,7 @@ class StreamAssembler:
         self._flush()
         if not self._samples:
             raise SimulationError("the run recorded no samples")
-        for w in self._closed + self._open:
+        for w in self._open:
             w.finish()
         run = self.run
         events = self.events
