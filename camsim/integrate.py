@@ -1037,7 +1037,8 @@ class Integrator:
         ``on_stretch(stretch, t)``, when given, receives each recorded stretch instead of the
         returned list (which stays empty: memory does not grow with the run), called once
         every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
-        and later stretches' samples all lie at or after ``t`` (camsim.stream).
+        and later stretches' samples all lie at or after ``t`` (camsim.stream). The consumer
+        may remove the events it has read from :attr:`events` (the integrator only appends).
         """
         stretches: list[Stretch] = []
         state = self.settle(state)

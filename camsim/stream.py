@@ -305,6 +305,8 @@ class StreamAssembler:
                 if element is not None:
                     self._open.append(_ImpactWindow(ev, element, ev.time))
             self.events.append(ev)
+        del raw[: self._seen]  # read: the integrator only appends to its list
+        self._seen = 0
 
     # ------------------------------------------------------------------ samples
     def on_stretch(self, stretch, t_known: float) -> None:
