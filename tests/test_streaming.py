@@ -92,8 +92,12 @@ CASES = [
 def test_streamed_file_and_summary_equal_the_in_memory_run(tmp_path, monkeypatch, case, options, no_impact, flush):
     """Every dataset of the streamed file equals the in-memory file's bit for bit, and the
     summary (scalars, peaks with their times, events with their annotation) is equal,
-    whatever the piece size (1 sample: every impact window and jump spans pieces)."""
+    whatever the piece size (1 sample: every impact window and jump spans pieces), written
+    in HDF5 chunks of 1000 samples (whole chunks, then the rest at the end)."""
+    from camsim.io import streamfile
+
     monkeypatch.setattr(stream, "FLUSH", flush)
+    monkeypatch.setattr(streamfile, "CHUNK", 1000)
     machine = _machine(case)
     reference = simulate(machine, no_impact=no_impact, **options)
     write_run(reference, tmp_path / "memory.h5")
