@@ -59,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
           f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print(f"{'revolutions':>11} {'wall [s]':>9} {'CPU [s]':>8} {'CPU s/rev':>9} {'peak RSS [MB]':>13} {'file [MB]':>9}")
-    with tempfile.TemporaryDirectory(dir=ROOT) as tmp:
+    with tempfile.TemporaryDirectory() as tmp:
         for revs in args.revs:
             seconds, cpu, rss, size = measure(revs, args.sample_rate, extra, Path(tmp))
             print(f"{revs:>11} {seconds:>9.1f} {cpu:>8.1f} {cpu / revs:>9.4f} {rss:>13.0f} {size:>9.1f}", flush=True)

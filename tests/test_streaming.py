@@ -317,3 +317,26 @@ def test_peak_memory_does_not_grow_with_revolutions(tmp_path):
         assert f["time"].shape == (500 * 0.5 * 10000 + 1,)
     assert rss[500] < rss[50] + 25.0, rss
     assert rss[500] < 300.0, rss
+
+
+@pytest.mark.parametrize("t0", [0.0, 1000.0, 5000.0])
+def test_grid_steps_stay_on_the_cached_map_late_in_a_long_run(monkeypatch, t0):
+    """Cost linear in revolutions: 400 grid steps (h = 50 µs, no event) starting at t0 use
+    the cached step map, never the exact map of an odd-length step, whatever t0. Beyond
+    t ≈ 500 s the rounding of t made every few steps 'odd' (44 of 400 at t0 = 1000 s,
+    and the CDTM run 7x slower after 1000 revolutions). Reference: the count is 0 at t0 = 0."""
+    import camsim.integrate as integrate
+    from camsim.cam.program import CamProgram
+    from camsim.model import Model
+    from camsim.simulate import initial_state
+
+    machine = load_machine(CDTM)
+    model = Model(machine)
+    integrator = integrate.Integrator(model, CamProgram(machine.cam), 5e-5, t_ref=0.0)
+    state = initial_state(model, integrator, t0)
+    calls = []
+    original = integrate.exact_partial
+    monkeypatch.setattr(integrate, "exact_partial", lambda *a, **k: calls.append(1) or original(*a, **k))
+    _, stretches = integrator.run(state, t0 + 0.02, record_from=t0)
+    assert integrator.events == [] and sum(s.t.size for s in stretches) == 400
+    assert calls == []
