@@ -340,3 +340,17 @@ def test_grid_steps_stay_on_the_cached_map_late_in_a_long_run(monkeypatch, t0):
     _, stretches = integrator.run(state, t0 + 0.02, record_from=t0)
     assert integrator.events == [] and sum(s.t.size for s in stretches) == 400
     assert calls == []
+
+
+def test_human_summary_lists_at_most_40_impacts(tmp_path):
+    """A long run has thousands of impacts: the table on stderr shows the first 40 and
+    says how many more the file's /events table holds (all of them)."""
+    out = tmp_path / "r.h5"
+    res = runner.invoke(app, ["run", str(CDTM), "-o", str(out), "--cycles", "12", "--sample-rate", "2kHz", "-q"])
+    assert res.exit_code == 0, res.output
+    with h5py.File(out) as f:
+        kinds = [k.decode() if isinstance(k, bytes) else k for k in f["events"]["kind"]]
+    n = sum(k in ("impact", "rejoin") for k in kinds)
+    assert n > 40
+    assert f"impacts (the first 40 of {n})" in res.output
+    assert f"... {n - 40} more impacts: all are in the file's /events table" in res.output
