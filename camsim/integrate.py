@@ -409,7 +409,10 @@ class Integrator:
             D = step_input_derivatives(U[:-1], U[1:], steps, h)
             Z = np.empty((nodes.size, config.dim))
             Z[0] = z_start
-            full = np.abs(steps - h) <= 1e-9 * h
+            # A grid step's computed length differs from h by the rounding of t (an ulp of t
+            # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
+            # 7x slower; long runs, camsim.stream).
+            full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
             # Steps are full except possibly the first and the last: runs of full steps go
             # through the cached maps, the others through an exact map of their own length.
             k = 0
@@ -786,11 +789,18 @@ class Integrator:
         raise ZenoError(f"cannot find a consistent contact state at t = {state.t:.12g} s")
 
     # ------------------------------------------------------------------ driver
-    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None):
-        """Integrate from ``state`` to ``t_end``; yield stretches recorded from ``record_from``.
+    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
+            on_stretch=None):
+        """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
         e.g. the start of a cycle for the periodicity residual.
+
+        ``on_stretch(stretch, t)``, when given, receives each recorded stretch instead of the
+        returned list (which stays empty: memory does not grow with the run), called once
+        every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
+        and later stretches' samples all lie at or after ``t`` (camsim.stream). The consumer
+        may remove the events it has read from :attr:`events` (the integrator only appends).
         """
         stretches: list[Stretch] = []
         state = self.settle(state)
@@ -813,16 +823,21 @@ class Integrator:
             t_stop = boundaries[bi] if bi < len(boundaries) else t_end
             record = t_stop > record_from - TIME_EPS
             new_state, stretch, guard = self.advance(state, t_stop, record)
+            kept = None
             if stretch is not None:
                 keep = stretch.t >= record_from - GRID_SNAP * self.h
                 if np.any(keep):
-                    stretches.append(Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts))
+                    kept = Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts)
+                    if on_stretch is None:
+                        stretches.append(kept)
             if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):
                 raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
             state = new_state
             if guard is not None:
                 state = self.handle(state, guard)
                 state = self.settle(state)
+            if on_stretch is not None and kept is not None:  # streaming hook (camsim.stream)
+                on_stretch(kept, state.t)
             if progress is not None:
                 progress(state.t)
             count += 1
