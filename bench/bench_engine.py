@@ -72,7 +72,7 @@ from camsim.cam import laws as _laws  # noqa: E402
 from camsim.cam.program import CamProgram  # noqa: E402
 from camsim.loader import load_machine  # noqa: E402
 from camsim.machine import PreloadedLink, Spring  # noqa: E402
-from camsim.simulate import simulate  # noqa: E402
+from camsim.simulation import simulate  # noqa: E402
 from reference_solver import ReferenceSolver  # noqa: E402
 
 CDTM = ROOT / "machines" / "cdtm.toml"
@@ -345,7 +345,7 @@ FRESH = """
 import time, json
 t0 = time.perf_counter()
 from camsim.loader import load_machine
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 t1 = time.perf_counter()
 m = load_machine({path!r})
 t2 = time.perf_counter()

@@ -27,12 +27,14 @@ except PackageNotFoundError:  # running from a source tree that was not installe
 _LAZY = {
     "load_machine": "camsim.loader",
     "Machine": "camsim.machine",
-    "simulate": "camsim.simulate",
+    "simulate": "camsim.simulation",
     "simulate_to_file": "camsim.stream",
     "RunResult": "camsim.result",
     "open_result": "camsim.result",
     "EventKind": "camsim.events",
 }
+#: Subpackages that are also callables: ``camsim.fit(...)``.
+_LAZY_PACKAGES = {"fit": "camsim.fit", "study": "camsim.study"}
 
 __all__ = [
     "__version__",
@@ -43,15 +45,18 @@ __all__ = [
     "ResultFileError",
     "SimulationError",
     *_LAZY,
+    *_LAZY_PACKAGES,
 ]
 
 
 def __getattr__(name: str):
+    import importlib
+
+    if name in _LAZY_PACKAGES:
+        return importlib.import_module(_LAZY_PACKAGES[name])
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'camsim' has no attribute {name!r}")
-    import importlib
-
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

@@ -111,7 +111,7 @@ def estimate_run(
     ----------
     machine : Machine
     cycles, warmup_cycles : int, optional
-        Overrides of ``[simulation]`` (as in :func:`camsim.simulate.simulate`).
+        Overrides of ``[simulation]`` (as in :func:`camsim.simulation.simulate`).
     sample_rate : float, optional
         Override of the output sample rate [Hz].
     traces : int, optional

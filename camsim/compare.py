@@ -117,9 +117,9 @@ def compare_machine(machine, **run_options) -> Comparison:
     ----------
     machine : Machine
     **run_options
-        Passed to :func:`camsim.simulate.simulate` (cycles, warmup_cycles, sample_rate, progress).
+        Passed to :func:`camsim.simulation.simulate` (cycles, warmup_cycles, sample_rate, progress).
     """
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     with_impact = simulate(machine, **run_options)
     without = simulate(machine, no_impact=True, **run_options)

@@ -806,3 +806,26 @@ def estimate_impact(
         wave=wave,
         missing=missing,
     )
+
+
+def coefficient_in_units(coefficient: float, exponent: float, force_unit: str, length_unit: str) -> tuple[float, str]:
+    """C of F = C·δ^a expressed in other units: C_u = C_SI·(1 length_unit in m)^a / (1 force_unit in N).
+
+    Parameters
+    ----------
+    coefficient : float
+        C [N/m^a].
+    exponent : float
+        a [-].
+    force_unit, length_unit : str
+        The units to express it in (``"lbf"``, ``"in"``).
+
+    Returns
+    -------
+    (float, str)
+        The value and its unit text, e.g. ``"lbf/in**1.425"``.
+    """
+    from camsim.units import to_si
+
+    value = coefficient * to_si(f"1 {length_unit}", "length") ** exponent / to_si(f"1 {force_unit}", "force")
+    return value, f"{force_unit}/{length_unit}**{exponent:.6g}"

@@ -8,10 +8,14 @@ m, kg, s, N, rad. Node names are ``"ground"``, ``"cam"`` or a mass name.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # issue 14: [cam.geometry]
+    from camsim.cam.geometry import CamGeometry
 
 # Elements are the element kinds' own classes (camsim/elements/); re-exported here because
 # a Machine is made of them.
-from camsim.elements import (  # noqa: E402,F401
+from camsim.elements import (  # noqa: E402,F401 - re-exported
     CAM,
     FIXED_NODES,
     GROUND,
@@ -99,6 +103,8 @@ class Cam:
         Name of the mass whose motion the cam prescribes exactly.
     start_angle : float
         θ0 [rad], cam angle at t = 0.
+    geometry : CamGeometry or None
+        The cam's shape and follower arrangement (``[cam.geometry]``), None if not given.
     """
 
     speed: float
@@ -108,6 +114,7 @@ class Cam:
     arm: float | None = None
     drives: str | None = None
     start_angle: float = 0.0
+    geometry: CamGeometry | None = None  # issue 14: [cam.geometry]
 
     @property
     def period(self) -> float:
@@ -223,3 +230,9 @@ class Machine:
             if e.name == name:
                 return e
         raise KeyError(name)
+
+__all__ = [
+    "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
+    "PreloadedLink", "RigidContact", "Spring", "Cam", "CamTable", "InitialCondition", "Machine", "Mass",
+    "Segment", "Simulation", "LAWS", "MOTIONS", "STANDARD_GRAVITY",
+]

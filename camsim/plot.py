@@ -40,7 +40,7 @@ from camsim.io.results import (
 )
 
 #: Plot families, in the order :func:`make_plots` builds them.
-PLOT_KINDS = ("svaj", "masses", "forces", "compare", "sweep")
+PLOT_KINDS = ("svaj", "masses", "forces", "compare", "sweep", "design")  # design: issue 14
 #: Mass quantities that can be chosen with ``quantities``.
 QUANTITIES = ("displacement", "velocity", "acceleration")
 #: Output formats of :func:`save_figures`.
@@ -52,8 +52,8 @@ MAX_LABELS = 12
 
 #: Which plot families each file kind offers, and which it draws by default.
 _OFFERS = {
-    "run": ("svaj", "masses", "forces"),
-    "cam": ("svaj",),
+    "run": ("svaj", "masses", "forces", "design"),
+    "cam": ("svaj", "design"),
     "compare": ("compare",),
     "sweep": ("sweep",),
 }
@@ -601,6 +601,14 @@ def figures_for_file(
             for m in chosen:
                 for q in wanted_q:
                     figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window)
+        elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
+            if "cam/pressure_angle" not in f:
+                if explicit:
+                    raise ResultFileError(f"{f.filename}: --what design: no /cam/pressure_angle (the machine has no [cam.geometry])")
+                continue
+            from camsim.cam.figures import plot_design_file
+
+            figs[f"{stem}_cam_design"] = plot_design_file(f, time_window, angle_window)
         elif k == "sweep":
             if time_window is not None or angle_window is not None:
                 raise InputError("--time/--angle: a sweep plot has no time axis")
@@ -610,6 +618,8 @@ def figures_for_file(
             extra = {
                 "forces": (("peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force"), "peak forces"),
                 "impacts": (("impacts", "max_impact_velocity"), "impacts"),
+                # issue 14: the design chart (pressure angle, radius, stress, torque vs the parameter)
+                "design": (("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque"), "cam design"),
             }
             if not wanted_masses:
                 for name, (cols, title) in extra.items():

@@ -1,6 +1,6 @@
 """The run result: the hub every command, writer and plot reads.
 
-:func:`camsim.simulate.simulate` returns a :class:`RunResult`; :func:`open_result` reads
+:func:`camsim.simulation.simulate` returns a :class:`RunResult`; :func:`open_result` reads
 the same object back from an HDF5 file. Every derived quantity (peaks, the cam force and
 its extremes, the jump flag, impact summaries, the flat scalars of sweeps and studies) is
 computed here, once, so ``run``, ``sweep``, ``compare``, ``study`` and ``fit`` cannot
@@ -145,6 +145,10 @@ class RunResult:
             out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
         if self.transducer_force is not None:
             out["transducer/force"] = Trace(self.transducer_force, "N", "force read by the transducer")
+        from camsim.cam.design import design_traces  # issue 14: cam design traces with [cam.geometry]
+
+        for path, (data, units, long_name) in design_traces(self).items():
+            out[path] = Trace(data, units, long_name)
         return out
 
     def trace(self, path: str) -> np.ndarray:
@@ -168,6 +172,9 @@ class RunResult:
         if key in self._traces:
             return self._traces[key].units
         units = dict(scalar_columns(list(self.masses)))
+        from camsim.cam.design import design_columns  # issue 14
+
+        units.update(design_columns(self.machine))
         if key in units:
             return units[key]
         raise KeyError(f"no trace or scalar {path!r} in this result")
@@ -233,7 +240,20 @@ class RunResult:
         speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
         out["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
         out["periodicity_residual"] = float(self.periodicity_residual)
+        from camsim.cam.design import design_row  # issue 14: design scalars with [cam.geometry]
+
+        out.update(design_row(self))
         return out
+
+    def design_summary(self, cs: float | None = None) -> dict | None:
+        """Cam design checks, stress, torque and flywheel (:func:`camsim.cam.design.design_summary`).
+
+        ``cs`` is the coefficient of speed fluctuation for the flywheel inertia. None
+        without ``[cam.geometry]``.
+        """
+        from camsim.cam.design import design_summary  # issue 14
+
+        return design_summary(self, cs)
 
     def summary(self) -> dict:
         """Peaks (with when), forces, impacts and residual as plain JSON-able values (SI)."""
@@ -252,6 +272,9 @@ class RunResult:
         out["events"] = len(self.events)
         out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
         out["warnings"] = list(self.warnings)
+        design = self.design_summary()  # issue 14: with [cam.geometry]
+        if design is not None:
+            out["design"] = design
         return out
 
     # ------------------------------------------------------------------ views
@@ -265,9 +288,17 @@ class RunResult:
 
         pd = require("pandas", "pandas")
         traces = self._traces
-        frame = pd.DataFrame({path: t.data for path, t in traces.items() if path != "time"},
-                             index=pd.Index(self.time, name="time"))
-        frame.attrs["units"] = {path: t.units for path, t in traces.items()}
+        columns, units = {}, {}
+        for path, t in traces.items():
+            if path == "time":
+                continue
+            if t.data.ndim == 2:  # issue 14: x-y curves (cam/pitch_curve, cam/surface) as two columns
+                for k, axis in enumerate("xy"):
+                    columns[f"{path}/{axis}"], units[f"{path}/{axis}"] = t.data[:, k], t.units
+            else:
+                columns[path], units[path] = t.data, t.units
+        frame = pd.DataFrame(columns, index=pd.Index(self.time, name="time"))
+        frame.attrs["units"] = {"time": "s", **units}
         return frame
 
     def to_xarray(self):
@@ -279,9 +310,9 @@ class RunResult:
         xr = require("xarray", "xarray")
         traces = self._traces
         data_vars = {
-            path: ("time", t.data, {"units": t.units, "long_name": t.long_name})
+            path: (("time", "xy") if t.data.ndim == 2 else "time", t.data, {"units": t.units, "long_name": t.long_name})
             for path, t in traces.items() if path != "time"
-        }
+        }  # ("time", "xy"): issue 14's x-y curves
         for name, (values, units) in self.events.columns().items():
             data_vars[f"events/{name}"] = ("event", values, {"units": units})
         return xr.Dataset(

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from camsim import elements as element_kinds
+from camsim.cam import geometry as _geometry
 from camsim.elements import COMMON_PARAMS, Param
 
 #: The fixed tables, by their name in the machine file.
@@ -45,7 +46,11 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("start_angle", "angle", "θ0; bare number = degrees", default=0.0),
         Param("segments", "array of tables", "the segment table (below); exactly one of `segments` and `table`"),
         Param("table", "string", "path of a CSV profile, relative to the machine file (below)"),
+        Param("geometry", "table", "the cam's shape, for the design checks (`[cam.geometry]`, below)"),
     ),
+    # issue 14: [cam.geometry] and its material tables (keys owned by camsim.cam.geometry)
+    "cam.geometry": _geometry.GEOMETRY_PARAMS,
+    "cam.geometry.material": _geometry.MATERIAL_PARAMS,
     "cam.segments": (
         Param("motion", "string", "`rise`, `fall` or `dwell`", required=True),
         Param("law", "string", "`cycloidal`, `harmonic`, `modified-trapezoid`, `modified-sine`, `poly345`, "
@@ -83,6 +88,8 @@ def _element_params() -> dict[str, Param]:
     for cls in element_kinds.classes():
         for p in (*COMMON_PARAMS, *cls.params):
             seen = out.setdefault(p.key, p)
+            if {seen.dimension, p.dimension} == {"stiffness", "power_coefficient"}:
+                continue  # adams-impact's stiffness is N/m^n (spec §3): N/m when n = 1
             if seen.unit != p.unit:  # one key, one unit: key_unit needs no element type
                 raise AssertionError(f"element key {p.key!r} has units {seen.unit!r} and {p.unit!r}")
     return out
@@ -109,6 +116,8 @@ def key_param(key: str) -> Param | None:
         return ELEMENT_PARAMS.get(leaf)
     if head == "cam" and len(names) == 3 and names[1] == "segments":
         table = "cam.segments"
+    elif head == "cam" and len(names) >= 3 and names[1] == "geometry":  # issue 14
+        table = "cam.geometry" if len(names) == 3 else "cam.geometry.material"
     elif head in ("mass", "initial"):
         table = head
     else:
@@ -126,10 +135,13 @@ def key_unit(key: str) -> str:
 _SHOWN = {
     "stiffness": "force/length", "damping": "N·s/m", "number": "number", "bool": "boolean", "nodes": "[node, node]",
     "power_coefficient": "force/length^a", "angular_speed": "angular speed", "mass name": "mass name",
+    "slowness": "time/length (s/m)",
 }
 
 
 def _dimension(p: Param) -> str:
+    if p.dimension == "choice":
+        return " / ".join(f'`"{c}"`' for c in p.choices)
     return _SHOWN.get(p.dimension, p.dimension)
 
 
@@ -150,7 +162,7 @@ def _range(p: Param) -> str:
         return ""
     low = f"> {p.minimum:g}" if p.strict else f"≥ {p.minimum:g}"
     if p.maximum is not None:
-        low = f"in [{p.minimum:g}, {p.maximum:g}]"
+        low = f"in {'(' if p.strict else '['}{p.minimum:g}, {p.maximum:g}]"
     return low
 
 

@@ -3,9 +3,9 @@
 :func:`simulate_to_file` is what ``camsim run`` calls. The integrator hands each recorded
 stretch to a :class:`StreamAssembler` (``Integrator.run(on_stretch=...)``) instead of
 collecting them; the assembler turns it into output samples with the very functions the
-in-memory path uses (:func:`camsim.simulate.stretch_samples`,
-:func:`camsim.simulate.sample_traces`), so the traces in the file equal those of
-:func:`camsim.simulate.simulate` bit for bit. Pieces of :data:`FLUSH` samples are
+in-memory path uses (:func:`camsim.simulation.stretch_samples`,
+:func:`camsim.simulation.sample_traces`), so the traces in the file equal those of
+:func:`camsim.simulation.simulate` bit for bit. Pieces of :data:`FLUSH` samples are
 appended to the file (:class:`camsim.io.streamfile.TraceStreamWriter`) and dropped.
 
 Everything the summary needs is computed on the fly over every recorded revolution,
@@ -35,9 +35,9 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from camsim.errors import InputError, SimulationError
-from camsim.events import EventKind, EventTable
-from camsim.result import FIXED_SCALARS, MASS_QUANTITIES, RunResult, scalar_columns
-from camsim.simulate import (
+from camsim.events import EventTable
+from camsim.result import MASS_QUANTITIES, RunResult, scalar_columns
+from camsim.simulation import (
     RunSetup,
     _jump_rows,
     _simulate,
@@ -142,7 +142,7 @@ class StreamedRun:
     """
 
     def __init__(self, machine, events: EventTable, warnings: list[str], no_impact: bool, boundaries: np.ndarray,
-                 scalars: dict, summary_masses: dict, extremes: dict, samples: int):
+                 scalars: dict, summary_masses: dict, extremes: dict, samples: int, design=None):
         self.machine = machine
         self.events = events
         self.warnings = warnings
@@ -158,6 +158,12 @@ class StreamedRun:
         self._scalars = scalars
         self._masses = summary_masses
         self._extremes = extremes
+        self._design = design  # camsim.cam.design.DesignAccumulator with [cam.geometry]
+
+    def design_summary(self, cs: float | None = None) -> dict | None:
+        """Cam design checks and dynamic quantities over every revolution (as
+        :meth:`RunResult.design_summary`); None without ``[cam.geometry]``."""
+        return None if self._design is None else self._design.summary(cs)
 
     def peak(self, name: str, quantity: str) -> float:
         """Largest |sample| of a mass's displacement, velocity or acceleration [SI]."""
@@ -173,8 +179,11 @@ class StreamedRun:
 
     def scalars(self) -> dict[str, Any]:
         """The flat summary, as :meth:`RunResult.scalars` (same names, units, values)."""
+        from camsim.cam.design import design_row_from
+
         out = dict(self._scalars)
         out["periodicity_residual"] = float(self.periodicity_residual)
+        out.update(design_row_from(self.design_summary()))
         return out
 
     def summary(self) -> dict:
@@ -186,6 +195,9 @@ class StreamedRun:
         out["events"] = len(self.events)
         out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
         out["warnings"] = list(self.warnings)
+        design = self.design_summary()
+        if design is not None:
+            out["design"] = design
         return out
 
     def open(self) -> RunResult:
@@ -274,6 +286,9 @@ class StreamAssembler:
         self._buffered = 0
         self._seen = 0
         self.events = EventTable()
+        from camsim.cam.design import DesignAccumulator
+
+        self._design = DesignAccumulator.for_machine(run.machine)  # None without [cam.geometry]
         self._open: list[_ImpactWindow] = []
         self._last_cf: tuple[float, float] | None = None
         self._jumps: list = []
@@ -358,6 +373,8 @@ class StreamAssembler:
         piece = RunResult(machine=self.run.machine, **traces, events=EventTable(), periodicity_residual=float("nan"))
         self._samples += time.size
         self._fold(piece)
+        if self._design is not None:
+            self._design.add(piece)
         for w in self._open:
             w.add(time, traces["elements"][w.element.name])
         still = []
@@ -427,7 +444,7 @@ class StreamAssembler:
         scalars["max_impact_velocity"] = from_events["max_impact_velocity"]
         masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
         return StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
-                           dict(self._extremes), self._samples)
+                           dict(self._extremes), self._samples, design=self._design)
 
     def close(self, result: StreamedRun) -> None:
         """Write the event table, attributes and summary once the result is complete."""
@@ -483,7 +500,7 @@ def simulate_to_file(
 
     Memory stays bounded whatever the number of revolutions; the file is written to a
     temporary name and renamed when complete (an error or Ctrl-C leaves the previous
-    file and no temporary one). The traces equal those of :func:`camsim.simulate.simulate`
+    file and no temporary one). The traces equal those of :func:`camsim.simulation.simulate`
     bit for bit; the summary is computed over every recorded revolution.
 
     Parameters
@@ -492,7 +509,7 @@ def simulate_to_file(
     path : path
         The result file (spec §7 layout, plus ``/summary``).
     no_impact, cycles, warmup_cycles, sample_rate, progress
-        As :func:`camsim.simulate.simulate` (``sample_rate`` [Hz]).
+        As :func:`camsim.simulation.simulate` (``sample_rate`` [Hz]).
     record : list of str, optional
         fnmatch patterns of the trace paths to store (``"transducer/*"``,
         ``"masses/M3/*"``); default all.
@@ -512,7 +529,7 @@ def simulate_to_file(
     InputError
         Bad settings or a ``record`` pattern that matches no trace (before integrating).
     SimulationError
-        As :func:`camsim.simulate.simulate`.
+        As :func:`camsim.simulation.simulate`.
     """
     from camsim.io.atomic import atomic_path
     from camsim.io.hdf5 import create_file

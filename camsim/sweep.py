@@ -4,14 +4,15 @@ A sweep is the grid of all combinations of a few varied machine keys (``--vary
 cam.speed=60:600:10rpm``, ``--values element.seat.stiffness=1e6,2e6``). Every variant is
 an ordinary run of the machine with ``KEY=VALUE`` overrides applied by the loader, so
 each value gets the loader's unit and dimension checks. Each run is reduced to one
-summary row (SI) with fixed column names (see :data:`FIXED_COLUMNS`):
+summary row (SI) with fixed column names (:func:`sweep_columns`):
 
 ``param:<key>`` for each varied key, then ``peak_displacement:<mass>``,
 ``peak_velocity:<mass>``, ``peak_acceleration:<mass>`` for every mass,
 ``peak_transducer_force``, ``max_cam_contact_force``, ``min_cam_contact_force``,
 ``jump``, ``impacts``, ``max_impact_velocity``, ``periodicity_residual``, ``status``.
 
-Variants run serially, in a local process pool, or on a Dask cluster; the task is the
+Variants run serially, in a local process pool, or on a Dask cluster
+(:mod:`camsim.executors`); the task is the
 module-level function :func:`run_variant` (one variant per task), so the rows are the
 same numbers whichever executor ran them, and they are put back in grid order.
 
@@ -24,23 +25,25 @@ See ``docs/sweeps.md``.
 
 from __future__ import annotations
 
-import csv
-import itertools
 import math
 import os
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from camsim.errors import InputError, MachineFileError
+from camsim.executors import EXECUTOR_ERROR as _EXECUTOR_ERROR
+from camsim.executors import default_workers as _default_workers
+from camsim.executors import make_executor as _make_executor
+from camsim.executors import one_line as _one_line
+from camsim.grid import build_grid, parse_values, parse_vary  # noqa: F401 - re-exported
+from camsim.io.sweepfile import csv_path_for, jsonable_rows, write_sweep  # noqa: F401 - re-exported
 
 __all__ = [
-    "FIXED_COLUMNS",
     "MachineSource",
     "SweepSettings",
     "SweepResult",
@@ -52,6 +55,7 @@ __all__ = [
     "write_sweep",
     "sweep_columns",
     "csv_path_for",
+    "jsonable_rows",
     "finish_sweep",
     "JUMP_RESOLUTION_RPM",
 ]
@@ -60,28 +64,9 @@ __all__ = [
 JUMP_RESOLUTION_RPM = 0.1
 #: Default largest number of variants run without confirmation (``--max-variants``).
 DEFAULT_MAX_VARIANTS = 1000
-#: Seconds to wait for a Dask scheduler before giving up.
-SCHEDULER_TIMEOUT_S = 5.0
 
 #: Columns after the parameters and the run's scalars (:func:`camsim.result.scalar_columns`).
 STATUS_COLUMN = ("status", "")
-_RPM = 0.1
-#: Default largest number of variants run without confirmation (``--max-variants``).
-DEFAULT_MAX_VARIANTS = 1000
-#: Seconds to wait for a Dask scheduler before giving up.
-SCHEDULER_TIMEOUT_S = 5.0
-
-#: Columns after the parameters and per-mass peaks, with their SI units.
-FIXED_COLUMNS: tuple[tuple[str, str], ...] = (
-    ("peak_transducer_force", "N"),
-    ("max_cam_contact_force", "N"),
-    ("min_cam_contact_force", "N"),
-    ("jump", ""),
-    ("impacts", ""),
-    ("max_impact_velocity", "m/s"),
-    ("periodicity_residual", ""),
-    ("status", ""),
-)
 _RPM = 60.0 / (2.0 * math.pi)  # rad/s -> rpm
 
 # --------------------------------------------------------------------------------------
@@ -126,136 +111,13 @@ class SweepSettings:
     sample_rate : float, optional
         Output sample rate [Hz]. Peaks are taken over the samples, so they depend on it.
     keep_traces : bool
-        Return each variant's :class:`~camsim.simulate.RunResult` too.
+        Return each variant's :class:`~camsim.simulation.RunResult` too.
     """
 
     cycles: int | None = None
     warmup_cycles: int | None = None
     sample_rate: float | None = None
     keep_traces: bool = False
-
-
-_NUMBER = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
-
-
-def _split_number(text: str, where: str) -> tuple[Decimal, str]:
-    m = _NUMBER.match(text)
-    if not m:
-        raise InputError(f"{where}: '{text.strip()}' is not a number (with an optional unit)")
-    try:
-        return Decimal(m.group(1)), m.group(2)
-    except InvalidOperation:  # pragma: no cover - the regex admits only valid numbers
-        raise InputError(f"{where}: '{text.strip()}' is not a number") from None
-
-
-def _decimal_text(value: Decimal) -> str:
-    """A grid value as plain text without float noise: ``60``, ``0.3``, ``1000000``."""
-    text = format(value.normalize(), "f")
-    return "0" if text in ("-0", "0") else text
-
-
-def _with_unit(number: str, unit: str) -> str:
-    return f"{number} {unit}" if unit else number
-
-
-def parse_vary(text: str) -> tuple[str, list[str]]:
-    """Parse ``KEY=START:STOP:STEP[UNIT]`` into the key and the grid's value texts.
-
-    The grid is START, START+STEP, ... up to STOP; STOP is included when it falls on the
-    grid (within 1e-9 of a step), otherwise the last value is the largest one below it.
-    The unit, if any, is written after STEP and applies to all three numbers; START and
-    STOP may repeat it (``60rpm:600rpm:10rpm``). Arithmetic is decimal, so
-    ``0.1:0.3:0.1`` gives exactly ``0.1, 0.2, 0.3``. A negative STEP counts down.
-
-    Parameters
-    ----------
-    text : str
-        e.g. ``"cam.speed=60:600:10rpm"``, ``"element.seat.stiffness=1e6:4e6:1e6 N/m"``.
-
-    Returns
-    -------
-    key : str
-    values : list of str
-        Value texts for the loader, e.g. ``["60 rpm", "70 rpm", ...]``; a bare number
-        (no unit) is passed on bare and means SI to the loader.
-
-    Raises
-    ------
-    InputError
-        Malformed text, a zero step, an empty range, or mixed units.
-    """
-    where = f"--vary {text}"
-    key, sep, spec = text.partition("=")
-    key = key.strip()
-    if not sep or not key:
-        raise InputError(f"{where}: expected KEY=START:STOP:STEP[UNIT], e.g. cam.speed=60:600:10rpm")
-    parts = spec.split(":")
-    if len(parts) != 3:
-        raise InputError(f"{where}: expected START:STOP:STEP[UNIT] after '=', e.g. 60:600:10rpm")
-    (start, u0), (stop, u1), (step, unit) = (_split_number(p, where) for p in parts)
-    for given in (u0, u1):
-        if given and given.replace(" ", "") != unit.replace(" ", ""):
-            raise InputError(
-                f"{where}: START and STOP may only repeat the unit written after STEP ('{unit or 'none'}'), not '{given}'"
-            )
-    if step == 0:
-        raise InputError(f"{where}: the step is zero")
-    span = (stop - start) / step
-    if span < 0:
-        raise InputError(f"{where}: empty range (STOP {'below' if step > 0 else 'above'} START for a {'positive' if step > 0 else 'negative'} step)")
-    count = int((span + Decimal("1e-9")).to_integral_value(rounding="ROUND_FLOOR")) + 1
-    if count > 10**7:
-        raise InputError(f"{where}: {count} values; that is not a sweep one can run")
-    return key, [_with_unit(_decimal_text(start + i * step), unit) for i in range(count)]
-
-
-def parse_values(text: str) -> tuple[str, list[str]]:
-    """Parse ``KEY=v1,v2,...`` into the key and the value texts.
-
-    Each value is passed to the loader as written (``100rpm,250rpm``). When only the last
-    value carries a unit and the others are bare numbers, that unit applies to all
-    (``100,250,400rpm``).
-
-    Raises
-    ------
-    InputError
-        No ``=``, no key, or an empty value.
-    """
-    where = f"--values {text}"
-    key, sep, spec = text.partition("=")
-    key = key.strip()
-    if not sep or not key:
-        raise InputError(f"{where}: expected KEY=v1,v2,..., e.g. cam.speed=100rpm,200rpm")
-    values = [v.strip() for v in spec.split(",")]
-    if not values or any(not v for v in values):
-        raise InputError(f"{where}: empty value in the list")
-    last = _NUMBER.match(values[-1])
-    if last and last.group(2) and len(values) > 1:
-        bare = [_NUMBER.match(v) for v in values[:-1]]
-        if all(b and not b.group(2) for b in bare):
-            values = [_with_unit(b.group(1), last.group(2)) for b in bare] + [_with_unit(last.group(1), last.group(2))]
-    return key, values
-
-
-def build_grid(axes: Sequence[tuple[str, Sequence[str]]]) -> list[tuple[str, ...]]:
-    """All combinations of the axes' values, the last axis varying fastest.
-
-    Returns
-    -------
-    list of tuple of str
-        One tuple of ``"KEY=VALUE"`` overrides per variant, in grid order.
-
-    Raises
-    ------
-    InputError
-        A key given twice.
-    """
-    keys = [k for k, _ in axes]
-    for k in keys:
-        if keys.count(k) > 1:
-            raise InputError(f"--vary/--values: key {k} is given twice")
-    combos = itertools.product(*[[f"{k}={v}" for v in values] for k, values in axes])
-    return [tuple(c) for c in combos]
 
 
 # --------------------------------------------------------------------------------------
@@ -292,6 +154,11 @@ def machine_value(machine, key: str) -> Any:
             leaf, index = parts[1]
             if leaf == "segments":
                 return d["cam"]["segments"][index][parts[2][0]]
+            if leaf == "geometry":  # issue 14: cam.geometry.<key>[.<key>]
+                value = d["cam"]["geometry"]
+                for name, _ in parts[2:]:
+                    value = value[name]
+                return value
             return d["cam"][leaf]
         if head == "simulation":
             return d["simulation"][parts[1][0]]
@@ -335,10 +202,12 @@ def _param_value(machine, assignment: str) -> Any:
     return float(value)
 
 
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    message = text[0] if text else ""
-    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
+def failed_row(args, exc: BaseException) -> dict[str, Any]:
+    """The row of a variant whose task failed outside it (a worker killed): its parameters
+    as written, and the error as its status."""
+    _, overrides, _ = args
+    params = {f"param:{a.partition('=')[0].strip()}": _text_value(a, a.partition("=")[0].strip()) for a in overrides}
+    return {**params, "status": _one_line(exc)}
 
 
 def summary_row(result) -> dict[str, Any]:
@@ -369,7 +238,7 @@ def run_variant(source: MachineSource, overrides: Sequence[str], settings: Sweep
     result : RunResult or None
         The run, when ``settings.keep_traces`` and the run succeeded.
     """
-    from camsim.simulate import simulate
+    from camsim.simulation import simulate
 
     machine = None
     try:
@@ -386,193 +255,6 @@ def run_variant(source: MachineSource, overrides: Sequence[str], settings: Sweep
         row = {"status": _one_line(exc)}
     params = {f"param:{a.partition('=')[0].strip()}": _param_value(machine, a) for a in overrides}
     return {**params, **row}, (result if settings.keep_traces else None)
-
-
-# --------------------------------------------------------------------------------------
-# Executors
-# --------------------------------------------------------------------------------------
-class _Serial:
-    name = "serial"
-
-    def run(self, tasks):
-        for i, args in enumerate(tasks):
-            yield i, run_variant(*args)
-
-    def abort(self):
-        pass
-
-    def close(self):
-        pass
-
-
-class _Pool:
-    """A ProcessPoolExecutor whose workers ignore SIGINT (Ctrl-C is the parent's)."""
-
-    name = "process pool"
-
-    def __init__(self, workers: int):
-        from concurrent.futures import ProcessPoolExecutor
-
-        self.workers = workers
-        from camsim.lifecycle import guard_worker
-
-        # issue 16: workers ignore Ctrl-C and die with this process (even on SIGKILL)
-        self.executor = ProcessPoolExecutor(max_workers=workers, initializer=guard_worker, initargs=(os.getpid(),))
-        self.futures: list = []
-
-    def run(self, tasks):
-        from concurrent.futures import as_completed
-
-        self.futures = [self.executor.submit(run_variant, *args) for args in tasks]
-        index = {f: i for i, f in enumerate(self.futures)}
-        for fut in as_completed(self.futures):
-            yield index[fut], _future_value(fut, tasks[index[fut]])
-
-    def abort(self):
-        for fut in self.futures:
-            fut.cancel()
-        self.executor.shutdown(wait=False, cancel_futures=True)
-        # Stop the variants in flight now rather than wait for them.
-        for proc in list((getattr(self.executor, "_processes", None) or {}).values()):
-            if proc.is_alive():
-                proc.terminate()
-
-    def close(self):
-        self.executor.shutdown(wait=True)
-
-
-#: Key marking a row that an executor failure (a killed worker) produced, not the variant.
-_EXECUTOR_ERROR = "_executor_error"
-
-
-def _future_value(fut, args):
-    """The result of a finished future; an executor failure becomes a failed row."""
-    try:
-        return fut.result()
-    except Exception as exc:  # noqa: BLE001 - e.g. a worker process killed
-        source, overrides, _ = args
-        params = {f"param:{a.partition('=')[0].strip()}": _text_value(a, a.partition("=")[0].strip()) for a in overrides}
-        # issue 16: marked so that it is not stored as the variant's result (--resume reruns it)
-        return {**params, "status": _one_line(exc), _EXECUTOR_ERROR: True}, None
-
-
-def _import_distributed():
-    try:
-        import distributed
-    except ImportError:
-        raise InputError(
-            "--scheduler/--dask-local need Dask: pip install 'camsim[dask]' (dask.distributed is not installed)"
-        ) from None
-    return distributed
-
-
-def _probe_scheduler(address: str, timeout: float) -> None:
-    """Ask ``address`` for its identity within ``timeout`` [s]; InputError unless a scheduler answers.
-
-    Done before a :class:`distributed.Client` is made, because a Client that fails to
-    connect can block for a further 10 s while it is garbage-collected.
-    """
-    import asyncio
-
-    from distributed.core import rpc
-
-    async def identity():
-        r = rpc(address, timeout=timeout)
-        try:
-            return await r.identity()
-        finally:
-            await r.close_rpc()
-
-    import socket
-
-    where = f"--scheduler {address}"
-    host, _, port = address.removeprefix("tcp://").rpartition(":")
-    if address.startswith("tcp://") and host and port.isdigit():
-        # A refused or unroutable address fails here at once (Dask itself retries until timeout).
-        try:
-            socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
-        except TimeoutError:
-            raise InputError(f"{where}: no answer within {timeout:g} s") from None
-        except OSError as exc:
-            raise InputError(f"{where}: cannot connect ({exc.strerror or exc})") from None
-    try:
-        info = asyncio.run(asyncio.wait_for(identity(), timeout))
-    except (asyncio.TimeoutError, TimeoutError):
-        raise InputError(f"{where}: no Dask scheduler answered within {timeout:g} s") from None
-    except OSError as exc:
-        raise InputError(f"{where}: cannot reach a Dask scheduler ({_one_line(exc)})") from None
-    except Exception as exc:  # noqa: BLE001 - bad address, a server that does not speak Dask
-        raise InputError(f"{where}: no Dask scheduler there ({_one_line(exc)})") from None
-    if not isinstance(info, dict) or info.get("type") != "Scheduler":
-        kind = info.get("type") if isinstance(info, dict) else type(info).__name__
-        raise InputError(f"{where}: the server there is not a Dask scheduler (it says it is a {kind})")
-
-
-class _Dask:
-    """Variants as Dask futures on an existing scheduler or a LocalCluster on loopback."""
-
-    def __init__(self, scheduler: str | None, local_workers: int | None):
-        distributed = _import_distributed()
-        self.cluster = None
-        self.futures: list = []
-        if scheduler is not None:
-            self.name = f"Dask scheduler {scheduler}"
-            _probe_scheduler(scheduler, SCHEDULER_TIMEOUT_S)
-            try:
-                self.client = distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT_S, set_as_default=False)
-            except Exception as exc:  # noqa: BLE001 - OSError, TimeoutError
-                raise InputError(f"--scheduler {scheduler}: cannot connect a Dask client ({_one_line(exc)})") from None
-        else:
-            import logging
-
-            self.name = f"Dask LocalCluster ({local_workers} workers)"
-            self.cluster = distributed.LocalCluster(
-                n_workers=local_workers,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
-            self.client = distributed.Client(self.cluster, set_as_default=False)
-            # issue 16: the worker processes die with this process (their nannies live in it)
-            from camsim.lifecycle import guard_worker
-
-            self.client.run(guard_worker, None, False)
-
-    def run(self, tasks):
-        import uuid
-
-        distributed = _import_distributed()
-        tag = uuid.uuid4().hex[:12]
-        self.futures = [
-            self.client.submit(run_variant, *args, key=f"camsim-variant-{tag}-{i}", pure=False)
-            for i, args in enumerate(tasks)
-        ]
-        index = {f.key: i for i, f in enumerate(self.futures)}
-        for fut in distributed.as_completed(self.futures, loop=self.client.loop):
-            i = index[fut.key]
-            yield i, _future_value(fut, tasks[i])
-
-    def abort(self):
-        try:
-            self.client.cancel(self.futures)
-        except Exception:  # noqa: BLE001 - best effort on the way out
-            pass
-
-    def close(self):
-        try:
-            self.client.close()
-        finally:
-            if self.cluster is not None:
-                self.cluster.close()
-
-
-def _make_executor(workers: int, n_tasks: int, scheduler: str | None, dask_local: int | None):
-    if scheduler is not None or dask_local is not None:
-        return _Dask(scheduler, dask_local)
-    workers = max(1, min(workers, n_tasks))
-    return _Serial() if workers == 1 else _Pool(workers)
 
 
 # --------------------------------------------------------------------------------------
@@ -690,8 +372,6 @@ def _unify_params(rows, overrides_per_row, keys) -> None:
                 r[name] = ov[j].partition("=")[2].strip()
 
 
-def _default_workers() -> int:
-    return os.cpu_count() or 1
 
 
 def run_sweep(
@@ -809,6 +489,11 @@ def run_sweep(
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
     columns = sweep_columns(keys, [m.name for m in base.masses])
+    from camsim.cam.design import (
+        design_columns,  # issue 14: design columns with [cam.geometry]
+    )
+
+    columns[-1:-1] = design_columns(base)  # before "status"
     if resume and keep_traces:
         raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
@@ -987,87 +672,3 @@ def _refine(executor, source, fixed, settings, rows, first) -> tuple[float | Non
             lo = mid
     return 0.5 * (lo + hi), (lo, hi), None
 
-
-# --------------------------------------------------------------------------------------
-# Writing
-# --------------------------------------------------------------------------------------
-def csv_path_for(path: str | os.PathLike[str]) -> Path:
-    """The CSV written beside a sweep file: same stem, ``.csv``."""
-    return Path(path).with_suffix(".csv")
-
-
-def _csv_cell(value: Any) -> str:
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))  # round-trips exactly; nan as "nan"
-    return str(value)
-
-
-def write_sweep(result: SweepResult, path: str | os.PathLike[str], csv_path: str | os.PathLike[str] | None = None) -> tuple[Path, Path]:
-    """Write a sweep as HDF5 (``/sweep/summary``) and the same table as CSV, atomically.
-
-    The HDF5 file carries the root attributes of every camsim file (``file_kind`` =
-    ``"sweep"``, the machine with its ``--set`` overrides); ``/sweep/summary`` is a
-    compound table with a ``units:<column>`` attribute per column and the attributes
-    ``jump_onset_rpm`` and ``first_jump_rpm`` (NaN when None). With kept traces, variant
-    ``k`` (the row index, from 0) is under ``/sweep/variants/<k>/`` in the run layout.
-    The CSV has one header line with the column names and the values in SI (floats
-    written so that they read back exactly; ``nan`` where absent; ``true``/``false``).
-
-    Returns
-    -------
-    (Path, Path)
-        The HDF5 and CSV paths.
-    """
-    from camsim.io.atomic import atomic_path, check_writable
-    from camsim.io.hdf5 import create_file, write_table
-    from camsim.io.runfile import write_root_attributes, write_run_group
-
-    h5_path = Path(path)
-    csv_target = csv_path_for(h5_path) if csv_path is None else Path(csv_path)
-    check_writable(h5_path)
-    check_writable(csv_target)
-    nan = float("nan")
-    with atomic_path(h5_path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, result.machine, "sweep")
-            group = f.create_group("sweep", track_order=True)
-            group.attrs["varied_keys"] = [name[6:] for name, _ in result.columns if name.startswith("param:")]
-            group.attrs["fixed_overrides"] = list(result.fixed_overrides) or [""]
-            s = result.settings
-            group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
-            group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
-            group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
-            group.attrs["interrupted"] = bool(result.interrupted)
-            cols = {name: (_column_array(result.rows, name, unit), unit) for name, unit in result.columns}
-            table = write_table(group, "summary", cols)
-            table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
-            table.attrs["first_jump_rpm"] = nan if result.first_jump_rpm is None else float(result.first_jump_rpm)
-            if result.jump_bracket_rpm is not None:
-                table.attrs["jump_bracket_rpm"] = np.array(result.jump_bracket_rpm, dtype=float)
-            if result.runs:
-                variants = group.create_group("variants", track_order=True)
-                for k, run in enumerate(result.runs):
-                    if run is None:
-                        continue
-                    g = variants.create_group(str(k), track_order=True)
-                    g.attrs["overrides"] = list(result.overrides[k])
-                    write_run_group(g, run)
-    with atomic_path(csv_target) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow([name for name, _ in result.columns])
-            for row in result.rows:
-                writer.writerow([_csv_cell(row[name]) for name, _ in result.columns])
-    return h5_path, csv_target
-
-
-def jsonable_rows(result: SweepResult) -> list[dict[str, Any]]:
-    """Rows with NaN as None (for ``--json``)."""
-    out = []
-    for row in result.rows:
-        out.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()})
-    return out

@@ -10,6 +10,8 @@ from __future__ import annotations
 import io
 import json
 
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -191,7 +193,13 @@ def test_compare_arrays_rule():
 
 
 def test_compare_and_sweep_files_check(make_run_file, tmp_path):
-    import conftest
+    # The writers of tests/conftest.py, by path: `import conftest` would find whichever
+    # conftest.py (tests/, tests/fit/, ...) pytest imported first.
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("camsim_tests_conftest", Path(__file__).parent / "conftest.py")
+    conftest = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conftest)
 
     a = conftest.write_compare_file(tmp_path / "c1.h5")
     b = conftest.write_compare_file(tmp_path / "c2.h5")

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from camsim.loader import load_machine, load_machine_text
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "reference"

@@ -2,7 +2,7 @@
 recording options, a summary over every revolution.
 
 References:
-* the in-memory run (:func:`camsim.simulate.simulate` + :func:`camsim.io.runfile.write_run`),
+* the in-memory run (:func:`camsim.simulation.simulate` + :func:`camsim.io.runfile.write_run`),
   whose numbers the analytic and reference-solver tests check: a streamed file must hold
   the same values bit for bit (tolerance 0: ``array_equal`` of the raw bytes), and the
   streamed summary must equal the in-memory one exactly (NaN equal to NaN);
@@ -30,7 +30,7 @@ import camsim.stream as stream
 from camsim.cli import app
 from camsim.io.runfile import write_run
 from camsim.loader import load_machine, load_machine_text
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHINES = ROOT / "machines"
@@ -328,7 +328,7 @@ def test_grid_steps_stay_on_the_cached_map_late_in_a_long_run(monkeypatch, t0):
     import camsim.integrate as integrate
     from camsim.cam.program import CamProgram
     from camsim.model import Model
-    from camsim.simulate import initial_state
+    from camsim.simulation import initial_state
 
     machine = load_machine(CDTM)
     model = Model(machine)
@@ -354,3 +354,27 @@ def test_human_summary_lists_at_most_40_impacts(tmp_path):
     assert n > 40
     assert f"impacts (the first 40 of {n})" in res.output
     assert f"... {n - 40} more impacts: all are in the file's /events table" in res.output
+
+
+@pytest.mark.parametrize("flush", [700, 65536])
+def test_streamed_cam_design_summary_equals_the_in_memory_one(tmp_path, monkeypatch, flush):
+    """With [cam.geometry] the design quantities of a streamed run (folded piece by piece,
+    pieces of `flush` samples) equal those computed from the whole in-memory run: peaks and
+    their times exactly, RMS torque and the energy fluctuation to 1e-12 relative; and the
+    (N, 2) shape traces stream like the others."""
+    from camsim import load_machine, open_result, simulate
+    from camsim.stream import simulate_to_file
+
+    machine = load_machine(ROOT / "machines" / "cdtm-geometry.toml")
+    memory = simulate(machine, sample_rate=5000.0, cycles=2)
+    monkeypatch.setattr(stream, "FLUSH", flush)
+    streamed = simulate_to_file(machine, tmp_path / "g.h5", sample_rate=5000.0, cycles=2)
+    a, b = memory.design_summary(0.05), streamed.design_summary(0.05)
+    for key in ("peak_normal_force", "peak_hertz_stress", "peak_hertz_stress_time", "peak_torque", "peak_torque_time",
+                "max_pressure_angle", "min_surface_radius"):
+        assert a[key] == b[key], key
+    for key in ("rms_torque", "energy_fluctuation", "flywheel_inertia", "cycle_work"):
+        assert b[key] == pytest.approx(a[key], rel=1e-12, abs=1e-12 * abs(a["peak_torque"])), key
+    back = open_result(tmp_path / "g.h5")
+    assert np.array_equal(back.trace("camshaft/torque"), memory.trace("camshaft/torque"))
+    assert np.array_equal(back.trace("cam/pitch_curve"), memory.trace("cam/pitch_curve"))

@@ -26,7 +26,7 @@ import scipy.optimize
 from camsim.errors import InputError, MachineFileError
 from camsim.io.hdf5 import read_table
 from camsim.loader import load_machine
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 from camsim.sweep import (
     MachineSource,
     build_grid,

@@ -34,7 +34,7 @@ import pytest
 
 from camsim.impact import johnson_power_lower, johnson_power_upper
 from camsim.loader import load_machine_text
-from camsim.simulate import simulate
+from camsim.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "validation.md"

@@ -19,6 +19,8 @@ _COMMANDS = (
     "check",
     "sweep",
     "lump",
+    "fit",
+    "study",
 )
 for _name in _COMMANDS:
     # Every command is part of camsim: an import error is a bug and must surface. (A

@@ -62,6 +62,18 @@ def _print_table(machine, program: CamProgram, peaks: list[dict]) -> None:
     console.print(table)
 
 
+def _parse_tolerance(text: str) -> float:
+    from camsim.units import QuantityError, to_si
+
+    try:
+        value = to_si(text, "length")
+    except QuantityError as exc:
+        raise InputError(f"--tolerance: {exc}") from None
+    if not value > 0:
+        raise InputError(f"--tolerance: must be positive, got {text!r}")
+    return value
+
+
 @app.command("cam")
 def cam_command(
     machine_file: Path = typer.Argument(..., metavar="MACHINE.toml", help="The machine file (TOML)."),
@@ -71,16 +83,38 @@ def cam_command(
         "--output",
         help=(
             "Write one revolution of s [m], v [m/s], a [m/s^2], j [m/s^3] on the model axis "
-            "against time [s] and cam angle [deg]: .h5 (HDF5) or .csv."
+            "against time [s] and cam angle [deg]: .h5 (HDF5) or .csv. With [cam.geometry] the "
+            ".h5 file also holds /cam/pressure_angle [deg], /cam/pitch_radius_of_curvature, "
+            "/cam/surface_radius_of_curvature [m], /cam/pitch_curve, /cam/surface (N, 2) [m]."
         ),
     ),
     points: int = typer.Option(3600, "--points", min=2, help="Samples over the revolution written by -o."),
-    as_json: bool = typer.Option(False, "--json", help="Print the peaks and warnings as JSON on stdout."),
+    as_json: bool = typer.Option(False, "--json", help="Print the peaks, the geometry checks and warnings as JSON on stdout."),
     overrides: list[str] = typer.Option(
         [],
         "--set",
         metavar="KEY=VALUE",
         help='Override a machine-file value, units as in the file, e.g. --set cam.speed="150 rpm". Repeatable.',
+    ),
+    plot: Path | None = typer.Option(
+        None, "--plot", metavar="CAM.png",
+        help="Needs [cam.geometry]: draw SVAJ at the roller, pressure angle and radii of curvature against cam "
+        "angle, and the cam to scale with its follower (.png, .svg or .pdf).",
+    ),
+    profile: Path | None = typer.Option(
+        None, "--profile", metavar="CAM.csv",
+        help="Needs [cam.geometry]: write the cam surface and pitch curve x, y (cam frame, --unit) at the chordal "
+        "--tolerance as CSV; the last row closes the contour.",
+    ),
+    dxf: Path | None = typer.Option(
+        None, "--dxf", metavar="CAM.dxf",
+        help="Needs [cam.geometry]: write the cam as DXF (closed polylines on layers CAM_PROFILE and "
+        "CAM_PITCH_CURVE, base circle, centre mark, $INSUNITS from --unit).",
+    ),
+    unit: str = typer.Option("mm", "--unit", metavar="mm|in", help="Length unit of --profile and --dxf."),
+    tolerance: str = typer.Option(
+        "1 um", "--tolerance", metavar="LENGTH",
+        help='Chordal tolerance of --profile and --dxf, with units (e.g. "1um", "0.0001 in"; bare number: m).',
     ),
 ) -> None:
     """Show the cam program: per segment its law, duration, lift and peak |v|, |a|, |j|.
@@ -88,6 +122,12 @@ def cam_command(
     Values are on the model axis (roller lift times the cam ratio) at the machine's cam
     speed, in SI; angles are cam angles in degrees. Jumps of displacement, velocity or
     acceleration where segments meet are printed as warnings on stderr.
+
+    With [cam.geometry] it also prints the design checks: the largest |pressure angle|
+    and where, the smallest radii of curvature and where, the face width of a flat
+    face, and a warning above max_pressure_angle. A profile the follower cannot follow
+    (an undercut roller, a cusp under a flat face) is an error (exit 2) naming the cam
+    angles; nothing is written then.
     """
     with user_errors():
         kind = None
@@ -100,6 +140,18 @@ def cam_command(
             else:
                 raise InputError(f"{output}: -o: unknown output type {output.suffix or '(none)'!r}; use .h5 or .csv")
             check_writable(output)
+        from camsim.cam.profile import UNITS
+
+        if unit not in UNITS:
+            raise InputError(f"--unit: unknown unit {unit!r}; use mm or in")
+        tol = _parse_tolerance(tolerance)
+        if plot is not None:
+            if plot.suffix.lower().lstrip(".") not in ("png", "svg", "pdf"):
+                raise InputError(f"{plot}: --plot: unknown image type {plot.suffix or '(none)'!r}; use .png, .svg or .pdf")
+            check_writable(plot)
+        for option, path in (("--profile", profile), ("--dxf", dxf)):
+            if path is not None:
+                check_writable(path)
         from camsim.loader import load_machine
 
         machine = load_machine(machine_file, overrides=overrides)
@@ -109,28 +161,75 @@ def cam_command(
             program = CamProgram(machine.cam)
         except ValueError as exc:
             raise MachineFileError(str(machine_file), "cam", str(exc)) from None
+        geometry = machine.cam.geometry
+        if geometry is None:
+            for option, path in (("--plot", plot), ("--profile", profile), ("--dxf", dxf)):
+                if path is not None:
+                    raise MachineFileError(str(machine_file), "cam.geometry",
+                                           f"{option} needs the cam's shape: add a [cam.geometry] table")
+        checks = None
+        if geometry is not None:
+            from camsim.cam.geometry import check_followable
+
+            checks = check_followable(geometry, program, str(machine_file))  # exit 2 before any output
         peaks = program.segment_peaks()
         if as_json:
-            print_json(
-                {
-                    "machine": machine.name,
-                    "speed_rad_s": program.speed,
-                    "ratio": program.ratio,
-                    "start_angle_deg": math.degrees(program.start_angle),
-                    "segments": peaks,
-                    "warnings": list(program.warnings),
-                }
-            )
+            payload = {
+                "machine": machine.name,
+                "speed_rad_s": program.speed,
+                "ratio": program.ratio,
+                "start_angle_deg": math.degrees(program.start_angle),
+                "segments": peaks,
+                "warnings": list(program.warnings),
+            }
+            if checks is not None:
+                payload["geometry"] = {k: v for k, v in checks.items() if k != "defects"}
+            print_json(payload)
         else:
             _print_table(machine, program, peaks)
+            if checks is not None:
+                from camsim.report import render_geometry_checks
+
+                console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
+                render_geometry_checks(checks, console, title=(
+                    f"cam geometry: {geometry.follower}, Rb {1e3 * geometry.base_radius:.5g} mm"
+                    + (f", Rr {1e3 * geometry.roller_radius:.5g} mm" if geometry.is_roller else "")
+                    + f", {geometry.rotation}; angles are cam angles, lift at the roller"))
         for message in program.warnings:
             err_console.print(f"camsim: warning: {message}", markup=False)
+        if checks is not None and as_json:
+            for message in checks["warnings"]:
+                err_console.print(f"camsim: warning: {message}", markup=False)
+        written = []
         if kind == "h5":
             write_cam_hdf5(output, machine, program, points)  # type: ignore[arg-type]
+            written.append(f"{output} ({points} samples over one revolution)")
         elif kind == "csv":
             write_cam_csv(output, program, points)  # type: ignore[arg-type]
-        if output is not None and not as_json:
-            err_console.print(f"wrote {output} ({points} samples over one revolution)", markup=False)
+            written.append(f"{output} ({points} samples over one revolution)")
+        if profile is not None or dxf is not None:
+            from camsim.cam.profile import profile_points, write_profile_csv, write_profile_dxf
+
+            pts = profile_points(geometry, program, tol)
+            if profile is not None:
+                write_profile_csv(profile, pts, unit)
+                written.append(f"{profile} ({pts['theta'].size} points, chordal tolerance {tol * 1e6:.4g} um, {unit})")
+            if dxf is not None:
+                write_profile_dxf(dxf, pts, geometry, unit)
+                written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {tol * 1e6:.4g} um, {unit})")
+        if plot is not None:
+            from camsim.cam.figures import plot_cam_design
+            from camsim.io.atomic import atomic_path
+
+            fig = plot_cam_design(geometry, program, title=f"{machine.name}: cam design")
+            fmt = plot.suffix.lower().lstrip(".")
+            metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
+            with atomic_path(plot) as tmp:
+                fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+            written.append(str(plot))
+        if not as_json:
+            for line in written:
+                err_console.print(f"wrote {line}", markup=False)
 
 
 __all__ = ["cam_command", "write_cam_csv", "write_cam_hdf5"]

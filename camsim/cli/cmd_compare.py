@@ -32,6 +32,23 @@ def render_comparison(comparison, console, system: str = "si") -> None:
     console.print(table)
 
 
+def render_design_comparison(rows, console) -> None:
+    """Peak stress and torque with and without impact (issue 14)."""
+    from rich.markup import escape
+
+    table = Table(title="cam design: impact vs no impact", title_justify="left")
+    for column in ("quantity", "impact", "no impact", "unit", "change [%]"):
+        table.add_column(escape(column), justify="left" if column == "quantity" else "right")
+    scale = {"Pa": (1e-6, "MPa")}
+    for row in rows:
+        factor, unit = scale.get(row["units"], (1.0, row["units"]))
+        fmt = lambda v: "–" if v is None else f"{v * factor:.4g}"  # noqa: E731
+        change = row["change_percent"]
+        table.add_row(row["quantity"], fmt(row["impact"]), fmt(row["no_impact"]), unit,
+                      "–" if change is None else f"{change:+.3g}")
+    console.print(table)
+
+
 @app.command("compare")
 def compare_command(
     inputs: list[Path] = typer.Argument(..., help="A machine file (TOML), or two run result files (HDF5) to compare."),
@@ -77,6 +94,9 @@ def compare_command(
             machine = load_machine(machine_path, overrides=set_)
             target = output if output is not None else machine_path.with_name(machine_path.stem + "_compare.h5")
             check_writable(target)
+            from camsim.cam.design import check_machine  # issue 14: undercut/cusp is an error
+
+            check_machine(machine)
             progress = FractionBar("compare (impact, no impact)", "%", 100.0, quiet=quiet)
             try:
                 comparison = compare_machine(machine, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, progress=progress)
@@ -86,11 +106,20 @@ def compare_command(
             output = target
         else:
             raise fail("compare takes one machine file or two result files")
+        design_rows = []
+        if comparison.impact is not None and comparison.no_impact is not None:  # issue 14: stress and torque
+            from camsim.cam.design import design_comparison
+
+            design_rows = design_comparison(comparison.impact, comparison.no_impact)
         if json_:
             payload = comparison.to_dict()
+            if design_rows:
+                payload["design"] = design_rows
             payload["output"] = str(output) if output is not None else None
             print_json(payload)
         else:
             render_comparison(comparison, err_console, units)
+            if design_rows:  # issue 14
+                render_design_comparison(design_rows, err_console)
             if output is not None:
                 err_console.print(f"wrote {output}")

@@ -428,13 +428,7 @@ def fit_command(
             fit = impact.fit_power_law(deflection, force)
         except InputError as exc:
             raise InputError(f"{data}: {exc}") from None
-    # C in the file's units: C_file = C_SI * (1 length_unit in m)^a / (1 force_unit in N)
-    file_coefficient = (
-        fit.coefficient
-        * to_si(f"1 {length_unit}", "length") ** fit.exponent
-        / to_si(f"1 {force_unit}", "force")
-    )
-    file_unit = f"{force_unit}/{length_unit}**{fit.exponent:.6g}"
+    file_coefficient, file_unit = impact.coefficient_in_units(fit.coefficient, fit.exponent, force_unit, length_unit)
     if json_out:
         print_json(
             {

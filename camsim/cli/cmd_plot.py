@@ -21,7 +21,9 @@ def plot_command(
             "masses (displacement [m], velocity [m/s], acceleration [m/s^2] of each mass against time [s], "
             "impacts marked), forces (element, cam-contact and transducer forces [N]; a negative cam-contact "
             "force, i.e. jump, is shaded), compare (impact vs no-impact with the % difference), sweep (peaks "
-            "against the swept parameter). Default: all that the file holds."
+            "against the swept parameter), design (with [cam.geometry]: pressure angle [deg], surface radius of "
+            "curvature [mm], contact normal force [N], Hertz stress [MPa], camshaft torque [N*m]). Default: all "
+            "that the file holds."
         ),
     ),
     mass: list[str] = typer.Option(None, "--mass", metavar="NAME", help="Plot only this mass (repeatable). Default: all masses."),

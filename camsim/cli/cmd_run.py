@@ -35,6 +35,7 @@ def run_command(
     compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
+    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
@@ -73,6 +74,9 @@ def run_command(
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")
         target = output if output is not None else default_output(machine)
         check_writable(target)
+        from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
+
+        check_machine(loaded, cs)
         remove_stale_temps(target)  # left by a run that was killed outright
         stored = select_traces(machine_trace_layout(loaded, no_impact), patterns or None, summary_only)
         estimate = estimate_run(loaded, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, traces=len(stored),
@@ -96,10 +100,12 @@ def run_command(
             progress.close()
         if json_:
             payload = result.summary()
+            if cs is not None and "design" in payload:  # issue 14
+                payload["design"] = result.design_summary(cs)
             payload["output"] = str(target)
             print_json(payload)
         else:
-            render_run_summary(result, err_console, units)
+            render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
         if check_against is not None:
             from camsim.check import check_files, render_report

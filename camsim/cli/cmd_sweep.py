@@ -27,6 +27,8 @@ def _render(result, err, system: str = "si") -> None:
     if len(rows) <= 40:
         table = Table(show_edge=False, pad_edge=False)
         columns = params + ["peak_transducer_force", "min_cam_contact_force", "jump", "impacts", "status"]
+        design = [n for n in ("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque") if n in units]
+        columns[-1:-1] = design  # issue 14: cam design columns with [cam.geometry]
         display = {name: shown(units.get(name, ""), system) for name in columns}
         for name in columns:
             unit = display[name][0]

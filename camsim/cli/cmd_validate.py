@@ -69,6 +69,8 @@ def _shown(p: Param, element) -> bool:
 def _param_text(p: Param, value) -> str:
     if value is True:
         return p.key
+    if isinstance(value, str):
+        return f"{p.key} {value}"
     unit = p.unit.replace("exponent", "a") if p.unit else ""
     return f"{p.key} {value:.6g} {unit}".strip()
 
@@ -108,6 +110,20 @@ def _print_machine(machine: Machine) -> None:
                 f"{math.degrees(t.angle[-1]):.6g} deg, roller lift {min(t.displacement):.6g} to "
                 f"{max(t.displacement):.6g} m"
             )
+        if cam.geometry is not None:  # issue 14: [cam.geometry] in SI
+            from camsim.cam.geometry import geometry_to_dict
+
+            geo = Table(title="cam geometry (SI; checks: camsim cam)", title_justify="left", show_header=False)
+            geo.add_column("key")
+            geo.add_column("value")
+            units = {"max_pressure_angle": "rad"}
+            for key, value in geometry_to_dict(cam.geometry).items():
+                if isinstance(value, dict):
+                    value = f"E {value['youngs_modulus']:.6g} Pa, nu {value['poisson_ratio']:.6g}"
+                elif isinstance(value, float):
+                    value = f"{value:.6g} {units.get(key, 'm')}"
+                geo.add_row(key, escape(str(value if value is not None else "-")))
+            err_console.print(geo)
     masses = Table(title="masses", title_justify="left")
     masses.add_column("name")
     masses.add_column(escape("mass [kg]"), justify="right")

@@ -23,6 +23,7 @@ from camsim.elements.base import (
     key_laws,
     laws_of,
     param,
+    register,
     type_keys,
 )
 # Registration order is the order of the docs and of messages: springs, links, contacts.
@@ -32,10 +33,12 @@ from camsim.elements.contact import Contact  # isort: skip
 from camsim.elements.linear_contact import LinearContact  # isort: skip
 from camsim.elements.power_contact import PowerContact  # isort: skip
 from camsim.elements.rigid_contact import RigidContact  # isort: skip
+from camsim.elements.adams_impact import AdamsImpactContact  # isort: skip
+from camsim.elements.lash import Lash  # isort: skip
 
 __all__ = [
-    "CAM", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
-    "Branch", "Contact", "Damping", "Element", "GuardKind", "LinearContact", "Outcome", "Param",
+    "AdamsImpactContact", "CAM", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
+    "Branch", "Contact", "Damping", "Element", "GuardKind", "Lash", "LinearContact", "Outcome", "Param",
     "PowerContact", "PreloadedLink", "RigidContact", "Spring",
-    "classes", "element_class", "element_types", "key_laws", "laws_of", "param", "type_keys",
+    "classes", "element_class", "element_types", "key_laws", "laws_of", "param", "register", "type_keys",
 ]

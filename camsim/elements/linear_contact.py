@@ -3,6 +3,11 @@
 A damped linear contact can pull at separation; it opens when its force reaches zero,
 not when δ does (see docs/model.md), and while it penetrates with a pulling law it is
 "lifted": open until the law pushes again or δ returns to zero.
+
+Its damping is a coefficient, a ratio ζ of critical, or a ``restitution`` e: the viscous
+c = 2ζ(e)·√(k·m) for which an isolated impact of the contact's reduced mass m, with the
+force clamped at zero, rebounds with exactly e (:func:`camsim.restitution.linear_damping_ratio`,
+solved once at load).
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import numpy as np
 from camsim.affine import N_INPUT, Affine
 from camsim.elements.base import DAMPING_PARAMS, DEFAULT_LAW, FORCE_TOL, Branch, GuardKind, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
+from camsim.restitution import linear_damping_ratio
 
 
 @register
@@ -30,7 +36,27 @@ class LinearContact(Contact):
         *CONTACT_PARAMS,
         Param("stiffness", "stiffness", "k", required=True, minimum=0.0, strict=True, example='"8597740 N/m"'),
         *DAMPING_PARAMS,
+        Param("restitution", "number", "instead of damping/damping_ratio: the restitution an isolated impact "
+              "achieves (c = 2ζ(e)·√(k·m), m the contact's reduced mass)", minimum=0.0, maximum=1.0, strict=True),
     )
+
+    @classmethod
+    def check(cls, values, error, driven) -> None:
+        super().check(values, error, driven)
+        damping = values.get("damping")
+        if values.get("restitution") is not None and damping is not None and (
+            damping.coefficient is not None or damping.ratio is not None
+        ):
+            raise error("restitution", "give restitution or damping/damping_ratio, not both")
+
+    def damping_coefficients(self, reference_mass, reduced_mass=None):
+        if self.restitution is None:
+            return super().damping_coefficients(reference_mass, reduced_mass)
+        zeta = linear_damping_ratio(self.restitution)
+        return {"c": 2.0 * zeta * (self.stiffness * reduced_mass()) ** 0.5}
+
+    def damping_note(self):
+        return f"restitution {self.restitution:g}" if self.restitution is not None else None
 
     def branch_stiffnesses(self) -> dict[str, float]:
         return {"c": self.stiffness}

@@ -26,7 +26,10 @@ def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, p
     Layout: ``/time`` [s] (a dimension scale attached to every trace), ``/cam/angle``
     [deg], ``/cam/displacement`` [m], ``/cam/velocity`` [m/s], ``/cam/acceleration``
     [m/s^2], ``/cam/jerk`` [m/s^3] on the model axis, ``/cam/boundaries_deg`` (segment
-    start angles [deg], segment cams only); root attributes as in a run file.
+    start angles [deg], segment cams only); with ``[cam.geometry]`` also
+    ``/cam/pressure_angle`` [deg], ``/cam/pitch_radius_of_curvature``,
+    ``/cam/surface_radius_of_curvature`` [m], ``/cam/pitch_curve``, ``/cam/surface``
+    (N, 2) [m]; root attributes as in a run file.
     Written through :func:`camsim.io.atomic.atomic_path`.
     """
     data = sample_revolution(program, points)
@@ -37,6 +40,14 @@ def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, p
             write_trace(f, "cam/angle", data["angle"], "deg", "cam angle", time)
             for name, units, long_name in TRACES:
                 write_trace(f, f"cam/{name}", data[name], units, long_name, time)
+            geometry = getattr(machine.cam, "geometry", None)
+            if geometry is not None:  # issue 14: the spec's /cam/... design datasets
+                from camsim.cam.geometry import geometry_datasets
+
+                for path_, (values, units, long_name) in geometry_datasets(
+                    geometry, program, np.radians(data["angle"])
+                ).items():
+                    write_trace(f, path_, values, units, long_name, time)
             if program.kind == "segments":
                 write_trace(
                     f, "cam/boundaries_deg", np.degrees(program.boundary_angles()), "deg", "cam angles of segment joins"

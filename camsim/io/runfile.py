@@ -25,7 +25,6 @@ import numpy as np
 from camsim import __version__
 from camsim.io.atomic import atomic_path
 from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
-from camsim.events import EVENT_COLUMNS  # noqa: F401 - the table's columns, re-exported
 from camsim.machine import Machine
 
 if TYPE_CHECKING:

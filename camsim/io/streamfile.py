@@ -61,7 +61,9 @@ class TraceStreamWriter:
         time = None
         for path in self.paths:
             trace = layout[path]
-            dset = group.create_dataset(path, shape=(0,), maxshape=(None,), chunks=(CHUNK,), dtype=np.float64, **options)
+            tail = tuple(np.shape(trace.data)[1:])  # (2,) for the x-y traces of a cam's shape
+            dset = group.create_dataset(path, shape=(0, *tail), maxshape=(None, *tail), chunks=(CHUNK, *tail),
+                                        dtype=np.float64, **options)
             dset.attrs["units"] = trace.units
             dset.attrs["long_name"] = trace.long_name
             if path == "time":
@@ -102,7 +104,7 @@ class TraceStreamWriter:
             parts = self._pending[path]
             data = np.concatenate(parts) if len(parts) > 1 else parts[0]
             dset = self._datasets[path]
-            dset.resize((self.samples + n,))
+            dset.resize(self.samples + n, axis=0)
             dset[self.samples:] = data[:n]
             self._pending[path] = [data[n:]] if n < data.shape[0] else []
         self.samples += n

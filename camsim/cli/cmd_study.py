@@ -1,0 +1,225 @@
+"""``camsim study``: tolerance analysis — Monte Carlo statistics, limit probabilities, Sobol' indices."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from camsim.cli.app import app, err_console, fail, print_json, user_errors
+
+
+class _Start:
+    """What is printed when the runs start (after every check passed), and the progress bar."""
+
+    def __init__(self, bar) -> None:
+        self.bar = bar
+        self.message = ""
+
+    def __call__(self, total: int, todo: int, executor: str) -> None:
+        if self.message:
+            err_console.print(self.message, markup=False)
+        if todo < total:
+            err_console.print(f"resuming: {total - todo} of {total} runs already done", markup=False)
+        if todo:
+            self.bar.start(total, executor)
+            self.bar(total - todo, total)
+
+
+def _fmt(value: float) -> str:
+    return "—" if value is None or (isinstance(value, float) and not math.isfinite(value)) else f"{value:.5g}"
+
+
+def _render(result, err, system: str = "si") -> None:
+    from rich.table import Table
+    from rich.text import Text
+
+    from camsim.display import shown
+
+    units = dict(result.columns)
+    table = Table(show_edge=False, pad_edge=False, title=f"{result.n_runs} runs ({result.method}, seed {result.seed}), 95 % bootstrap intervals of the mean")
+    for head in ("output", "unit", "mean", "mean 95 %", "std", "p1", "p50", "p99", "min", "max"):
+        table.add_column(Text(head))
+    for q, s in result.stats.items():
+        unit, k = shown(units.get(q, ""), system)
+        ci = s["ci95"]["mean"]
+
+        def v(x):
+            return _fmt(None if x is None else x * k)
+
+        table.add_row(
+            Text(q), Text(unit or "-"), Text(v(s["mean"])), Text(f"{v(ci[0])} … {v(ci[1])}"),
+            Text(v(s["std"])), Text(v(s["percentiles"]["1"])), Text(v(s["percentiles"]["50"])),
+            Text(v(s["percentiles"]["99"])), Text(v(s["min"])), Text(v(s["max"])),
+        )
+    err.print(table)
+    for lim in result.limits:
+        lo, hi = lim["ci95"]
+        err.print(
+            f"P({lim['expr']}) = {_fmt(lim['probability'])} ({lim['crossed']} of {lim['n']} runs; 95 % Clopper-Pearson "
+            f"{_fmt(lo)} … {_fmt(hi)}), {_fmt(lim['per_million'])} per million machines",
+            markup=False,
+        )
+    if result.sensitivity is not None:
+        sens = Table(show_edge=False, pad_edge=False, title="Sobol' indices: first order S1, total ST (95 % bootstrap intervals)")
+        for head in ("output", "input", "S1", "S1 95 %", "ST", "ST 95 %"):
+            sens.add_column(Text(head))
+        for q, per in result.sensitivity.items():
+            if not per:
+                continue
+            for key, v in per.items():
+                sens.add_row(
+                    Text(q), Text(key), Text(f"{v['first']:.3f}"), Text(f"{v['first_ci95'][0]:.3f} … {v['first_ci95'][1]:.3f}"),
+                    Text(f"{v['total']:.3f}"), Text(f"{v['total_ci95'][0]:.3f} … {v['total_ci95'][1]:.3f}"),
+                )
+        err.print(sens)
+        if result.ranking:
+            what = "the limited outputs" if result.limits else "any output"
+            err.print(f"tolerances to tighten first (largest total index over {what}):", markup=False)
+            for k, (key, total) in enumerate(result.ranking, 1):
+                err.print(f"  {k}. {key}  (ST = {total:.3f})", markup=False)
+    for note in result.notes:
+        err.print(f"note: {note}", markup=False)
+
+
+@app.command("study")
+def study_command(
+    machine: Path = typer.Argument(None, help="Machine file (TOML); may come from the [study] table of --config instead."),
+    dist: list[str] = typer.Option(
+        [], "--dist", metavar="KEY=SPEC",
+        help=(
+            "An input and its distribution (repeatable). SPEC: normal:MEAN:STD[UNIT], uniform:LOW:HIGH[UNIT], "
+            "lognormal:MEDIAN:GSD[UNIT], truncnormal:MEAN:STD:LOW:HIGH[UNIT], tol:NOMINAL:PLUSMINUS[UNIT] "
+            "(normal, sigma = tolerance/--tol-sigma, truncated at the limits) or tol:NOMINAL:+UP:-DOWN[UNIT]. "
+            "The unit after the last number applies to all; a bare number is SI. "
+            "e.g. element.seat.stiffness=tol:8.6e6:0.5e6N/m"
+        ),
+    ),
+    samples: int = typer.Option(None, "--samples", "-n", help="Number of samples N (with --sensitivity: N (d+2) runs, N a power of two). Default 256."),
+    out: Path = typer.Option(None, "-o", "--out", help="Study file (HDF5, table /study/rows); a CSV with the same stem is written beside it. Default: <machine>_study.h5."),
+    method: str = typer.Option(None, "--method", help="Sampling: mc (Monte Carlo, default), lhs (Latin hypercube) or sobol (scrambled Sobol'; use a power-of-two N)."),
+    seed: int = typer.Option(None, "--seed", min=0, help="Seed of every random draw (default 0): the same seed gives the same rows, bit for bit, whatever --workers."),
+    tol_sigma: float = typer.Option(None, "--tol-sigma", help="Standard deviations between a tol: nominal and its limits (default 3)."),
+    correlate: list[str] = typer.Option([], "--correlate", metavar="KEY1,KEY2=RHO", help="Correlate two inputs (Gaussian copula on their normal scores; repeatable)."),
+    output_expr: list[str] = typer.Option([], "--output", metavar="REDUCER:PATH", help="An extra output per run: max|min|rms|mean of a trace, e.g. max:masses/M3/acceleration, rms:transducer/force (repeatable)."),
+    limit: list[str] = typer.Option([], "--limit", metavar="QUANTITY<VALUE", help='Probability of crossing a limit, e.g. "min_cam_contact_force<0N" (<, <=, >, >=; repeatable).'),
+    sensitivity: bool = typer.Option(None, "--sensitivity/--no-sensitivity", help="First-order and total Sobol' indices of every output to every input (Saltelli design, N (d+2) runs)."),
+    config: Path = typer.Option(None, "--config", help="Read the study from the [study] table of this TOML file (command-line options win)."),
+    set_: list[str] = typer.Option([], "--set", help="Override a machine key for every run (repeatable)."),
+    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per run."),
+    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first."),
+    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare: Hz). Peaks are taken over the samples.'),
+    workers: int = typer.Option(None, "--workers", min=1, help="Local worker processes (default: the number of cores; 1 runs serially)."),
+    scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
+    dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers for the study."),
+    resume: bool = typer.Option(False, "--resume", help="Continue an interrupted study (same command): only the missing runs are made."),
+    plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Write a figure: histograms with limits, most influential input against each output, Sobol' indices."),
+    json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
+) -> None:
+    """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
+
+    Each run records every summary quantity of the run (peaks per mass, min/max cam
+    contact force, peak transducer force, jump, impacts, ...) and the --output
+    reductions, in SI. Statistics: mean, std, percentiles 1/5/50/95/99, min/max with
+    95 % bootstrap intervals; --limit gives the probability of crossing each limit;
+    --sensitivity the Sobol' indices. Rows are kept as they finish; after Ctrl-C or a
+    kill, run the same command with --resume. Exit 0 when the study ran (failed runs
+    are rows with their reason), 2 on bad input, 130 after Ctrl-C or SIGTERM.
+    """
+    from camsim.cli.progress import Bar
+    from camsim.errors import InputError
+    from camsim.io.atomic import check_writable
+    from camsim.lifecycle import sigterm_as_interrupt
+    from camsim.study import StudyInterrupted, study
+    from camsim.study.config import merge_dists, read_config
+    from camsim.study.files import csv_path_for
+
+    bar = Bar("study", "runs", quiet=quiet)
+    start = _Start(bar)
+    with user_errors(), sigterm_as_interrupt():
+        from camsim.display import check_unit_system
+
+        check_unit_system(units)
+        cfg = read_config(config) if config is not None else {}
+        if machine is None:
+            if "machine" not in cfg:
+                raise InputError("study: give the MACHINE file (or machine = ... in the [study] table of --config)")
+            machine = Path(cfg["machine"])
+        rate_text = sample_rate if sample_rate is not None else cfg.get("sample_rate")
+        rate = None
+        if rate_text is not None:
+            from camsim.units import QuantityError, to_si
+
+            try:
+                rate = to_si(rate_text if isinstance(rate_text, str) else float(rate_text), "frequency")
+            except QuantityError as exc:
+                raise InputError(f"--sample-rate: {exc}") from None
+        target = out if out is not None else machine.with_name(machine.stem + "_study.h5")
+        check_writable(target)
+        check_writable(csv_path_for(target))
+        if plot is not None:
+            if plot.suffix.lower() not in (".png", ".svg", ".pdf"):
+                raise InputError(f"--plot {plot}: unknown format '{plot.suffix.lstrip('.')}' (png, svg or pdf)")
+            check_writable(plot)
+        n = samples if samples is not None else cfg.get("samples", 256)
+        if samples is not None and samples < 1:
+            raise InputError(f"--samples {samples}: needs at least 1")
+        sens = sensitivity if sensitivity is not None else cfg.get("sensitivity", False)
+        if sens:
+            from camsim.study.sampling import n_runs
+
+            d = len(merge_dists(cfg.get("dist", []), dist))
+            start.message = f"sensitivity: Saltelli's design needs N (d + 2) = {n} x {d + 2} = {n_runs(n, d, True)} runs"
+        try:
+            result = study(
+                machine,
+                merge_dists(cfg.get("dist", []), dist),
+                n,
+                method=method if method is not None else cfg.get("method", "mc"),
+                seed=seed if seed is not None else cfg.get("seed", 0),
+                tol_sigma=tol_sigma if tol_sigma is not None else float(cfg.get("tol_sigma", 3.0)),
+                correlate=cfg.get("correlate", []) + correlate,
+                outputs=cfg.get("output", []) + output_expr,
+                limits=cfg.get("limit", []) + limit,
+                sensitivity=sens,
+                fixed=cfg.get("set", []) + set_,
+                cycles=cycles if cycles is not None else cfg.get("cycles"),
+                warmup_cycles=warmup if warmup is not None else cfg.get("warmup"),
+                sample_rate=rate,
+                workers=workers if workers is not None else cfg.get("workers"),
+                scheduler=scheduler,
+                dask_local=dask_local,
+                output=target,
+                resume=resume,
+                progress=bar,
+                on_start=start,
+            )
+        except StudyInterrupted as exc:
+            bar.close()
+            if exc.lost:
+                raise fail(
+                    f"{exc.lost} runs did not run (a worker process failed); {exc.done} of {exc.total} are kept in "
+                    f"{exc.store} (and its .journal); run the same command with --resume to run the rest",
+                    1,
+                ) from None
+            raise fail(
+                f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store} (and its .journal); "
+                "run the same command with --resume to finish",
+                130,
+            ) from None
+        finally:
+            bar.close()
+        for w in result.warnings:
+            err_console.print(f"warning: {w}", markup=False)
+        if plot is not None:
+            from camsim.study.plot import save_study_plot
+
+            save_study_plot(result, plot)
+        if json_:
+            print_json(result.to_json())
+        else:
+            _render(result, err_console, units)
+            err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)

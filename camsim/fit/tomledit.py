@@ -1,0 +1,186 @@
+"""Writing the fitted machine file: the input text with the fitted values replaced in place.
+
+The machine file is edited with tomlkit, so every comment, blank line and the layout stay
+as written; only the fitted values change. A value written with a unit keeps that unit
+(``push_stiffness = "8144 lbf/in"`` becomes ``"7712.455 lbf/in"``); a bare number stays a
+bare SI number. Each changed line gets a comment with the old value and the 95 %
+interval, in the same unit, in front of any comment the line had::
+
+    push_stiffness = "7712.455 lbf/in" # fitted: was "8144 lbf/in"; 95 % CI 7650.1 to 7774.8 lbf/in
+
+A key that the file leaves at its default is added at the end of its table. A value
+inside an inline table (a cam segment) gets its comment at the end of that line. Keys are
+addressed as on the command line (``--set`` grammar): ``element.K23.push_stiffness`` is the
+``[[element]]`` whose ``name`` is ``K23``; ``element[2].stiffness`` the third;
+``cam.segments[2].lift``, ``mass.M3.mass``, ``initial.M3.velocity``, ``cam.speed``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from pathlib import Path
+
+from camsim.errors import InputError
+
+__all__ = ["fitted_text", "write_fitted", "VALUE_DIGITS"]
+
+#: Significant digits of a fitted value written into the file.
+VALUE_DIGITS = 7
+_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
+_NUMBER = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+
+
+def _locate(doc, key: str):
+    """(container, leaf, inline) of ``key`` in the tomlkit document ``doc``."""
+    parts = []
+    for p in key.split("."):
+        m = _PART.match(p.strip())
+        if not m:
+            raise InputError(f"{key}: malformed key")
+        parts.append((m.group(1), None if m.group(2) is None else int(m.group(2))))
+    head, index = parts[0]
+    if head in ("simulation", "machine") or (head == "cam" and parts[1][0] != "segments"):
+        return doc[head], parts[1][0], False
+    if head == "cam":
+        return doc["cam"]["segments"][parts[1][1]], parts[2][0], True
+    if head in ("mass", "element"):
+        rows = doc[head]
+        if index is not None:
+            return rows[index], parts[1][0], False
+        row = next(r for r in rows if r.get("name") == parts[1][0])
+        return row, parts[2][0], False
+    if head == "initial":
+        return doc["initial"][parts[1][0]], parts[2][0], False
+    raise InputError(f"{key}: cannot be written into the machine file")
+
+
+def _number(value: float) -> str:
+    text = format(value, f".{VALUE_DIGITS}g")
+    return text
+
+
+def _pint_unit(si: str) -> str:
+    m = re.match(r"^N/m\^([-+0-9.eE]+)$", si)
+    return f"N / m ** {m.group(1)}" if m else (si or "dimensionless")
+
+
+def _in_unit(value_si: float, unit: str, si_unit: str) -> float | None:
+    """``value_si`` [si_unit] expressed in ``unit`` (None when pint cannot convert)."""
+    from camsim.units import ureg
+
+    try:
+        return float(ureg.Quantity(value_si, _pint_unit(si_unit)).to(unit).magnitude)
+    except Exception:  # noqa: BLE001 - e.g. a lift given as an angle (needs the arm)
+        return None
+
+
+def fitted_text(text: str, result, source: str = "<string>") -> str:
+    """The machine file ``text`` with the fitted values of ``result`` written in place.
+
+    Parameters
+    ----------
+    text : str
+        The machine file as read.
+    result : FitResult
+    source : str
+        The file name (for messages).
+
+    Returns
+    -------
+    str
+        The fitted machine file (same comments and layout; see the module docstring).
+    """
+    import tomlkit
+
+    doc = tomlkit.parse(text)
+    inline_notes: list[tuple[str, str, str]] = []
+    for i, key in enumerate(result.keys):
+        if key == "align.offset":
+            continue
+        value = float(result.values[i])
+        lo, hi = (float(v) for v in result.ci95[i])
+        si_unit = result.units[i]
+        try:
+            table, leaf, inline = _locate(doc, key)
+        except (KeyError, IndexError, StopIteration, TypeError):
+            raise InputError(f"{source}: {key}: not found in the machine file to write the fitted value") from None
+        old = table.get(leaf)
+        old_item = table.item(leaf) if leaf in table else None
+        unit = ""
+        if isinstance(old, str):
+            m = _NUMBER.match(old)
+            unit = m.group(2) if m else ""
+        if unit and _in_unit(1.0, unit, si_unit) is not None:
+            new_value = tomlkit.string(f"{_number(_in_unit(value, unit, si_unit))} {unit}")
+            shown = lambda v: _number(_in_unit(v, unit, si_unit))  # noqa: E731
+            shown_unit = f" {unit}"
+        else:
+            new_value = tomlkit.item(float(_number(value)))
+            shown = _number
+            shown_unit = f" {si_unit}" if si_unit else ""
+        if math.isfinite(lo) and math.isfinite(hi):
+            interval = f"95 % CI {shown(lo)} to {shown(hi)}{shown_unit}"
+        else:
+            interval = "95 % CI not determined by the data"
+        was = f"was {tomlkit.item(old).as_string()}" if old is not None else f"was the default {_number(float(result.file_values[i]))}{shown_unit}"
+        note = f"fitted: {was}; {interval}"
+        if inline:
+            marker = f"@@camsim-fit-{i}@@"
+            inline_notes.append((marker, new_value.as_string(), note))
+            table[leaf] = marker
+            continue
+        if old_item is not None:
+            trivia = old_item.trivia
+            new_value.trivia.indent = trivia.indent
+            new_value.trivia.trail = trivia.trail
+            previous = trivia.comment.lstrip("#").strip()
+            new_value.trivia.comment_ws = trivia.comment_ws or " "
+            new_value.trivia.comment = "# " + note + (f" | {previous}" if previous else "")
+        else:
+            new_value.comment(note)
+        table[leaf] = new_value
+    out = tomlkit.dumps(doc)
+    if inline_notes:
+        out = _annotate_inline(out, inline_notes)
+    return out
+
+
+def _annotate_inline(text: str, notes: list[tuple[str, str, str]]) -> str:
+    """Put each inline-table value (held by a unique marker) in place, with its note at the line's end."""
+    lines = text.splitlines(keepends=True)
+    for marker, value_text, note in notes:
+        quoted = f'"{marker}"'
+        j = next(k for k, line in enumerate(lines) if quoted in line)
+        line = lines[j].replace(quoted, value_text)
+        body = line.rstrip("\r\n")
+        end = line[len(body):]
+        sep = " | " if _has_comment(body) else "  # "
+        lines[j] = body + sep + note + end
+    return "".join(lines)
+
+
+def _has_comment(line: str) -> bool:
+    """Whether a TOML line ends in a comment (a ``#`` outside strings)."""
+    quote = None
+    for ch in line:
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            return True
+    return False
+
+
+def write_fitted(path: str | os.PathLike[str], text: str, result, source: str = "<string>") -> Path:
+    """Write :func:`fitted_text` to ``path`` atomically (temporary name, then rename)."""
+    from camsim.io.atomic import atomic_path
+
+    content = fitted_text(text, result, source)
+    target = Path(path)
+    with atomic_path(target) as tmp:
+        tmp.write_text(content, encoding="utf-8")
+    return target
