@@ -62,6 +62,12 @@ class Trace:
     long_name: str
 
 
+def missing_scalar(name: str):
+    """The value a table shows for a scalar a run did not produce (a failed or cancelled
+    run): no jump, no impacts, NaN for every number."""
+    return {"jump": False, "impacts": 0}.get(name, float("nan"))
+
+
 def scalar_columns(masses: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
     """Names and SI units of :meth:`RunResult.scalars` for a machine with ``masses``."""
     cols = [(f"peak_{q}:{m}", QUANTITY_UNITS[q]) for m in masses for q in MASS_QUANTITIES]

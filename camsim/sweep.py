@@ -335,19 +335,10 @@ def sweep_columns(keys: Sequence[str], masses: Sequence[str]) -> list[tuple[str,
 
 
 def _complete_row(row: dict[str, Any], columns: Sequence[tuple[str, str]]) -> dict[str, Any]:
-    out = {}
-    for name, _ in columns:
-        if name in row:
-            out[name] = row[name]
-        elif name == "jump":
-            out[name] = False
-        elif name == "impacts":
-            out[name] = 0
-        elif name == "status":
-            out[name] = "cancelled"
-        else:
-            out[name] = float("nan")
-    return out
+    from camsim.result import missing_scalar
+
+    return {name: row[name] if name in row else ("cancelled" if name == "status" else missing_scalar(name))
+            for name, _ in columns}
 
 
 def _column_array(rows, name, unit="") -> np.ndarray:

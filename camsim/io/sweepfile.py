@@ -19,7 +19,8 @@ def csv_path_for(path: str | os.PathLike[str]) -> Path:
     return Path(path).with_suffix(".csv")
 
 
-def _csv_cell(value: Any) -> str:
+def csv_cell(value: Any) -> str:
+    """One CSV cell of a result table: true/false, integers, floats that read back exactly."""
     if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
     if isinstance(value, (int, np.integer)):
@@ -84,7 +85,7 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
             writer = csv.writer(fh)
             writer.writerow([name for name, _ in result.columns])
             for row in result.rows:
-                writer.writerow([_csv_cell(row[name]) for name, _ in result.columns])
+                writer.writerow([csv_cell(row[name]) for name, _ in result.columns])
     return h5_path, csv_target
 
 

@@ -29,7 +29,6 @@ import os
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 __all__ = ["csv_path_for", "write_study", "read_rows"]
 
@@ -37,16 +36,6 @@ __all__ = ["csv_path_for", "write_study", "read_rows"]
 def csv_path_for(path: str | os.PathLike[str]) -> Path:
     """The CSV written beside a study file: same stem, ``.csv``."""
     return Path(path).with_suffix(".csv")
-
-
-def _csv_cell(value: Any) -> str:
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))
-    return str(value)
 
 
 def _json_text(payload: Any) -> str:
@@ -73,6 +62,7 @@ def write_study(result, path: str | os.PathLike[str], csv_path: str | os.PathLik
     from camsim.io.atomic import atomic_path, check_writable
     from camsim.io.hdf5 import create_file, write_table
     from camsim.io.runfile import write_root_attributes
+    from camsim.io.sweepfile import csv_cell
 
     h5_path = Path(path)
     csv_target = csv_path_for(h5_path) if csv_path is None else Path(csv_path)
@@ -112,7 +102,7 @@ def write_study(result, path: str | os.PathLike[str], csv_path: str | os.PathLik
             writer = csv.writer(fh)
             writer.writerow(names)
             for row in frame.itertuples(index=False, name=None):
-                writer.writerow([_csv_cell(v) for v in row])
+                writer.writerow([csv_cell(v) for v in row])
     return h5_path, csv_target
 
 

@@ -23,7 +23,6 @@ A run that fails (a sampled value the loader rejects, a simulation error) is a r
 from __future__ import annotations
 
 import hashlib
-import math
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -599,17 +598,9 @@ def _stored_row(index: int, design: str, keys, values, row: dict, names: set[str
 
 
 def _complete(row: dict, columns) -> dict:
-    out = {}
-    for name, _ in columns:
-        if name in row:
-            out[name] = row[name]
-        elif name == "jump":
-            out[name] = False
-        elif name == "impacts":
-            out[name] = 0
-        else:
-            out[name] = math.nan
-    return out
+    from camsim.result import missing_scalar
+
+    return {name: row[name] if name in row else missing_scalar(name) for name, _ in columns}
 
 
 def _typed(frame):
