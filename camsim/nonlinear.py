@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from camsim.collocation import Collocation, collocation_steps
 from camsim.model import N_INPUT
 
 #: Ratio of the stiffness / damping ladder of the reference linear laws.
@@ -65,6 +66,9 @@ MAX_ITER = 16
 #: Window lengths in grid steps (the first, the largest).
 FIRST_WINDOW = 16
 MAX_WINDOW = 1024
+#: Where the iteration does not converge, take exponential-collocation steps
+#: (:mod:`camsim.collocation`) before handing a step to DOP853.
+COLLOCATION = True
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
 
@@ -197,6 +201,13 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 fn = integ.nonlinear_forces(config, Zs, Us, v_imp)
                 stretch = Stretch(state.branches, config, ts, Zs, Us, fn, dict(v_imp))
         return end_state, stretch, fired
+
+    def collocate(t_from, z_from, n_steps, just_started):
+        coll = stepper.__dict__.get("collocation")
+        if coll is None:
+            coll = stepper.collocation = Collocation(integ, config, stepper)
+        return collocation_steps(integ, stepper, config, coll, t_from, z_from, n_steps, t_stop, guards,
+                                 just_started, chi)
 
     def fallback(t_from, z_from, n_steps, just_started):
         """DOP853 over n grid steps from (t_from, z_from); returns (t, z, fired, end)."""
@@ -345,8 +356,30 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if window > FIRST_WINDOW:
                 window = max(FIRST_WINDOW, window // 4)
                 continue
-            t, z, fired, cur = fallback(t, z, FALLBACK_STEPS * 2 ** min(fails, 3), first)
+            n_fallback = FALLBACK_STEPS * 2 ** min(fails, 3)
             fails += 1
+            # exponential collocation step by step (camsim.collocation); DOP853 for a step
+            # it does not accept and for a step where a guard may cross
+            # (and on while the contact stiffness still sweeps: the iteration would fail)
+            while COLLOCATION and getattr(stepper.element, "analytic_closed", False):
+                t_c, z_c, taken, hit, calm = collocate(t, z, n_fallback, first)
+                if taken is None:
+                    break
+                if record:
+                    mask = integ._on_grid(taken[0][:-1])
+                    pieces.append((taken[0][:-1][mask], taken[1][:-1][mask], taken[2][:-1][mask]))
+                t, z = t_c, z_c
+                cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
+                first = False
+                if hit or calm:
+                    break
+            else:
+                taken = None
+            if taken is not None and not hit:
+                continue
+            if taken is not None:
+                n_fallback = 2
+            t, z, fired, cur = fallback(t, z, n_fallback, first)
             first = False
             if fired is not None:
                 return finish(cur, fired)
@@ -479,16 +512,21 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     me = np.array([stepper.de, stepper.re])
     force_of = stepper.element.nonlinear_force_scalar
     v_impact = stepper.v_impact
-    # per step: the cam input's polynomial pushed through B and the contact's rows
-    BC = np.einsum("mc,kcj->kmj", B, cam_input.C)
-    MC = np.einsum("rc,kcj->krj", Mu, cam_input.C)
+    # One matrix product per evaluation gives ż's linear part and the contact's δ, δ̇:
+    # rows [A; Mz] on z, and per step the cam input's polynomial pushed through [B; Mu]
+    # (its coefficients of τ^j) with the constants [b; me] folded into the τ^0 column.
+    n = A.shape[0]
+    AM = np.vstack([A, Mz])
+    BMC = np.einsum("mc,kcj->kmj", np.vstack([B, Mu]), cam_input.C)
+    BMC[:, :, 0] += np.concatenate([b, me])
     starts, powers, index = cam_input.starts, cam_input.powers, cam_input.index
 
     def rhs(t, z):
         k = index(t)
-        p = (t - starts[k]) ** powers
-        d, dd = Mz @ z + MC[k] @ p + me
-        return A @ z + BC[k] @ p + b + L * force_of(d, dd, v_impact)
+        y = AM @ z + BMC[k] @ ((t - starts[k]) ** powers)
+        out = y[:n]
+        out += L * force_of(y[n], y[n + 1], v_impact)
+        return out
 
     events = []
     u0 = cam_input(state.t)
