@@ -69,6 +69,8 @@ MAX_WINDOW = 1024
 #: Where the iteration does not converge, take exponential-collocation steps
 #: (:mod:`camsim.collocation`) before handing a step to DOP853.
 COLLOCATION = True
+#: Grid steps of DOP853 from a contact's onset before the collocation takes over.
+ONSET_STEPS = 2
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
 
@@ -184,12 +186,18 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     v_imp = state.v_impacts
     pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     t, z = state.t, z0
-    window = FIRST_WINDOW
+    # a stretch that continues the previous one of this configuration (it stopped at a
+    # cam segment join or an output stop, not at an event) starts with its window length
+    hint = stepper.__dict__.get("resume")
+    window = hint[1] if hint is not None and hint[0] == state.t else FIRST_WINDOW
+    stepper.resume = None
     first = True
     cur = state
     r_prev = None
     last_law = None
     fails = 0  # windows in a row that did not converge (the fallback span grows)
+    can_collocate = COLLOCATION and getattr(stepper.element, "analytic_closed", False)
+    colloc_next = False  # the next stretch goes to the collocation
 
     def finish(end_state, fired):
         stretch = None
@@ -224,7 +232,37 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
 
     while True:
         if t >= t_stop - TIME_EPS:
+            stepper.resume = (t_stop, window)
             return finish(integ._state_from(config, z, t_stop, cur), None)
+        if colloc_next:
+            # exponential collocation step by step (camsim.collocation) while the contact
+            # stiffness sweeps (the iteration would not converge); DOP853 for a step it does
+            # not accept and for a step where a guard may cross
+            colloc_next = False
+            any_taken = hit = False
+            while True:
+                t_c, z_c, taken, hit, calm = collocate(t, z, FALLBACK_STEPS * 2 ** min(fails, 3), first)
+                if taken is None:
+                    break
+                any_taken = True
+                if record:
+                    mask = integ._on_grid(taken[0][:-1])
+                    pieces.append((taken[0][:-1][mask], taken[1][:-1][mask], taken[2][:-1][mask]))
+                t, z = t_c, z_c
+                cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
+                first = False
+                if hit or calm or t >= t_stop - TIME_EPS:
+                    break
+            if any_taken and not hit:
+                window = FIRST_WINDOW
+                r_prev = None
+                continue
+            t, z, fired, cur = fallback(t, z, 2 if any_taken else FALLBACK_STEPS, first)
+            first = False
+            if fired is not None:
+                return finish(cur, fired)
+            colloc_next = True
+            continue
         # ---- the window's nodes: t, the grid points after it, its end
         k_end = math.floor((t - integ.t_ref) / h + 1e-7) + window
         t_end = min(t_stop, integ.t_ref + k_end * h)
@@ -259,11 +297,14 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         # ---- linear law at the window's start (tangent values on the ladder)
         _, _, F0, kt0, ct0 = stepper.force(z[None, :], U[:1], chi)
         if F0[0] <= 0.0:
-            t, z, fired, cur = fallback(t, z, FALLBACK_STEPS, first)
+            # the contact's onset (δ = 0: F ∝ δ^a is not smooth there): DOP853, then on
+            # by collocation
+            t, z, fired, cur = fallback(t, z, ONSET_STEPS if can_collocate else FALLBACK_STEPS, first)
             first = False
             if fired is not None:
                 return finish(cur, fired)
             window = FIRST_WINDOW
+            colloc_next = can_collocate
             continue
         k_now, c_now = float(kt0[0]), float(ct0[0])
         if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
@@ -358,27 +399,9 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 continue
             n_fallback = FALLBACK_STEPS * 2 ** min(fails, 3)
             fails += 1
-            # exponential collocation step by step (camsim.collocation); DOP853 for a step
-            # it does not accept and for a step where a guard may cross
-            # (and on while the contact stiffness still sweeps: the iteration would fail)
-            while COLLOCATION and getattr(stepper.element, "analytic_closed", False):
-                t_c, z_c, taken, hit, calm = collocate(t, z, n_fallback, first)
-                if taken is None:
-                    break
-                if record:
-                    mask = integ._on_grid(taken[0][:-1])
-                    pieces.append((taken[0][:-1][mask], taken[1][:-1][mask], taken[2][:-1][mask]))
-                t, z = t_c, z_c
-                cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
-                first = False
-                if hit or calm:
-                    break
-            else:
-                taken = None
-            if taken is not None and not hit:
+            if can_collocate:
+                colloc_next = True
                 continue
-            if taken is not None:
-                n_fallback = 2
             t, z, fired, cur = fallback(t, z, n_fallback, first)
             first = False
             if fired is not None:
