@@ -71,6 +71,8 @@ MAX_WINDOW = 1024
 COLLOCATION = True
 #: Grid steps of DOP853 from a contact's onset before the collocation takes over.
 ONSET_STEPS = 2
+#: Grid steps of DOP853 before the collocation is tried again where it took no step.
+COLLOC_RETRY = 2
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
 
@@ -257,7 +259,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 window = FIRST_WINDOW
                 r_prev = None
                 continue
-            t, z, fired, cur = fallback(t, z, 2 if any_taken else FALLBACK_STEPS, first)
+            t, z, fired, cur = fallback(t, z, 2 if any_taken else COLLOC_RETRY, first)
             first = False
             if fired is not None:
                 return finish(cur, fired)
