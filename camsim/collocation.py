@@ -43,6 +43,10 @@ CHECK = (0.22, 0.78)
 #: Newton: stop when the node values move by less than this times the step's force.
 NEWTON_TOL = 1e-13
 NEWTON_MAX = 8
+#: Newton iterations with a fresh Jacobian (then chord steps with the last one).
+JACOBIANS = 2
+#: The local error estimate must stay below this fraction of the tolerance.
+SAFETY = 1.0
 #: Back to the iterated remainder when the contact's tangent stiffness over the last
 #: CALM_STEPS steps spans less than CALM of its largest value.
 CALM = 0.2
@@ -152,7 +156,7 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
         Jinv = None
         for it in range(NEWTON_MAX):
             F, kt, ct = element.nonlinear_tangent(bd + Qd1 @ Fn, br + Qr1 @ Fn, v_impact)
-            if it < 2:
+            if it < JACOBIANS:
                 # Newton's Jacobian on the first two iterations, then kept (chord steps)
                 Jinv = np.linalg.inv(eye - kt[:, None] * Qd1 - ct[:, None] * Qr1)
             dF = Jinv @ (Fn - F)
@@ -172,7 +176,7 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
             break
         err = coll.G_err @ (Fc - coll.at_check @ Fall)
         z_new = coll.Phi @ z + end_in[k] + coll.endL @ Fall
-        if np.any(np.abs(err) > lengths + rtol * np.maximum(np.abs(z), np.abs(z_new))):
+        if np.any(np.abs(err) > SAFETY * (lengths + rtol * np.maximum(np.abs(z), np.abs(z_new)))):
             Fall = None
             break
         z = z_new
