@@ -51,6 +51,8 @@ SAFETY = 1.0
 #: CALM_STEPS steps spans less than CALM of its largest value.
 CALM = 0.2
 CALM_STEPS = 16
+#: Also require the remainder's interpolation test of camsim.nonlinear to pass.
+CALM_REMAINDER = True
 
 
 class Collocation:
@@ -142,10 +144,14 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     taken = 0
     kt_lo = np.full(K, np.inf)
     kt_hi = np.zeros(K)
+    ct_hi = np.zeros(K)
+    d_s = np.empty(K + 1)
+    r_s = np.empty(K + 1)
     for k in range(K):
         d0, r0 = M0 @ z + pre0[k]
         F0 = element.nonlinear_force_scalar(float(d0), float(r0), v_impact)
         Fs[k] = F0
+        d_s[k], r_s[k] = d0, r0
         if F0 <= 0.0:
             break
         base = Pz @ z + pre[k]
@@ -169,6 +175,7 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
             break
         Fall = np.concatenate([[F0], Fn])
         kt_lo[k], kt_hi[k] = float(np.min(kt)), float(np.max(kt))
+        ct_hi[k] = float(np.max(ct))
         y = base + Q[:, 1:] @ Fn
         Fc = element.nonlinear_force(y[rows_cd], y[rows_cr], v_impact)
         if float(np.min(Fc)) <= 0.0:
@@ -190,6 +197,17 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     last = slice(max(0, taken - CALM_STEPS), taken)
     hi = float(np.max(kt_hi[last]))
     calm = hi > 0.0 and (hi - float(np.min(kt_lo[last]))) <= CALM * hi
+    if calm and CALM_REMAINDER and taken >= 8:
+        # ... and the remainder about the ladder's linear law would pass the iteration's
+        # interpolation test (|Δ⁴r|/384 below INTERP_TOL of the force) on the last steps
+        from camsim.nonlinear import INTERP_TOL, LADDER
+
+        ks = slice(taken - 8, taken)
+        kq = LADDER ** round(math.log(hi) / math.log(LADDER))
+        cmax = float(np.max(ct_hi[ks]))
+        cq = LADDER ** round(math.log(cmax) / math.log(LADDER)) if cmax > 0 else 0.0
+        r = Fs[ks] - kq * d_s[ks] - cq * r_s[ks]
+        calm = float(np.max(np.abs(np.diff(r, 4)))) / 384.0 <= INTERP_TOL * float(np.max(np.abs(Fs[ks])))
     # guards on the end nodes of the steps taken (values and exact rates)
     Z = Zs[: taken + 1]
     Un = U[: taken + 1]
