@@ -81,6 +81,9 @@ COLLOC_RETRY = 8
 #: collocation rejects a step, and starts with a step size its history would not allow),
 #: which the following bounces amplify to 6e-9 of the displacement against 4e-10 off.
 ONSET_COLLOC = False
+#: After the onset's DOP853 span, go on by collocation (not a window of the iteration,
+#: which fails there).
+AFTER_ONSET = True
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
 
@@ -315,7 +318,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if fired is not None:
                 return finish(cur, fired)
             window = FIRST_WINDOW
-            colloc_next = onset_colloc
+            colloc_next = can_collocate and (onset_colloc or AFTER_ONSET)
             continue
         k_now, c_now = float(kt0[0]), float(ct0[0])
         if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
