@@ -28,6 +28,7 @@ _LAZY = {
     "load_machine": "camsim.loader",
     "Machine": "camsim.machine",
     "simulate": "camsim.simulation",
+    "simulate_to_file": "camsim.stream",
     "RunResult": "camsim.result",
     "open_result": "camsim.result",
     "EventKind": "camsim.events",

@@ -2,14 +2,17 @@
 
 A run's output grows with recorded time × sample rate × number of traces. A mistyped
 ``--set simulation.sample_rate=1e12Hz`` or ``simulation.cycles=100000`` would otherwise
-be accepted and grow in memory until the machine runs out. :func:`estimate_run` gives
-the size from the machine alone (no integration, milliseconds), and :func:`check_budget`
-refuses a run above ``--max-output`` (default :data:`DEFAULT_MAX_OUTPUT`) with one line
-that gives the estimate and the options that reduce it.
+be accepted and fill the disk. :func:`estimate_run` gives the size from the machine alone
+(no integration, milliseconds), and :func:`check_budget` refuses a run above
+``--max-output`` (default :data:`DEFAULT_MAX_OUTPUT`) with one line that gives the
+estimate and the options that reduce it.
 
-The estimate is an upper bound of the stored size: float64 samples, uncompressed, every
-trace the run writes (time, cam angle, displacement, velocity, acceleration and jerk,
-three traces per mass, one force per element, the cam contact and transducer forces).
+The estimate is an upper bound of the stored size: float64 samples, uncompressed, of the
+traces the run stores — all of them (time, cam angle, displacement, velocity,
+acceleration and jerk, three traces per mass, one force per element, the cam contact and
+transducer forces) unless ``--record``, ``--record-last`` or ``--summary-only`` say
+otherwise. ``camsim run`` streams its traces to the file, so memory does not grow with
+this size; the disk does.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from dataclasses import dataclass
 
 from camsim.errors import InputError
 
-__all__ = ["DEFAULT_MAX_OUTPUT", "Estimate", "estimate_run", "check_budget", "parse_size", "format_size"]
+__all__ = ["DEFAULT_MAX_OUTPUT", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
 
 #: Default largest estimated output of a run without ``--yes`` [bytes] (2 GB).
 DEFAULT_MAX_OUTPUT = 2_000_000_000
@@ -77,10 +80,15 @@ class Estimate:
 
 
 def count_traces(machine) -> int:
-    """Traces a run of ``machine`` writes (time and cam traces included)."""
+    """Traces a run of ``machine`` writes (time and cam traces included).
+
+    The layout (spec §7) has the five cam traces even without a cam (zeros); the cam
+    contact force when the cam drives a mass. ``camsim run`` counts the paths of
+    :func:`camsim.stream.machine_trace_layout` instead, which also knows ``--record``.
+    """
     n = 1  # time
-    if machine.cam is not None:
-        n += 5  # cam angle, displacement, velocity, acceleration, jerk
+    n += 5  # cam angle, displacement, velocity, acceleration, jerk
+    if machine.cam is not None and machine.cam.drives:
         n += 1  # cam contact force
     n += 3 * len(machine.masses)
     n += len(machine.elements)
@@ -133,6 +141,26 @@ def estimate_run(
     return Estimate(samples=float(samples), traces=n, bytes=float(samples) * n * 8.0, revolutions=revolutions, recorded_s=recorded)
 
 
+def record_fraction(machine, record_last: int | None, cycles: int | None = None) -> float:
+    """Fraction of the recorded time that ``--record-last N`` keeps (1 without it)."""
+    if not record_last or machine.cam is None:
+        return 1.0
+    from camsim.cam import CamProgram
+
+    period = CamProgram(machine.cam).period
+    sim = machine.simulation
+    recorded = float(cycles) * period if cycles is not None else (sim.duration if sim.duration is not None else sim.cycles * period)
+    return min(1.0, record_last * period / recorded) if recorded > 0 else 1.0
+
+
+#: What reduces a run's output, as the guard's message names it.
+REDUCE_HINT = (
+    "store less with --record PATTERN (e.g. transducer/*,masses/M3/*), --record-last N "
+    "(revolutions) or --summary-only, or record less with --cycles (simulation.cycles or "
+    "simulation.duration) or --sample-rate; or raise --max-output, or pass --yes to run it anyway"
+)
+
+
 def check_budget(estimate: Estimate, max_bytes: float, where: str) -> None:
     """Raise :class:`InputError` when the estimate exceeds ``max_bytes``.
 
@@ -144,6 +172,5 @@ def check_budget(estimate: Estimate, max_bytes: float, where: str) -> None:
     raise InputError(
         f"{where}: the run would store {estimate.samples:.3g} samples x {estimate.traces} traces "
         f"= {format_size(estimate.bytes)} ({estimate.recorded_s:.4g} s recorded), above --max-output "
-        f"{format_size(max_bytes)}; reduce it with --cycles (simulation.cycles or simulation.duration) "
-        f"or --sample-rate, or raise --max-output, or pass --yes to run it anyway"
+        f"{format_size(max_bytes)}; {REDUCE_HINT}"
     )

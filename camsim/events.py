@@ -30,7 +30,7 @@ class EventKind(StrEnum):
         return self in (EventKind.IMPACT, EventKind.REJOIN)
 
 
-@dataclass
+@dataclass(slots=True)  # a long run holds thousands (camsim.stream): no per-row __dict__
 class Event:
     """One event of a run (times on the simulation clock until shifted for output).
 

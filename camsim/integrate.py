@@ -1,35 +1,27 @@
 """The event-driven integrator: exact between events, events located on the exact solution.
 
-Between events a configuration is linear time-invariant with a cam input
-(ż = A·z + B·u(t) + b, see :mod:`camsim.model`). Over each step the cam input is
-replaced by the degree-7 Hermite polynomial that matches s, ṡ, s̈, s⃛ at both ends
-(error ~ (h/β)^8, far below 1e-9 relative; steps are split at cam segment joins, where
-derivatives jump), and the step map is then exact:
-
-    z(t+h) = Φ·z(t) + Σ_j Γ_j·E_j,    Φ = e^{Ah},  Γ_j = ∫₀ʰ e^{A(h−σ)} σ^j/j! dσ
-
-with Φ and Γ_j from one matrix exponential of a block chain (Van Loan 1978), cached per
-configuration. The recurrence over a uniform grid runs in modal coordinates as blocked
-cumulative sums (:mod:`camsim.recurrence`): numpy speed, no Python loop per step.
+Between events a configuration is linear time-invariant with a cam input, advanced by
+exact step maps (:mod:`camsim.stepping`) over chunks of the output grid.
 
 Event guards are affine in (z, u); their values and time derivatives are known exactly
 at every grid point, so a cubic Hermite interpolant per step reveals crossings that sign
 changes alone miss (a graze that crosses and re-crosses inside one step). Candidate
 roots are then polished by Newton's method on the exact solution to ~1e-15 s.
 
-Configurations with a closed power-law contact are nonlinear; they are integrated by
-``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-11) with terminal events.
+Configurations with a closed power-law contact are nonlinear: one such contact goes to the
+exponential stepper of :mod:`camsim.nonlinear`; others to ``scipy.integrate.solve_ivp``
+(DOP853, rtol 1e-11) with terminal events. Rigid contacts are resolved together as one
+linear complementarity problem (:mod:`camsim.rigid`); every located crossing is polished
+on the analytic cam law (:mod:`camsim.crossing`).
 """
 
 from __future__ import annotations
 
 import bisect
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
 from camsim.errors import SimulationError, ZenoError
 from camsim.crossing import polish_crossing
@@ -38,132 +30,40 @@ from camsim.affine import N_INPUT, Affine
 from camsim.elements import Branch, GuardKind
 from camsim.model import Configuration, Model
 from camsim.nonlinear import advance_power
-from camsim.recurrence import linear_recurrence
 from camsim.rigid import resolve as resolve_rigid
+from camsim.stepping import (  # noqa: F401 - also re-exported for camsim.nonlinear and camsim.crossing
+    _FACT,
+    _P,
+    HERMITE_DEGREE,
+    StepMaps,
+    exact_partial,
+    expm_balanced,
+    forcing_coefficients,
+    input_at,
+    step_input_derivatives,
+    _hermite_maps,
+)
 
-#: Degree of the per-step Hermite representation of the cam input.
-HERMITE_DEGREE = 7
-_P = HERMITE_DEGREE
-_FACT = np.array([math.factorial(j) for j in range(_P + 4)], dtype=float)
 
 #: Guard tolerances (LENGTH_TOL [m], FORCE_TOL [N]) are the elements' (camsim.elements.base):
 #: a guard within them of zero at the start of a stretch counts as "just crossed".
-#: A rigid contact sticks when the predicted remaining chatter time is below this [s].
-ZENO_TIME = 1e-11
-#: More events than this at one instant (within TIME_EPS) is a failure to resolve.
+#: More events than this at one instant (within INSTANT_TIME) is a failure to resolve.
 MAX_EVENTS_PER_INSTANT = 64
+#: Two times closer than this [s] are the same instant (a stretch end on a grid point, a
+#: boundary reached): far below the 1e-9 s event accuracy, far above rounding of t ~ 1e3 s.
 TIME_EPS = 1e-13
+#: Events closer than this [s] count as one instant for MAX_EVENTS_PER_INSTANT.
+INSTANT_TIME = 1e-12
+#: A time within this fraction of the grid step of a grid point is that grid point: grid
+#: times are t_ref + k·h computed from k, so only rounding (~1e-16·k) separates them.
+GRID_SNAP = 1e-7
+#: Newton on a guard stops when its bracket is this narrow [s] (about one ulp of t ~ 10 s).
+ROOT_BRACKET = 1e-15
+#: The search for a grazing dip bisects the exact guard rate to this fraction of the step.
+DIP_RESOLUTION = 1e-10
 #: Closed power-law contacts by the iterated-remainder stepper (camsim.nonlinear); False:
 #: DOP853 throughout (the reference for the stepper's tests and benchmark).
 NONLINEAR_STEPPER = True
-
-
-def expm_balanced(M: np.ndarray) -> np.ndarray:
-    """e^M after a diagonal balancing by powers of two (exact similarity).
-
-    Mechanical state matrices are badly scaled in first-order form (ω²·h beside h); the
-    balanced matrix has a norm near ω·h, so ``expm`` needs fewer squarings and keeps more
-    digits.
-    """
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        balanced, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
-    if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
-        return scipy.linalg.expm(M)
-    return (scale[:, None] * scipy.linalg.expm(balanced)) / scale[None, :]
-
-
-def _hermite_matrix() -> np.ndarray:
-    """Map [f(0), f'(0), f''(0), f'''(0), f(1), f'(1), f''(1), f'''(1)] → monomial coefficients."""
-    n = _P + 1
-    M = np.zeros((n, n))
-    for k in range(4):
-        M[k, k] = math.factorial(k)
-        for j in range(k, n):
-            M[4 + k, j] = math.factorial(j) / math.factorial(j - k)
-    return np.linalg.inv(M)
-
-
-_HERMITE = _hermite_matrix()
-
-
-def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray, grid_step: float | None = None) -> np.ndarray:
-    """Derivatives D_j (j = 0..7) of the cam displacement at step starts.
-
-    Parameters
-    ----------
-    u0, u1 : ndarray (K, 4)
-        [s, ṡ, s̈, s⃛] at the start and end of each step [SI].
-    h : ndarray (K,)
-        Step lengths [s].
-    grid_step : float, optional
-        The step most of them have (default: their median).
-
-    Returns
-    -------
-    ndarray (K, 8)
-        d^j s/dt^j at each step start for the degree-7 Hermite interpolant.
-    """
-    h = np.asarray(h, dtype=float).reshape(-1)
-    if h.size == 0:
-        return np.zeros((0, _P + 1))
-    # Most steps share one length (the grid step): two small matrix products for all of
-    # them; the few others (partial steps at stretch ends) one by one.
-    common = float(grid_step) if grid_step is not None else float(np.median(h))
-    P0, P1 = _hermite_maps(common)
-    out = u0 @ P0 + u1 @ P1
-    # (grid steps differ from one another by rounding only: |Δh| ~ 1e-16·t)
-    for k in np.flatnonzero(np.abs(h - common) > 1e-9 * common):
-        P0, P1 = _hermite_maps(float(h[k]))
-        out[k] = u0[k] @ P0 + u1[k] @ P1
-    return out
-
-
-_HERMITE_MAPS: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-
-
-def _hermite_maps(h: float) -> tuple[np.ndarray, np.ndarray]:
-    """(P0, P1) with D = u0·P0 + u1·P1 for steps of length h (cached per h)."""
-    hit = _HERMITE_MAPS.get(h)
-    if hit is None:
-        k = np.arange(4)
-        j = np.arange(_P + 1)
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            # D_j = j!/h^j · Σ_i H[j, i]·data_i, data = [u0·h^k, u1·h^k]
-            scale = _FACT[: _P + 1] / h**j
-            P0 = (h**k)[:, None] * _HERMITE[:, :4].T * scale[None, :]
-            P1 = (h**k)[:, None] * _HERMITE[:, 4:].T * scale[None, :]
-        P0[~np.isfinite(P0)] = 0.0
-        P1[~np.isfinite(P1)] = 0.0
-        # The first four derivatives are the data at the step start, exactly.
-        P0[:, :4] = np.eye(4)
-        P1[:, :4] = 0.0
-        hit = (P0, P1)
-        if len(_HERMITE_MAPS) > 4096:
-            _HERMITE_MAPS.clear()
-        _HERMITE_MAPS[h] = hit
-    return hit
-
-
-def forcing_coefficients(config: Configuration, D: np.ndarray) -> np.ndarray:
-    """E_j = B·[D_j, D_{j+1}, D_{j+2}, D_{j+3}] (+ b for j = 0): (K, 8, m)."""
-    K = D.shape[0]
-    Dp = np.concatenate([D, np.zeros((K, 3))], axis=1)
-    # stacked[k, j, c] = D_{j+c}
-    idx = np.arange(_P + 1)[:, None] + np.arange(N_INPUT)[None, :]
-    stacked = Dp[:, idx]
-    E = stacked @ config.B.T  # (K, 8, m)
-    E[:, 0, :] += config.b
-    return E
-
-
-def input_at(D: np.ndarray, tau: float) -> np.ndarray:
-    """[s, ṡ, s̈, s⃛] at τ into a step from its Taylor derivatives D (8,)."""
-    out = np.empty(N_INPUT)
-    for c in range(N_INPUT):
-        terms = D[c:]
-        out[c] = np.sum(terms * tau ** np.arange(terms.size) / _FACT[: terms.size])
-    return out
 
 
 def _cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:
@@ -225,115 +125,6 @@ class _StepInput:
             self.cache[k] = hit
         a, C = hit
         return C @ ((t - a) ** self.j)
-
-
-class StepMaps:
-    """Cached exact step maps of one linear configuration for a fixed step h."""
-
-    def __init__(self, config: Configuration, h: float):
-        m = config.dim
-        self.h = h
-        nb = _P + 2
-        big = np.zeros((m * nb, m * nb))
-        big[:m, :m] = config.A
-        for j in range(nb - 1):
-            big[m * j : m * (j + 1), m * (j + 1) : m * (j + 2)] = np.eye(m)
-        if m:
-            expo = expm_balanced(big * h)
-        else:
-            expo = np.zeros((0, 0))
-        self.Phi = expo[:m, :m]
-        self.Gamma = np.stack([expo[:m, m * (j + 1) : m * (j + 2)] for j in range(_P + 1)]) if m else np.zeros((_P + 1, 0, 0))
-        # The step's input term Σ_j Γ_j·E_j with E_j = B·[D_j..D_{j+3}] (+ b for j = 0)
-        # regrouped by input derivative: g = D·W + g0, one small matrix product per chunk.
-        self.W = np.zeros((_P + 1, m))
-        for i in range(_P + 1):
-            for c in range(N_INPUT):
-                if 0 <= i - c <= _P:
-                    self.W[i] += self.Gamma[i - c] @ config.B[:, c]
-        self.g0 = self.Gamma[0] @ config.b if m else np.zeros(0)
-        # Modal form for the recurrence; of each complex-conjugate pair of modes only one
-        # is run (the state is real, so the other is its conjugate).
-        self.modal = False
-        if m:
-            lam, V = np.linalg.eig(self.Phi)
-            cond = np.linalg.cond(V)
-            if np.isfinite(cond) and cond < 1e7:
-                self.modal = True
-                self.mu = lam
-                self.V = V
-                self.Vinv = np.linalg.inv(V)
-                self.weights = np.ones(m)
-                keep = []
-                used = np.zeros(m, dtype=bool)
-                for i in range(m):
-                    if used[i]:
-                        continue
-                    used[i] = True
-                    if abs(lam[i].imag) > 1e-14 * max(1.0, abs(lam[i])):
-                        partner = np.flatnonzero(~used & (np.abs(lam - np.conj(lam[i])) <= 1e-12 * max(1.0, abs(lam[i]))))
-                        if partner.size:
-                            used[partner[0]] = True
-                            self.weights[i] = 2.0
-                    keep.append(i)
-                self.keep = np.array(keep, dtype=int)
-
-    def propagate(self, z0: np.ndarray, D: np.ndarray) -> np.ndarray:
-        """States after each full step: z_{k+1} = Φ z_k + Σ_j Γ_j E_kj; returns (K, m).
-
-        ``D`` (K, 8) holds the cam-input derivatives at each step start.
-        """
-        K = D.shape[0]
-        m = z0.size
-        if m == 0:
-            return np.zeros((K, 0))
-        g = D @ self.W + self.g0
-        if self.modal:
-            keep = self.keep
-            gm = g @ self.Vinv[keep].T  # (K, modes kept) modal forcing
-            w0 = self.Vinv[keep] @ z0
-            W = np.empty((K, keep.size), dtype=complex)
-            for col, i in enumerate(keep):
-                W[:, col] = linear_recurrence(self.mu[i], gm[:, col], w0[col])
-            return np.real(W @ (self.V[:, keep] * self.weights[keep]).T)
-        out = np.empty((K, m))
-        z = z0
-        for k in range(K):
-            z = self.Phi @ z + g[k]
-            out[k] = z
-        return out
-
-
-def exact_partial(config: Configuration, z0: np.ndarray, E: np.ndarray, tau: float) -> np.ndarray:
-    """Exact state after τ from z0 under the polynomial forcing Σ E_j σ^j/j! (E: (8, m)).
-
-    The augmented matrix is built in the scaled time σ/τ so that its norm stays near
-    ‖A‖·τ (the raw forcing coefficients reach 1e13 for stiff contacts, and ``expm`` would
-    square its way through them), and the state block is balanced with the
-    configuration's cached diagonal scaling (positions against velocities).
-    """
-    m = config.dim
-    if m == 0:
-        return np.zeros(0)
-    scale = config.cache.get("balance")
-    if scale is None:
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            _, (scale, _) = scipy.linalg.matrix_balance(config.A, permute=False, separate=True)
-        if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
-            scale = np.ones(m)
-        config.cache["balance"] = scale
-    n_aug = m + _P + 1
-    M = np.zeros((n_aug, n_aug))
-    # D⁻¹·M·D with D = diag(scale, 1, …, 1): exact similarity by powers of two.
-    M[:m, :m] = config.A * tau * (scale[None, :] / scale[:, None])
-    M[:m, m:] = (E * (tau ** np.arange(1, _P + 2))[:, None]).T / scale[:, None]
-    for j in range(1, _P + 1):
-        M[m + j, m + j - 1] = 1.0
-    start = np.zeros(n_aug)
-    start[:m] = z0 / scale
-    start[m] = 1.0
-    return (scipy.linalg.expm(M) @ start)[:m] * scale
 
 
 @dataclass
@@ -529,7 +320,9 @@ class Integrator:
     def _delta(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
         """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps."""
         d, rate = self._deflection(config, i)
-        gap = self.model.elements[i].gap
+        sign, gap = self.model.elements[i].contact_side(self.model.branch_of(config.branches, i))
+        if sign < 0:  # the upper side of a two-sided element: δ = d − gap (issue 12 hook)
+            return Affine(d.Cz, d.Du, d.Fn, d.e - gap), rate
         return Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
 
     def guards(self, state: State, config: Configuration) -> list[Guard]:
@@ -557,8 +350,8 @@ class Integrator:
     # ------------------------------------------------------------------ grid helpers
     def grid_between(self, t0: float, t1: float) -> np.ndarray:
         """Grid points in [t0, t1) (tolerant to rounding)."""
-        k0 = math.ceil((t0 - self.t_ref) / self.h - 1e-7)
-        k1 = math.ceil((t1 - self.t_ref) / self.h - 1e-7)
+        k0 = math.ceil((t0 - self.t_ref) / self.h - GRID_SNAP)
+        k1 = math.ceil((t1 - self.t_ref) / self.h - GRID_SNAP)
         if k1 <= k0:
             return np.zeros(0)
         return self.t_ref + np.arange(k0, k1) * self.h
@@ -593,10 +386,10 @@ class Integrator:
         while True:
             # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
             # sample's time (and the cam input there) is the same whatever the history.
-            k_end = math.floor((t_start - self.t_ref) / h + 1e-7) + chunk
+            k_end = math.floor((t_start - self.t_ref) / h + GRID_SNAP) + chunk
             t_chunk_end = min(t_stop, self.t_ref + k_end * h)
-            k0 = math.ceil((t_start - self.t_ref) / h - 1e-7)
-            k1 = math.ceil((t_chunk_end - self.t_ref) / h - 1e-7)
+            k0 = math.ceil((t_start - self.t_ref) / h - GRID_SNAP)
+            k1 = math.ceil((t_chunk_end - self.t_ref) / h - GRID_SNAP)
             if k0 < k1 and self.t_ref + k0 * h <= t_start + TIME_EPS:
                 k0 += 1  # the start is that grid point: it is node 0 already
             if k0 < k1 and self.t_ref + (k1 - 1) * h >= t_chunk_end - TIME_EPS:
@@ -616,7 +409,10 @@ class Integrator:
             D = step_input_derivatives(U[:-1], U[1:], steps, h)
             Z = np.empty((nodes.size, config.dim))
             Z[0] = z_start
-            full = np.abs(steps - h) <= 1e-9 * h
+            # A grid step's computed length differs from h by the rounding of t (an ulp of t
+            # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
+            # 7x slower; long runs, camsim.stream).
+            full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
             # Steps are full except possibly the first and the last: runs of full steps go
             # through the cached maps, the others through an exact map of their own length.
             k = 0
@@ -653,7 +449,7 @@ class Integrator:
 
     def _on_grid(self, t: np.ndarray) -> np.ndarray:
         k = (t - self.t_ref) / self.h
-        return np.abs(k - np.round(k)) < 1e-7
+        return np.abs(k - np.round(k)) < GRID_SNAP
 
     def _stretch(self, state, config, ts, zs, us) -> Stretch | None:
         if not ts:
@@ -816,7 +612,7 @@ class Integrator:
         if a[2] >= 0 or b[2] <= 0:  # no interior minimum between the neighbours
             return values[k] if values[k][1] <= 0 else None
         lo_t, hi_t = a[0], b[0]
-        while hi_t - lo_t > 1e-10 * hk:
+        while hi_t - lo_t > DIP_RESOLUTION * hk:
             mid = 0.5 * (lo_t + hi_t)
             g, gd, z = evaluate(mid)
             if g <= 0:
@@ -844,7 +640,7 @@ class Integrator:
                 a_t = t
             else:
                 b_t = t
-            if g == 0 or b_t - a_t <= 1e-15:
+            if g == 0 or b_t - a_t <= ROOT_BRACKET:
                 break
             t_new = t - g / gd if gd != 0 else 0.5 * (a_t + b_t)
             if not (a_t < t_new < b_t):
@@ -933,7 +729,7 @@ class Integrator:
 
     def handle(self, state: State, guard: Guard) -> State:
         """Apply the event of ``guard`` at ``state``; returns the state after it."""
-        if abs(state.t - self._instant_time) <= 1e-12:
+        if abs(state.t - self._instant_time) <= INSTANT_TIME:
             self._instant_count += 1
             if self._instant_count > MAX_EVENTS_PER_INSTANT:
                 raise ZenoError(
@@ -951,62 +747,15 @@ class Integrator:
         if guard.kind != GuardKind.UNLIFT and Branch.STUCK in model.branch_options(i):
             return resolve_rigid(self, state, i, guard.kind)  # issue 12 hook: rigid contacts as one LCP
         _, rate = self.relative_rate(state, i)
-        outcome = model.elements[i].outcome(guard.kind, rate)
+        d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0]))
+        outcome = model.elements[i].outcome_at(guard.kind, rate, d)  # issue 12 hook: two-sided elements
         if outcome.event is not None:
             self._record(state.t, i, outcome.event, outcome.velocity)
-        if outcome.rigid_impact:
-            return self._rigid_impact(state, i, pos, branches, v_imp, rate)
         if outcome.branch is not None:
             branches[pos] = outcome.branch
         if outcome.v_impact is not None:
             v_imp[i] = outcome.v_impact
         return State(state.t, state.x.copy(), state.v.copy(), tuple(branches), v_imp)
-
-    def _rigid_impact(self, state, i, pos, branches, v_imp, approach):
-        """Newton's impact law on a rigid contact; stick when the chatter would not end."""
-        model = self.model
-        e = model.elements[i].restitution or 0.0
-        t = state.t
-        u = self.inputs(np.array([t]))[0]
-        # Active constraints: the already-stuck contacts keep zero relative velocity.
-        rows = [model.geometry[k].G for k, b in zip(model.switching, branches) if b == Branch.STUCK and k != i]
-        rows.append(model.geometry[i].G)
-        J = np.array(rows)
-        Minv = np.diag(1.0 / model.mass)
-        target = np.zeros(len(rows))
-
-        def velocity_after(restitution):
-            target[-1] = (1.0 + restitution) * approach  # G·Δv for the impacting row
-            W = J @ Minv @ J.T
-            lam = np.linalg.solve(W, target)
-            return state.v + Minv @ J.T @ lam
-
-        v_new = velocity_after(e)
-        branches_open = tuple(branches)
-        after = State(t, state.x, v_new, branches_open, v_imp)
-        # Relative acceleration in the open configuration decides whether it can stick.
-        config = model.configuration(branches_open)
-        z = config.state_from_full(state.x, v_new, u[0], u[1])
-        acc = config.a(z[None, :], u[None, :], self.nonlinear_forces(config, z[None, :], u[None, :], v_imp))[0]
-        geo = model.geometry[i]
-        delta_acc = -(acc @ geo.G + geo.g_s * u[2])
-        rebound = e * approach
-        stick = False
-        if delta_acc > 0:
-            if e <= 0.0 or e >= 1.0:
-                stick = e <= 0.0
-            else:
-                remaining = 2.0 * rebound / (delta_acc * (1.0 - e))
-                stick = remaining < ZENO_TIME
-        elif rebound <= 0.0:
-            stick = False
-        if stick:
-            v_stuck = velocity_after(0.0)
-            branches[pos] = Branch.STUCK
-            stuck = State(t, state.x, v_stuck, tuple(branches), v_imp)
-            self._record(t, i, EventKind.STICK, 0.0)
-            return stuck
-        return after
 
     def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float) -> None:
         element = self.model.elements[i]
@@ -1040,11 +789,18 @@ class Integrator:
         raise ZenoError(f"cannot find a consistent contact state at t = {state.t:.12g} s")
 
     # ------------------------------------------------------------------ driver
-    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None):
-        """Integrate from ``state`` to ``t_end``; yield stretches recorded from ``record_from``.
+    def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
+            on_stretch=None):
+        """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
         e.g. the start of a cycle for the periodicity residual.
+
+        ``on_stretch(stretch, t)``, when given, receives each recorded stretch instead of the
+        returned list (which stays empty: memory does not grow with the run), called once
+        every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
+        and later stretches' samples all lie at or after ``t`` (camsim.stream). The consumer
+        may remove the events it has read from :attr:`events` (the integrator only appends).
         """
         stretches: list[Stretch] = []
         state = self.settle(state)
@@ -1067,16 +823,21 @@ class Integrator:
             t_stop = boundaries[bi] if bi < len(boundaries) else t_end
             record = t_stop > record_from - TIME_EPS
             new_state, stretch, guard = self.advance(state, t_stop, record)
+            kept = None
             if stretch is not None:
-                keep = stretch.t >= record_from - 1e-7 * self.h
+                keep = stretch.t >= record_from - GRID_SNAP * self.h
                 if np.any(keep):
-                    stretches.append(Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts))
+                    kept = Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts)
+                    if on_stretch is None:
+                        stretches.append(kept)
             if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):
                 raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
             state = new_state
             if guard is not None:
                 state = self.handle(state, guard)
                 state = self.settle(state)
+            if on_stretch is not None and kept is not None:  # streaming hook (camsim.stream)
+                on_stretch(kept, state.t)
             if progress is not None:
                 progress(state.t)
             count += 1

@@ -82,7 +82,10 @@ _MASS_KEYS = ("name", "parts", "lever", "mass", "note")
 _ELEMENT_PARAMS = {p.key: p for cls in element_kinds.classes() for p in (*element_kinds.COMMON_PARAMS, *cls.params)}
 _ELEMENT_KEYS = (*_ELEMENT_PARAMS, "note")
 #: Element keys that may hold a part reference, and the kind they need (stiffnesses and forces).
-_ELEMENT_VALUE_KEYS = {k: p.dimension for k, p in _ELEMENT_PARAMS.items() if p.dimension in ("stiffness", "force")}
+# (a key is a stiffness or a force for some kind: `stiffness` is also a lash's or Adams
+# contact's power-law coefficient, whichever class registers last)
+_ELEMENT_VALUE_KEYS = {p.key: p.dimension for cls in element_kinds.classes() for p in cls.params
+                       if p.dimension in ("stiffness", "force")}
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _KIND_TEXT = {"mass": "a mass", "stiffness": "a stiffness", "force": "a force"}
 

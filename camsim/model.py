@@ -189,13 +189,15 @@ class Model:
             k_s -= k * geo.G * geo.g_s
             c_s -= c * geo.G * geo.g_s
             F0 -= f0 * geo.G
-        # Power-law contact force F (compressive) acts +F on the upper node: Q = F·G.
-        P = np.array([self.geometry[i].G for i in power]).T.reshape(n, len(power))
+        # Power-law contact force F (compressive) acts +F on the upper node: Q = F·G; a
+        # contact on side σ of a two-sided element (a lash) acts σ·F·G (issue 12 hook).
+        sides = {i: self.elements[i].contact_side(self.branch_of(branches, i)) for i in (*power, *rigid)}
+        P = np.array([sides[i][0] * self.geometry[i].G for i in power]).T.reshape(n, len(power))
 
         if rigid:
-            J = np.array([self.geometry[i].G for i in rigid])
-            j_s = np.array([self.geometry[i].g_s for i in rigid])
-            r0 = np.array([self.elements[i].gap for i in rigid])  # G·x + g_s·s = gap
+            J = np.array([sides[i][0] * self.geometry[i].G for i in rigid])
+            j_s = np.array([sides[i][0] * self.geometry[i].g_s for i in rigid])
+            r0 = np.array([sides[i][0] * sides[i][1] for i in rigid])  # σ·(G·x + g_s·s) = σ·gap
             if np.linalg.matrix_rank(J) < len(rigid):
                 raise InputError(
                     "rigid contacts " + ", ".join(self.elements[i].name for i in rigid)
@@ -298,7 +300,8 @@ class Model:
             d = x @ geo.G + geo.g_s * s
             dd = v @ geo.G + geo.g_s * sdot
             if i in config.stuck_contacts:
-                out[:, i] = lam[:, config.stuck_contacts.index(i)]
+                out[:, i] = element.reported_constraint_force(self.branch_of(branches, i),
+                                                              lam[:, config.stuck_contacts.index(i)])
             else:
                 out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i))
         return out

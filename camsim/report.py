@@ -29,8 +29,12 @@ def _fmt(value, fmt: str = ".4g") -> str:
     return format(value, fmt)
 
 
+#: Impact rows the human summary prints (a long run has thousands; the file has them all).
+MAX_IMPACT_ROWS = 40
+
+
 def render_run_summary(result, console: Console, system: str = "si", cs: float | None = None) -> None:
-    """Print the summary of a :class:`~camsim.simulation.RunResult`.
+    """Print the summary of a :class:`~camsim.result.RunResult` (or a streamed run's summary).
 
     Every column header carries the unit its values are printed in (escaped, so rich
     does not take ``[mm]`` for markup); ``system`` is ``"si"`` (mm, m/s, N) or ``"us"``
@@ -59,19 +63,23 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
         console.print(f"cam contact force: max {_lbf(hi['value'], system)} at t = {hi['time']:.5f} s, min {_lbf(lo['value'], system)} at t = {lo['time']:.5f} s", markup=False)
     impacts = result.impacts()
     if impacts:
-        t = Table(title="impacts", title_justify="left")
+        shown_rows = impacts[:MAX_IMPACT_ROWS]
+        title = "impacts" if len(impacts) == len(shown_rows) else f"impacts (the first {len(shown_rows)} of {len(impacts)})"
+        t = Table(title=escape(title), title_justify="left")
         v_unit, v_scale = shown("m/s", system)
         f_unit, f_scale = shown("N", system)
         for col in ("t [s]", "angle [deg]", "element", "masses", f"approach [{v_unit}]", f"Johnson lower [{f_unit}]",
                     f"Johnson upper [{f_unit}]", f"simulated peak [{f_unit}]", "duration [ms]"):
             t.add_column(escape(col), justify="right")
-        for e in impacts:
+        for e in shown_rows:
             t.add_row(
                 f"{e.time:.6f}", _fmt(e.angle_deg, ".2f"), escape(e.element), escape(e.masses), _fmt(e.relative_velocity * v_scale),
                 _fmt(e.johnson_lower * f_scale), _fmt(e.johnson_upper * f_scale), _fmt(e.peak_force * f_scale),
                 _fmt(e.contact_duration * 1e3 if not math.isnan(e.contact_duration) else float("nan")),
             )
         console.print(t)
+        if len(impacts) > len(shown_rows):
+            console.print(f"... {len(impacts) - len(shown_rows)} more impacts: all are in the file's /events table and in --json")
     else:
         console.print("no impacts")
     others = [e for e in result.events if e.kind not in ("impact", "rejoin")]

@@ -398,9 +398,18 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             machine = load_machine_text(text, source=f"{path}:machine_toml", base_dir=Path(path).parent)
         except MachineFileError as exc:
             raise ResultFileError(f"{path}: cannot rebuild its machine from machine_toml ({exc})") from None
-        time = g["time"][()]
-        cam = {q: g[f"cam/{q}"][()] for q in ("angle", "displacement", "velocity", "acceleration", "jerk")}
-        masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
+        try:
+            time = g["time"][()]
+            cam = {q: g[f"cam/{q}"][()] for q in ("angle", "displacement", "velocity", "acceleration", "jerk")}
+            masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
+        except KeyError:  # a run stored with --record or --summary-only (camsim.stream)
+            import json
+
+            stored = json.loads(g["summary"].attrs["recorded"]) if "summary" in g and "recorded" in g["summary"].attrs else []
+            raise ResultFileError(
+                f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
+                "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
+            ) from None
         elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
         cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
         transducer = g["transducer/force"][()] if "transducer/force" in g else None

@@ -100,9 +100,10 @@ def solve_lcp(W: np.ndarray, q: np.ndarray, tol: float = 0.0) -> np.ndarray:
     return np.maximum(best[1], 0.0)
 
 
-def _rows(model, indices):
-    J = np.array([model.geometry[i].G for i in indices]).reshape(len(indices), model.n)
-    js = np.array([model.geometry[i].g_s for i in indices])
+def _rows(model, indices, signs):
+    # A contact on side σ of a two-sided element (a lash) has rows σ·G, σ·g_s (issue 12).
+    J = np.array([sign * model.geometry[i].G for i, sign in zip(indices, signs)]).reshape(len(indices), model.n)
+    js = np.array([sign * model.geometry[i].g_s for i, sign in zip(indices, signs)])
     return J, js
 
 
@@ -137,12 +138,15 @@ def resolve(integrator, state, trigger: int, kind: str):
         if Branch.STUCK in model.branch_options(i)
     ]
     touching = []
+    sides = []
     for pos, i in rigid:
         delta, _ = integrator.relative_rate(state, i)
-        if i == trigger or branches[pos] == Branch.STUCK or delta >= -TOUCH:
+        if i == trigger or model.is_rigid(i, branches[pos]) or delta >= -TOUCH:
             touching.append((pos, i))
+            d = float(model.deflection(i, state.x, u[0]))
+            sides.append(model.elements[i].contact_side(branches[pos], d))
     idx = [i for _, i in touching]
-    J, js = _rows(model, idx)
+    J, js = _rows(model, idx, [sign for sign, _ in sides])
     minv = 1.0 / model.mass
     W = (J * minv[None, :]) @ J.T
     if idx and np.linalg.matrix_rank(W) < len(idx):
@@ -196,7 +200,7 @@ def resolve(integrator, state, trigger: int, kind: str):
             remaining = 2.0 * w_plus[k] / (-a_open[k] * (1.0 - min(e[k], 1.0 - 1e-16)))
             apex = w_plus[k] ** 2 / (-2.0 * a_open[k])
             i = idx[k]
-            scale_x = abs(model.elements[i].gap) + abs(float(J[k] @ state.x)) + abs(js[k] * u[0])
+            scale_x = abs(sides[k][1]) + abs(float(J[k] @ state.x)) + abs(js[k] * u[0])
             if remaining < ZENO_TIME or apex < APEX_RTOL * scale_x:
                 resting.append(k)
     stuck = set()
@@ -239,10 +243,11 @@ def resolve(integrator, state, trigger: int, kind: str):
         x = x + minv * (J[K].T @ np.linalg.solve(W[np.ix_(K, K)], d))
     for k, (pos, i) in enumerate(touching):
         was = branches[pos]
-        now = Branch.STUCK if k in stuck else Branch.OPEN
-        if now == Branch.STUCK and was != Branch.STUCK:
+        was_stuck = model.is_rigid(i, was)
+        now = model.elements[i].stuck_branch(sides[k][0]) if k in stuck else Branch.OPEN
+        if now != Branch.OPEN and not was_stuck:
             integrator._record(t, i, EventKind.STICK, 0.0)
-        elif now == Branch.OPEN and was == Branch.STUCK:
+        elif now == Branch.OPEN and was_stuck:
             integrator._record(t, i, EventKind.RELEASE, -w_plus[k])
         branches[pos] = now
     return State(t, x, v, tuple(branches), dict(state.v_impacts))

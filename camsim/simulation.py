@@ -7,7 +7,7 @@ HDF5 writer, the plots and the summary table all read.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -218,7 +218,9 @@ def simulate(
         return _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress)
 
 
-def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress) -> RunResult:
+def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None) -> RunResult:
+    """The run; ``stream(run)`` (camsim.stream), when given, makes the consumer of the
+    stretches (see :class:`RunSetup`) and its ``finish()`` returns the result instead."""
     sim = machine.simulation
     if cycles is not None or warmup_cycles is not None or sample_rate is not None:
         sim = replace(
@@ -254,6 +256,8 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress) 
         )
     substeps = max(1, math.ceil(h_out * f_max * SAMPLES_PER_PERIOD))
     integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
+    run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
+    consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)
     saved: dict[float, State] = {}
     # The state one revolution apart gives the periodicity residual: the last warm-up cycle
@@ -277,36 +281,129 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress) 
     if t_rec > 0 and h_warm > 1.5 * integrator.h:
         warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
         state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
-    _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
-    result = _assemble(machine, model, cam, integrator, stretches, t_rec, t_end, h_out, warnings, no_impact)
-    result.periodicity_residual = _residual(model, saved, stops, result)
+    if consumer is None:
+        _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
+        result = _assemble(run, stretches)
+        peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
+    else:
+        integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
+        result = consumer.finish()
+        peak = result.peak
+    result.periodicity_residual = _residual(model, saved, stops, peak)
     result.sample_rate = sim.sample_rate
+    if consumer is not None:
+        consumer.close(result)
     return result
 
 
-def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, t_end, h_out, warnings, no_impact) -> RunResult:
+@dataclass(frozen=True)
+class RunSetup:
+    """What turns a run's stretches into output samples and events (both assembly paths).
+
+    Attributes
+    ----------
+    machine, model, cam, integrator
+        The machine (with the run's overrides), its model, cam program and the recording
+        integrator (its ``events`` are the raw event list).
+    t_rec : float
+        Start of the recorded window on the simulation clock [s] (output time 0).
+    t_end : float
+        End of the recorded window [s].
+    h_out : float
+        Output sample interval [s].
+    warnings : list of str
+        The run's warnings so far (appended to).
+    no_impact : bool
+    period : float or None
+        One cam revolution [s] (None without a cam).
+    """
+
+    machine: Machine
+    model: Model
+    cam: CamProgram
+    integrator: Integrator
+    t_rec: float
+    t_end: float
+    h_out: float
+    warnings: list
+    no_impact: bool
+    period: float | None
+
+
+def stretch_samples(run: RunSetup, st: Stretch):
+    """The output-grid samples of one stretch: ``(t, x, v, a, u, forces)`` or None.
+
+    ``t`` [s] on the simulation clock; x, v, a (N, n) of the free masses; u (N, 4) the
+    cam input s, ṡ, s̈, s⃛; forces (N, elements) [N]. Used by :func:`_assemble` and by the
+    streaming assembler alike, so both give the same bits.
+    """
+    t_rec, t_end, h_out = run.t_rec, run.t_end, run.h_out
+    k = (st.t - t_rec) / h_out
+    keep = (np.abs(k - np.round(k)) < 1e-6) & (st.t <= t_end + 1e-9 * h_out)
+    if not np.any(keep):
+        return None
+    if np.all(keep):  # the usual case: no copies
+        z, u, fn, t = st.z, st.u, st.fn, st.t
+    else:
+        z, u, fn, t = st.z[keep], st.u[keep], st.fn[keep], st.t[keep]
+    config = st.config
+    x = config.x(z, u, fn)
+    v = config.v(z, u, fn)
+    a = config.a(z, u, fn)
+    lam = config.lam(z, u, fn)
+    forces = run.model.element_forces(st.branches, x, v, u[:, 0], u[:, 1], lam, config, st.v_impacts)
+    return t, x, v, a, u, forces
+
+
+def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
+    """The traces of a run (or of a stretch of it) from its samples (element by element,
+    so any split of the samples gives the same bits): keyword arguments of
+    :class:`RunResult` ``time``, ``cam``, ``masses``, ``elements``,
+    ``cam_contact_force``, ``transducer_force``."""
+    machine, model, cam = run.machine, run.model, run.cam
+    masses: dict[str, dict[str, np.ndarray]] = {}
+    for m in machine.masses:
+        if m.name == model.driven:
+            masses[m.name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
+        else:
+            k = model.index[m.name]
+            masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
+    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
+    cam_force = model.cam_contact_force(forces, u[:, 2])
+    transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
+    transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
+    # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
+    angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(time)
+    cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
+    return {"time": time, "cam": cam_traces, "masses": masses, "elements": elements,
+            "cam_contact_force": cam_force, "transducer_force": transducer}
+
+
+def boundaries_deg(run: RunSetup) -> np.ndarray:
+    """Cam angles of the segment joins [deg] (empty without a cam)."""
+    cam = run.cam
+    if run.machine.cam is None or not hasattr(cam, "boundary_angles"):
+        return np.zeros(0)
+    return np.asarray(np.degrees(cam.boundary_angles()), dtype=float)
+
+
+def negative_cam_force_warning(driven: str, minimum: float, at: float) -> str:
+    """The warning of a cam contact force that goes negative (minimum [N] at time [s])."""
+    return (
+        f"cam contact force on {driven} goes negative (minimum {minimum:.4g} N at "
+        f"t = {at:.6g} s): a force-closed follower would leave the cam"
+    )
+
+
+def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
+    t_rec, h_out = run.t_rec, run.h_out
     ts, xs, vs, as_, us, fs = [], [], [], [], [], []
     for st in stretches:
-        k = (st.t - t_rec) / h_out
-        keep = (np.abs(k - np.round(k)) < 1e-6) & (st.t <= t_end + 1e-9 * h_out)
-        if not np.any(keep):
+        samples = stretch_samples(run, st)
+        if samples is None:
             continue
-        if np.all(keep):  # the usual case: no copies
-            z, u, fn, t = st.z, st.u, st.fn, st.t
-        else:
-            z, u, fn, t = st.z[keep], st.u[keep], st.fn[keep], st.t[keep]
-        config = st.config
-        x = config.x(z, u, fn)
-        v = config.v(z, u, fn)
-        a = config.a(z, u, fn)
-        lam = config.lam(z, u, fn)
-        forces = model.element_forces(st.branches, x, v, u[:, 0], u[:, 1], lam, config, st.v_impacts)
-        ts.append(t)
-        xs.append(x)
-        vs.append(v)
-        as_.append(a)
-        us.append(u)
-        fs.append(forces)
+        for parts, arr in zip((ts, xs, vs, as_, us, fs), samples):
+            parts.append(arr)
     if not ts:
         raise SimulationError("the run recorded no samples")
     t = np.concatenate(ts)
@@ -320,36 +417,20 @@ def _assemble(machine, model, cam, integrator, stretches: list[Stretch], t_rec, 
         keep = np.concatenate([np.diff(grid_index) != 0, [True]])
         t, x, v, a, u, forces, grid_index = (arr[keep] for arr in (t, x, v, a, u, forces, grid_index))
     time = grid_index * h_out
-    masses: dict[str, dict[str, np.ndarray]] = {}
-    for m in machine.masses:
-        if m.name == model.driven:
-            masses[m.name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
-        else:
-            k = model.index[m.name]
-            masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
-    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
-    cam_force = model.cam_contact_force(forces, u[:, 2])
-    transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
-    transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
-    # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
-    angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(t)
-    cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
-    events = EventTable(_events(machine, model, cam, integrator.events, t_rec, t_end, time, elements))
+    traces = sample_traces(run, time, x, v, a, u, forces)
+    machine, model, cam, warnings = run.machine, run.model, run.cam, run.warnings
+    cam_force = traces["cam_contact_force"]
+    events = EventTable(_events(machine, model, cam, run.integrator.events, t_rec, run.t_end, time, traces["elements"]))
     if cam_force is not None:
         events.extend(_jump_rows(cam, time, cam_force, t_rec, model.driven))
         events.sort(key=lambda e: e.time)
         if np.min(cam_force) < 0:
             k = int(np.argmin(cam_force))
-            warnings.append(
-                f"cam contact force on {model.driven} goes negative (minimum {cam_force[k]:.4g} N at "
-                f"t = {time[k]:.6g} s): a force-closed follower would leave the cam"
-            )
-    boundaries = np.degrees(cam.boundary_angles()) if machine.cam is not None and hasattr(cam, "boundary_angles") else np.zeros(0)
+            warnings.append(negative_cam_force_warning(model.driven, cam_force[k], time[k]))
     return RunResult(
-        machine=machine, time=time, cam=cam_traces, masses=masses, elements=elements,
-        cam_contact_force=cam_force, transducer_force=transducer, events=events,
-        periodicity_residual=float("nan"), warnings=warnings, no_impact=no_impact,
-        boundaries_deg=np.asarray(boundaries, dtype=float),
+        machine=machine, **traces, events=events,
+        periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
+        boundaries_deg=boundaries_deg(run),
     )
 
 
@@ -371,23 +452,33 @@ def _node_mass(model: Model, node: str) -> float:
     return model.machine.mass_of(node)
 
 
-def _annotate(model: Model, ev: Event, later: list[Event], t_rec, time, element_forces) -> None:
-    """Johnson bounds, simulated peak force and contact duration of one impact."""
+def johnson_annotate(model: Model, ev: Event):
+    """Set Johnson's bounds of one impact; return its element when the impact is annotated
+    further (peak force, contact duration), None when it is not (no finite mass, no
+    approach, or no bounds for this element)."""
     element = model.elements[ev.element_index]
     m_lo, m_up = _node_mass(model, element.lower), _node_mass(model, element.upper)
     finite = sorted(m for m in (m_lo, m_up) if math.isfinite(m))
     if not finite or ev.relative_velocity <= 0:
-        return
+        return None
     m2 = finite[0]  # the struck (lighter) mass; the other is the driver
     m1 = finite[1] if len(finite) > 1 else math.inf
     v = ev.relative_velocity
     try:
         bounds = element.johnson_bounds(m1, m2, v)
     except InputError:
-        return
+        return None
     if bounds is None:
-        return
+        return None
     ev.johnson_lower, ev.johnson_upper = (float(b) for b in bounds)
+    return element
+
+
+def _annotate(model: Model, ev: Event, later: list[Event], t_rec, time, element_forces) -> None:
+    """Johnson bounds, simulated peak force and contact duration of one impact."""
+    element = johnson_annotate(model, ev)
+    if element is None:
+        return
     t_close = ev.time
     t_open = next((e.time - t_rec for e in later if e.element == element.name and e.kind == element.closing_ends), None)
     if t_open is not None:
@@ -406,18 +497,29 @@ def _peak(samples: np.ndarray) -> float:
     k = int(np.argmax(samples))
     top = float(samples[k])
     if 0 < k < samples.size - 1:
-        left, right = float(samples[k - 1]), float(samples[k + 1])
-        curvature = left - 2.0 * top + right
-        if curvature < 0.0:
-            return top - 0.125 * (right - left) ** 2 / curvature
+        return refined_peak(float(samples[k - 1]), top, float(samples[k + 1]))
     return top
 
 
-def _jump_rows(cam, time, cam_force, t_rec, driven) -> list[Event]:
+def refined_peak(left: float, top: float, right: float) -> float:
+    """The top of the parabola through three samples around a sampled maximum ``top``
+    (``top`` itself when they do not curve down)."""
+    curvature = left - 2.0 * top + right
+    if curvature < 0.0:
+        return top - 0.125 * (right - left) ** 2 / curvature
+    return top
+
+
+def _jump_rows(cam, time, cam_force, t_rec, driven, before: tuple[float, float] | None = None) -> list[Event]:
+    """Rows where the cam contact force turns negative; ``before`` is the (time [s],
+    force [N]) sample just before ``time[0]`` when the samples come in pieces."""
+    if before is not None:
+        time = np.concatenate([[before[0]], time])
+        cam_force = np.concatenate([[before[1]], cam_force])
     rows = []
     negative = cam_force < 0
     starts = np.flatnonzero(negative[1:] & ~negative[:-1]) + 1
-    if negative[0]:
+    if negative[0] and before is None:
         starts = np.concatenate([[0], starts])
     for k in starts:
         if k == 0:
@@ -431,8 +533,9 @@ def _jump_rows(cam, time, cam_force, t_rec, driven) -> list[Event]:
     return rows
 
 
-def _residual(model: Model, saved: dict, stops, result: RunResult) -> float:
-    """Largest change over one revolution of the free masses' state, relative to each peak."""
+def _residual(model: Model, saved: dict, stops, peak) -> float:
+    """Largest change over one revolution of the free masses' state, relative to each peak
+    (``peak(name, quantity)``: largest |sample| of a mass's recorded trace)."""
     if len(stops) != 2 or model.n == 0:
         return float("nan")
     before, after = (saved.get(round(s, 9)) for s in stops)
@@ -442,6 +545,6 @@ def _residual(model: Model, saved: dict, stops, result: RunResult) -> float:
     for name in model.free_names:
         k = model.index[name]
         for quantity, b, a in (("displacement", before.x, after.x), ("velocity", before.v, after.v)):
-            peak = float(np.max(np.abs(result.masses[name][quantity]))) or 1.0
-            worst = max(worst, abs(a[k] - b[k]) / peak)
+            scale = peak(name, quantity) or 1.0
+            worst = max(worst, abs(a[k] - b[k]) / scale)
     return worst

@@ -282,8 +282,9 @@ runner = CliRunner()
         # 3 x 3 masses, 4 elements, cam contact, transducer)
         ("cdtm.toml", "simulation.cycles=100000", 100000 * 0.5 * 50e3 + 1, 21),
         ("cdtm.toml", "simulation.sample_rate=1e12Hz", 1 * 0.5 * 1e12 + 1, 21),
-        # ball drop: no cam; time, 3 traces of the ball, 1 element, the transducer
-        ("ball-drop.toml", "simulation.duration=1e6s", None, 6),
+        # ball drop: no cam; time, the 5 cam traces (zeros: the layout is the same), 3 traces
+        # of the ball, 1 element, the transducer
+        ("ball-drop.toml", "simulation.duration=1e6s", None, 11),
     ],
 )
 def test_size_guard_refuses_before_integrating(tmp_path, machine, override, samples, traces):
@@ -347,17 +348,17 @@ def test_killed_run_leaves_previous_result_and_next_run_removes_its_temp(tmp_pat
 
 def test_sigterm_and_sigint_remove_the_temporary_file(tmp_path, monkeypatch):
     """The temporary file is removed when the write is interrupted (Ctrl-C, or SIGTERM -> KeyboardInterrupt)."""
-    import camsim.io.runfile as runfile
+    from camsim.io.streamfile import TraceStreamWriter
 
     out = tmp_path / "r.h5"
-    original = runfile.write_run_group
+    original = TraceStreamWriter.finish
 
-    def interrupted(group, result):
-        original(group, result)
+    def interrupted(self, result):
+        original(self, result)  # the traces are all in the temporary file (streamed)
         os.kill(os.getpid(), signal.SIGTERM)  # arrives while the temporary file exists
         time.sleep(1.0)
 
-    monkeypatch.setattr(runfile, "write_run_group", interrupted)
+    monkeypatch.setattr(TraceStreamWriter, "finish", interrupted)
     res = runner.invoke(app, ["run", str(BARKAN), "-o", str(out), "--cycles", "1", "--warmup", "0", "--sample-rate", "2kHz"])
     assert res.exit_code == 130
     assert list(tmp_path.iterdir()) == []
@@ -366,18 +367,29 @@ def test_sigterm_and_sigint_remove_the_temporary_file(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_sigkill_run_at_random_moments(tmp_path):
     """20 runs killed with SIGKILL at seeded random moments: the previous result stays
-    intact (bytes), and after the next complete run no temporary file remains."""
+    intact (bytes), and after the next complete run no temporary file remains.
+
+    The run streams its traces into its temporary file from the start of the
+    integration: a kill mid-run leaves that file (pid-tagged), which the next run of the
+    same output removes as soon as it starts, so at most one is ever there."""
     out = tmp_path / "r.h5"
     base = CAMSIM + ["run", str(BARKAN), "-o", str(out), "--warmup", "0", "--sample-rate", "20kHz", "-q", "--cycles", "40"]
+    started = time.monotonic()
     subprocess.run(base, env=env(), check=True, capture_output=True)
+    duration = time.monotonic() - started  # start-up, integration and streaming, close
     previous = out.read_bytes()
     rng = random.Random(1616)
+    left_mid_stream = 0
     for trial in range(20):
         proc = subprocess.Popen(base, env=env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(0.3, 2.5))
+        time.sleep(rng.uniform(0.1, 1.0) * duration)
         proc.kill()
         proc.wait()
         assert out.read_bytes() == previous, trial  # deterministic output: a finished run writes the same bytes
+        temps = [p.name for p in tmp_path.iterdir() if p.name != "r.h5"]
+        assert len(temps) <= 1, (trial, temps)  # a run that got going removed the older one
+        left_mid_stream += any(f".{proc.pid}." in name for name in temps)
+    assert left_mid_stream >= 1  # some kills landed while the traces were streaming
     subprocess.run(base, env=env(), check=True, capture_output=True)
     assert out.read_bytes() == previous
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.h5"]

@@ -14,11 +14,14 @@ References:
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.special import gamma
 
+from camsim import simulate
 from camsim.loader import load_machine_text
 from camsim.restitution import (
     hc_alpha,
@@ -30,8 +33,9 @@ from camsim.restitution import (
     linear_damping_ratio,
     linear_restitution,
 )
-from camsim import simulate
-from tests.reference.scenarios import ContactRelease
+
+sys.path.insert(0, str(Path(__file__).parent / "reference"))
+from scenarios import ContactRelease  # noqa: E402
 
 
 # ---------------------------------------------------------------------- the mapping

@@ -323,42 +323,108 @@ def design_summary(result, cs: float | None = None) -> dict | None:
         ``flywheel_inertia`` [kg*m^2] (None without ``cs``). Values that do not apply
         are None.
     """
-    geometry = _geometry(result)
-    if geometry is None:
+    accumulator = DesignAccumulator.for_machine(result.machine)
+    if accumulator is None:
         return None
-    program = _program(result)
-    static = geometry_summary(geometry, program)
-    out = {k: v for k, v in static.items() if k not in ("defects",)}
-    out["defects"] = [d.describe(geometry) for d in static["defects"]]
-    traces = _design_traces_of(result)
-    time = _trace(result, "time")
-    nan = None
-    out.update(peak_normal_force=nan, peak_hertz_stress=nan, peak_hertz_stress_time=nan, peak_torque=nan,
-               peak_torque_time=nan, rms_torque=nan, cycle_work=nan, energy_fluctuation=nan, cs=cs,
-               flywheel_inertia=nan)
-    if "cam_contact/normal_force" in traces:
-        out["peak_normal_force"] = float(np.max(traces["cam_contact/normal_force"][0]))
-    if "cam_contact/hertz_stress" in traces:
-        stress = traces["cam_contact/hertz_stress"][0]
-        if np.any(np.isfinite(stress)):
-            k = int(np.nanargmax(stress))
-            out["peak_hertz_stress"] = float(stress[k])
-            out["peak_hertz_stress_time"] = float(time[k])
-    if "camshaft/torque" in traces:
-        torque = traces["camshaft/torque"][0]
-        k = int(np.argmax(np.abs(torque)))
-        out["peak_torque"] = float(abs(torque[k]))
-        out["peak_torque_time"] = float(time[k])
-        out["rms_torque"] = float(np.sqrt(np.mean(torque**2)))
-        rev = _one_revolution(np.asarray(time, dtype=float), torque, program.period)
-        if rev is not None:
-            t, tq = rev
-            work, delta = energy_fluctuation(program.speed * t, tq)
-            out["cycle_work"] = work
-            out["energy_fluctuation"] = delta
-            if cs is not None:
-                out["flywheel_inertia"] = flywheel_inertia(delta, cs, program.speed)
-    return out
+    accumulator.add(result)
+    return accumulator.summary(cs)
+
+
+class DesignAccumulator:
+    """The dynamic design scalars folded over a run's samples, piece by piece.
+
+    An in-memory run feeds its whole result once; a streamed run (:mod:`camsim.stream`)
+    feeds each piece as it is written, so the summary covers every revolution in bounded
+    memory: peaks and their times (first occurrence wins, as ``argmax``), the RMS torque
+    from the running sum of squares, and the torque of the first recorded revolution
+    (one revolution of samples) for the energy fluctuation.
+    """
+
+    def __init__(self, geometry: CamGeometry, program):
+        self.geometry = geometry
+        self.program = program
+        self.peak_normal = None
+        self.peak_stress = None  # (value, time)
+        self.peak_torque = None  # (|value|, time)
+        self.sum_squares = 0.0
+        self.count = 0
+        self.first_time: list[np.ndarray] = []
+        self.first_torque: list[np.ndarray] = []
+
+    @classmethod
+    def for_machine(cls, machine) -> "DesignAccumulator | None":
+        """An empty accumulator for a machine with ``[cam.geometry]``, else None."""
+        cam = machine.cam
+        geometry = None if cam is None else getattr(cam, "geometry", None)
+        if geometry is None:
+            return None
+        from camsim.cam.program import CamProgram
+
+        return cls(geometry, CamProgram(cam))
+
+    def add(self, result) -> None:
+        """Fold in the samples of one result (a whole run, or one streamed piece)."""
+        traces = _design_traces_of(result)
+        time = np.asarray(_trace(result, "time"), dtype=float)
+        if not time.size:
+            return
+        if "cam_contact/normal_force" in traces:
+            value = float(np.max(traces["cam_contact/normal_force"][0]))
+            self.peak_normal = value if self.peak_normal is None else max(self.peak_normal, value)
+        if "cam_contact/hertz_stress" in traces:
+            stress = traces["cam_contact/hertz_stress"][0]
+            if np.any(np.isfinite(stress)):
+                k = int(np.nanargmax(stress))
+                if self.peak_stress is None or stress[k] > self.peak_stress[0]:
+                    self.peak_stress = (float(stress[k]), float(time[k]))
+        if "camshaft/torque" in traces:
+            torque = np.asarray(traces["camshaft/torque"][0], dtype=float)
+            k = int(np.argmax(np.abs(torque)))
+            if self.peak_torque is None or abs(torque[k]) > self.peak_torque[0]:
+                self.peak_torque = (float(abs(torque[k])), float(time[k]))
+            self.sum_squares += float(np.sum(torque**2))
+            self.count += torque.size
+            period = self.program.period
+            reach = time <= period * (1.0 + 1e-12)
+            # keep the first revolution, and the sample after it (to close it at t = T)
+            if self._needs_more(period):
+                n = int(np.count_nonzero(reach)) + 1
+                self.first_time.append(time[:n])
+                self.first_torque.append(torque[:n])
+
+    def _needs_more(self, period: float) -> bool:
+        if not self.first_time:
+            return True
+        last = self.first_time[-1]
+        return last.size == 0 or last[-1] <= period * (1.0 + 1e-12)
+
+    def summary(self, cs: float | None = None) -> dict:
+        """The design dict of :func:`design_summary`."""
+        static = geometry_summary(self.geometry, self.program)
+        out = {k: v for k, v in static.items() if k not in ("defects",)}
+        out["defects"] = [d.describe(self.geometry) for d in static["defects"]]
+        nan = None
+        out.update(peak_normal_force=nan, peak_hertz_stress=nan, peak_hertz_stress_time=nan, peak_torque=nan,
+                   peak_torque_time=nan, rms_torque=nan, cycle_work=nan, energy_fluctuation=nan, cs=cs,
+                   flywheel_inertia=nan)
+        if self.peak_normal is not None:
+            out["peak_normal_force"] = self.peak_normal
+        if self.peak_stress is not None:
+            out["peak_hertz_stress"], out["peak_hertz_stress_time"] = self.peak_stress
+        if self.peak_torque is not None:
+            out["peak_torque"], out["peak_torque_time"] = self.peak_torque
+            out["rms_torque"] = float(np.sqrt(self.sum_squares / self.count))
+            time = np.concatenate(self.first_time)
+            torque = np.concatenate(self.first_torque)
+            rev = _one_revolution(time, torque, self.program.period)
+            if rev is not None:
+                t, tq = rev
+                work, delta = energy_fluctuation(self.program.speed * t, tq)
+                out["cycle_work"] = work
+                out["energy_fluctuation"] = delta
+                if cs is not None:
+                    out["flywheel_inertia"] = flywheel_inertia(delta, cs, self.program.speed)
+        return out
 
 
 def design_columns(machine) -> list[tuple[str, str]]:
@@ -369,7 +435,11 @@ def design_columns(machine) -> list[tuple[str, str]]:
 
 def design_row(result) -> dict:
     """The :data:`DESIGN_COLUMNS` of one run (NaN where they do not apply); {} without geometry."""
-    summary = design_summary(result)
+    return design_row_from(design_summary(result))
+
+
+def design_row_from(summary: dict | None) -> dict:
+    """The :data:`DESIGN_COLUMNS` of a :func:`design_summary` dict; {} for None."""
     if summary is None:
         return {}
     return {name: (float("nan") if summary.get(name) is None else float(summary[name])) for name, _ in DESIGN_COLUMNS}

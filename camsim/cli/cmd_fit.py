@@ -10,6 +10,11 @@ import typer
 from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors
 
 
+def evaluation_store_for(target: Path) -> Path:
+    """Where a fit keeps its finished simulations until it completes: FITTED.toml.evaluations.h5."""
+    return target.with_name(target.name + ".evaluations.h5")
+
+
 def _default_output(machine: Path) -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm_fitted.toml``."""
     return machine.with_name(machine.stem + "_fitted.toml")
@@ -88,6 +93,7 @@ def fit_command(
     starts: int = typer.Option(1, "--starts", min=1, help="Solver starts: the given start plus N-1 Latin-hypercube points in the bounds; the lowest cost wins."),
     seed: int = typer.Option(0, "--seed", help="Seed of the Latin hypercube of --starts."),
     max_evaluations: int = typer.Option(None, "--max-evaluations", min=1, help="Largest number of residual evaluations per start (default 100 per parameter); a fit stopped by it exits 1."),
+    resume: bool = typer.Option(False, "--resume", help="Continue a fit that was interrupted (Ctrl-C, SIGTERM, SIGKILL): the simulations it finished are kept in FITTED.toml.evaluations.h5 (and its .journal) and are not run again. The same machine, parameters, traces and settings are required."),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key for every run, e.g. --set element.seat.stiffness="9e6 N/m" (repeatable).'),
     cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions of every run (overrides simulation.cycles)."),
     warmup: int = typer.Option(None, "--warmup", min=0, help="Warm-up revolutions of every run (overrides simulation.warmup_cycles)."),
@@ -135,6 +141,8 @@ def fit_command(
             seed=seed,
             max_evaluations=max_evaluations,
             progress=(lambda line: show(line, markup=False)) if show else None,
+            evaluations=evaluation_store_for(target_path),
+            resume=resume,
         )
         if json_:
             print_json(result.to_json())

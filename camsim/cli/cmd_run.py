@@ -27,56 +27,77 @@ def run_command(
     check_against: Path = typer.Option(None, "--check-against", help="After the run, compare the result with this golden file (exit 1 on a regression)."),
     rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (see camsim check)."),
     atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against (SI)."),
-    max_output: str = typer.Option("2GB", "--max-output", metavar="SIZE", help="Refuse (exit 2, before integrating) a run whose estimated output is larger, e.g. 500MB, 10GB; the message gives the estimate."),
+    max_output: str = typer.Option("2GB", "--max-output", metavar="SIZE", help="Refuse (exit 2, before integrating) a run whose estimated output is larger, e.g. 500MB, 10GB; the message gives the estimate and the options that reduce it."),
     yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output."),
+    record: list[str] = typer.Option([], "--record", metavar="PATTERN[,PATTERN]", help="Store only the traces whose result path matches a pattern (fnmatch), e.g. 'transducer/*,masses/M3/*' (repeatable); time is stored with them. The summary and events cover everything."),
+    record_last: int = typer.Option(None, "--record-last", min=1, metavar="N", help="Store only the last N recorded revolutions of traces; the summary and events cover every revolution."),
+    summary_only: bool = typer.Option(False, "--summary-only", help="Store no traces: the event table and the summary (/summary) only."),
+    compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
     cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
-    The summary (peaks per mass, forces, impacts with their approach velocities and
-    Johnson bounds, periodicity residual) goes to stderr. Before integrating, the
-    output size is estimated; above --max-output the run is refused (exit 2) unless
-    --yes. The file is written atomically: Ctrl-C or SIGTERM leaves the previous result
-    and no temporary file (exit 130). Exit 0 on success, 1 when the run fails
-    (diverges, unresolved chatter) or --check-against finds a regression, 2 on bad input.
+    The traces are written to the file while the run proceeds, so memory does not grow
+    with the number of revolutions; --record, --record-last and --summary-only store
+    less (the summary and the event table always cover every revolution). The summary
+    (peaks per mass, forces, impacts with their approach velocities and Johnson bounds,
+    periodicity residual) goes to stderr and to the file's /summary group. Before
+    integrating, the output size is estimated; above --max-output the run is refused
+    (exit 2) unless --yes. The file is written atomically: Ctrl-C or SIGTERM leaves the
+    previous result and no temporary file (exit 130). Exit 0 on success, 1 when the run
+    fails (diverges, unresolved chatter) or --check-against finds a regression, 2 on bad
+    input.
     """
-    from camsim.budget import check_budget, estimate_run, parse_size
+    from camsim.budget import check_budget, estimate_run, parse_size, record_fraction
     from camsim.cli.progress import FractionBar
     from camsim.display import check_unit_system
+    from camsim.errors import InputError
     from camsim.io.atomic import check_writable, remove_stale_temps
-    from camsim.io.runfile import write_run
     from camsim.lifecycle import sigterm_as_interrupt
     from camsim.loader import load_machine
     from camsim.report import render_run_summary
-    from camsim.simulation import simulate
+    from camsim.stream import limit_heap_growth, machine_trace_layout, select_traces, simulate_to_file
 
     rate = parse_sample_rate(sample_rate)
+    patterns = [p.strip() for item in record for p in item.split(",") if p.strip()]
     with user_errors(), sigterm_as_interrupt():
         check_unit_system(units)
         limit = parse_size(max_output)
+        if summary_only and (patterns or record_last is not None):
+            raise InputError("--summary-only: stores no traces; it cannot be combined with --record or --record-last")
+        if record and not patterns:
+            raise InputError("--record: give at least one pattern, e.g. 'transducer/*'")
         loaded = load_machine(machine, overrides=set_)
+        if record_last is not None and loaded.cam is None:
+            raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")
         target = output if output is not None else default_output(machine)
         check_writable(target)
         from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
 
         check_machine(loaded, cs)
         remove_stale_temps(target)  # left by a run that was killed outright
-        estimate = estimate_run(loaded, cycles=cycles, warmup_cycles=warmup, sample_rate=rate)
+        stored = select_traces(machine_trace_layout(loaded, no_impact), patterns or None, summary_only)
+        estimate = estimate_run(loaded, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, traces=len(stored),
+                                record_fraction=record_fraction(loaded, record_last, cycles))
         if not yes:
             check_budget(estimate, limit, str(machine))
         if check_against is not None:
             from camsim.io.results import open_h5
 
             open_h5(check_against).close()
+        limit_heap_growth()  # memory must not grow with revolutions (camsim.stream)
         revs = estimate.revolutions  # seconds for a machine without a cam
         progress = FractionBar("run", "rev" if revs else "s", revs or estimate.recorded_s, quiet=quiet)
         try:
-            result = simulate(loaded, no_impact=no_impact, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, progress=progress)
+            result = simulate_to_file(
+                loaded, target, no_impact=no_impact, cycles=cycles, warmup_cycles=warmup, sample_rate=rate,
+                progress=progress, record=patterns or None, record_last=record_last, summary_only=summary_only,
+                compress=compress,
+            )
         finally:
             progress.close()
-        write_run(result, target)
         if json_:
             payload = result.summary()
             if cs is not None and "design" in payload:  # issue 14

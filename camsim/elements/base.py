@@ -44,7 +44,8 @@ class Branch(str, Enum):
     OPEN = "open"  # contact carries no force
     CLOSED = "closed"  # compliant contact pressing (linear or power law); a lash's lower side
     CLOSED_HIGH = "closed-high"  # a lash pressing on its upper side (issue 12)
-    STUCK = "stuck"  # rigid contact resting closed: a constraint
+    STUCK = "stuck"  # rigid contact resting closed: a constraint; a rigid lash's lower side
+    STUCK_HIGH = "stuck-high"  # a rigid lash resting closed on its upper side
     BILATERAL = "bilateral"  # no-impact variant: cam contact that never opens
 
 
@@ -245,6 +246,28 @@ class Element:
     def is_nonlinear(self, branch: Branch | None) -> bool:
         """True when the branch's force is nonlinear (integrated as F_nl)."""
         return False
+
+    def contact_side(self, branch: Branch | None, d: float | None = None) -> tuple[float, float]:
+        """(σ, g) of the contact acting on ``branch``: penetration δ = σ·(g − d) [-, m].
+
+        Asked of elements whose branch is nonlinear or a constraint: the contact force F
+        (compressive along δ) acts σ·F·G on the free masses, and a constraint holds
+        σ·(G·x + g_s·s) = σ·g. Contacts: (1, gap). A two-sided element (a lash) answers
+        for the side closed on ``branch``, or, when open, the side nearest deflection ``d``.
+        """
+        return 1.0, 0.0
+
+    def stuck_branch(self, sign: float) -> Branch:
+        """The constraint branch of a rigid contact resting on side ``sign`` (σ of :meth:`contact_side`)."""
+        return Branch.STUCK
+
+    def reported_constraint_force(self, branch: Branch | None, lam: np.ndarray) -> np.ndarray:
+        """The reported force [N] of a constraint branch from its compressive force λ [N]."""
+        return lam
+
+    def outcome_at(self, kind: GuardKind, rate: float, d: float) -> Outcome:
+        """:meth:`outcome`, knowing the deflection ``d`` at the crossing [m] (two-sided elements)."""
+        return self.outcome(kind, rate)
 
     def force(self, branch: Branch | None, d: np.ndarray, d_rate: np.ndarray, damping: dict[str, float],
               v_impact: float | None) -> np.ndarray:

@@ -66,6 +66,9 @@ class Contact(Element):
     def penetration(self, d: float) -> float:
         return self.gap - d
 
+    def contact_side(self, branch, d=None):
+        return 1.0, self.gap
+
     def describe(self) -> dict:
         out = super().describe()
         out.setdefault("restitution", None)

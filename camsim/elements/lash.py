@@ -7,12 +7,25 @@ With ``clearance`` c ≥ 0 and ``offset`` o (default 0) the element is free whil
     δ_low = (o − c/2) − d   (d below the clearance: pushes the nodes apart),
     δ_high = d − (o + c/2)  (d above it: pulls them together),
 
-i.e. δ = |d − o| − c/2 on the side that touches, and the contact ``law`` of the element
-(one set of parameters for both sides). Each side closing is an ``impact``, each opening a
-``release`` (the force reaching zero). Supported law: ``"linear"``, F = max(0, k·δ + c·δ̇),
-damped by ``damping``, ``damping_ratio`` or ``restitution`` (the mapping of a linear
-contact, with the lash's reduced mass).
+i.e. δ = |d − o| − c/2 on the side that touches, and the contact ``law`` of the element,
+any law of ``type = "contact"`` with one set of parameters for both sides:
 
+- ``"linear"`` (default): F = max(0, k·δ + c·δ̇), damped by ``damping``, ``damping_ratio``
+  or ``restitution`` (the mapping of a linear contact, with the lash's reduced mass);
+- ``"power"``: F = C·δ^a·(1 + χ·δ̇), with ``restitution`` (and ``damping_model``) or
+  ``hysteresis_damping`` as a power-law contact has; χ follows each side's own impact;
+- ``"adams-impact"``: MSC Adams's IMPACT function;
+- ``"restitution"``: a rigid stop on each side, Newton's law at each impact, resting
+  (``stick``) and ``release`` as a rigid contact, solved with the other rigid contacts
+  as one LCP (:mod:`camsim.rigid`).
+
+Each law is one class here, registered under ``type = "lash"`` and the law's name; it
+delegates the law to an instance of that law's contact class (built from the same
+parameters, ``gap`` 0) and tells the model which side is closed: a side σ (+1 lower,
+−1 upper) acts with penetration δ = σ·(g − d), g the side's touching deflection
+(:meth:`Lash.contact_side`).
+
+Each side closing is an ``impact``, each opening a ``release`` (the force reaching zero).
 Its force is reported **tension-positive** like a spring's: negative while the lower side
 pushes the nodes apart, positive while the upper side pulls them together. In the
 no-impact variant a lash is removed (both sides stay open), unless it joins the cam.
@@ -20,61 +33,90 @@ no-impact variant a lash is removed (both sides stay open), unless it joins the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import ClassVar
+from dataclasses import dataclass, fields
+from functools import cached_property
+from typing import Any, ClassVar
 
 import numpy as np
 
-from camsim.affine import N_INPUT, Affine
-from camsim.elements.base import (
-    CAM,
-    DAMPING_PARAMS,
-    FORCE_TOL,
-    LENGTH_TOL,
-    Branch,
-    Element,
-    GuardKind,
-    Outcome,
-    Param,
-    register,
-)
+from camsim.affine import Affine
+from camsim.elements.adams_impact import AdamsImpactContact
+from camsim.elements.base import CAM, DEFAULT_LAW, FORCE_TOL, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, register
+from camsim.elements.contact import CONTACT_PARAMS, Contact
+from camsim.elements.linear_contact import LinearContact
+from camsim.elements.power_contact import PowerContact
+from camsim.elements.rigid_contact import RigidContact
 from camsim.events import EventKind
-from camsim.restitution import linear_damping_ratio
 
-#: Contact laws a lash supports.
-LASH_LAWS = ("linear",)
+#: Keys every lash takes, whatever its law.
+LASH_PARAMS: tuple[Param, ...] = (
+    Param("clearance", "length", "c: total free play (free while |d − offset| < c/2)", required=True, minimum=0.0),
+    Param("offset", "length", "o: the centre of the free play in d", default=0.0),
+    Param("law", "string", "the contact law of both sides (the tables below, one per law)", default="linear"),
+)
+#: Keys of a contact that a lash does not take (the lash has its own geometry).
+_CONTACT_ONLY = tuple(p.key for p in CONTACT_PARAMS)
 
 
-@register
+def _law_params(contact: type[Contact]) -> tuple[Param, ...]:
+    return tuple(p for p in contact.params if p.key not in _CONTACT_ONLY)
+
+
+class _Side:
+    """A guard context seen from one side of a lash: ``penetration`` is that side's δ, δ̇."""
+
+    def __init__(self, ctx, delta: Affine, rate: Affine):
+        self._ctx = ctx
+        self._pen = (delta, rate)
+
+    def penetration(self):
+        return self._pen
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._ctx, name)
+
+
 @dataclass(frozen=True)
 class Lash(Element):
-    """Two-sided clearance: ``clearance`` c [m], ``offset`` o [m], a linear law on each side."""
+    """Two-sided clearance: ``clearance`` c [m], ``offset`` o [m], a contact law on each side.
+
+    The law's parameters are the fields of the law's contact class (see :attr:`contact`).
+    """
 
     clearance: float = 0.0
     offset: float = 0.0
-    law: str = "linear"
     stiffness: float = 0.0
     restitution: float | None = None
+    coefficient: float = 0.0
+    exponent: float = 1.0
+    damping_model: str = "exact"
+    hysteresis_damping: float | None = None
+    max_damping: float = 0.0
+    penetration_depth: float = 1e-4
+    clamp: bool = True
 
     type_name: ClassVar[str] = "lash"
-    summary: ClassVar[str] = "two-sided clearance: free while |d − offset| < clearance/2, a contact beyond either side"
-    params: ClassVar[tuple[Param, ...]] = (
-        Param("clearance", "length", "c: total free play (free while |d − offset| < c/2)", required=True, minimum=0.0),
-        Param("offset", "length", "o: the centre of the free play in d", default=0.0),
-        Param("law", "choice", "the contact law of both sides", default="linear", choices=LASH_LAWS),
-        Param("stiffness", "stiffness", "k of each side", required=True, minimum=0.0, strict=True),
-        *DAMPING_PARAMS,
-        Param("restitution", "number", "instead of damping/damping_ratio: the restitution an isolated impact "
-              "on either side achieves", minimum=0.0, maximum=1.0, strict=True),
-    )
+    #: The contact class of the law (one instance of it computes each side's force).
+    contact_class: ClassVar[type[Contact]] = LinearContact
+    #: The branches on which each side is closed: (lower, upper).
+    closed_branches: ClassVar[tuple[Branch, Branch]] = (Branch.CLOSED, Branch.CLOSED_HIGH)
+
+    @property
+    def law(self) -> str:
+        """The ``law`` name it was written with."""
+        return self.law_name
 
     @classmethod
     def check(cls, values, error, driven) -> None:
-        damping = values.get("damping")
-        if values.get("restitution") is not None and damping is not None and (
-            damping.coefficient is not None or damping.ratio is not None
-        ):
-            raise error("restitution", "give restitution or damping/damping_ratio, not both")
+        # The law's own cross-key checks (its node checks concern a one-sided contact).
+        cls.contact_class.check({**values, "lower": "", "upper": ""}, error, None)
+
+    @cached_property
+    def contact(self) -> Contact:
+        """The law: a contact of :attr:`contact_class` with the same parameters and ``gap`` 0."""
+        own = {f.name for f in fields(self.contact_class)}
+        values = {f.name: getattr(self, f.name) for f in fields(self) if f.name in own and f.name != "gap"}
+        return self.contact_class(**values, gap=0.0)
 
     @property
     def impact_only(self) -> bool:  # type: ignore[override]
@@ -90,18 +132,116 @@ class Lash(Element):
         """d at which the upper side touches [m]."""
         return self.offset + 0.5 * self.clearance
 
+    # ------------------------------------------------------------------ sides
+    def contact_side(self, branch, d=None):
+        if branch == self.closed_branches[1]:
+            return -1.0, self.high
+        if branch == self.closed_branches[0] or d is None:
+            return 1.0, self.low
+        return (1.0, self.low) if self.low - d >= d - self.high else (-1.0, self.high)
+
+    def side_of(self, branch) -> float:
+        """σ of the side closed on ``branch`` (0: open)."""
+        if branch == self.closed_branches[0]:
+            return 1.0
+        if branch == self.closed_branches[1]:
+            return -1.0
+        return 0.0
+
+    def penetration(self, d: float) -> float:
+        return max(self.low - d, d - self.high)
+
+    def _side_deflection(self, branch, d, d_rate):
+        """The law's own deflection d' = −δ and its rate on the side closed on ``branch``."""
+        if self.side_of(branch) > 0:
+            return d - self.low, d_rate
+        return self.high - d, -d_rate
+
     # ------------------------------------------------------------------ branches and laws
     def branches(self, no_impact):
-        return (Branch.OPEN,) if no_impact else (Branch.OPEN, Branch.CLOSED, Branch.CLOSED_HIGH)
+        return (Branch.OPEN,) if no_impact else (Branch.OPEN, *self.closed_branches)
 
     def branch_stiffnesses(self):
-        return {"c": self.stiffness}
+        return self.contact.branch_stiffnesses()
 
     def damping_coefficients(self, reference_mass, reduced_mass=None):
-        if self.restitution is None:
-            return super().damping_coefficients(reference_mass, reduced_mass)
-        zeta = linear_damping_ratio(self.restitution)
-        return {"c": 2.0 * zeta * (self.stiffness * reduced_mass()) ** 0.5}
+        return self.contact.damping_coefficients(reference_mass, reduced_mass)
+
+    def damping_note(self):
+        return self.contact.damping_note()
+
+    def force(self, branch, d, d_rate, damping, v_impact):
+        sign = self.side_of(branch)
+        if not sign:
+            return np.zeros_like(d)
+        dd, rate = self._side_deflection(branch, d, d_rate)
+        # The law's compressive F along the side's δ; tension-positive: −F below, +F above.
+        return -sign * self.contact.force(Branch.CLOSED, dd, rate, damping, v_impact)
+
+    # ------------------------------------------------------------------ guards and events
+    def _sides(self, ctx):
+        d, rate = ctx.deflection()
+        low = _Side(ctx, Affine(-d.Cz, -d.Du, -d.Fn, self.low - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e))
+        high = _Side(ctx, Affine(d.Cz, d.Du, d.Fn, d.e - self.high), rate)
+        return low, high
+
+    def guards(self, branch, ctx):
+        low, high = self._sides(ctx)
+        sign = self.side_of(branch)
+        if sign:  # the law's guards on the closed side
+            return self.contact.guards(self.contact.closed_branch, low if sign > 0 else high)
+        # Open: each side's guards as an open contact's (approach, or lifted and closing again).
+        return [*self.contact.guards(Branch.OPEN, low), *self.contact.guards(Branch.OPEN, high)]
+
+    def outcome_at(self, kind, rate, d):
+        # rate = −ḋ: the lower side's δ̇; the upper side's is −rate.
+        if kind == GuardKind.UNLIFT:
+            return Outcome()
+        if kind == GuardKind.RELEASE:
+            return Outcome(Branch.OPEN, EventKind.RELEASE, rate if d < self.offset else -rate)
+        sign, _ = self.contact_side(Branch.OPEN, d)
+        closing = self.contact.closing(rate if sign > 0 else -rate)
+        branch = None if closing.branch is None else self.closed_branches[0 if sign > 0 else 1]
+        return Outcome(branch, closing.event, closing.velocity, closing.v_impact, closing.rigid_impact)
+
+    def outcome(self, kind, rate):
+        return self.outcome_at(kind, rate, self.low if rate >= 0.0 else self.high)
+
+    def branch_at_rest(self, branch, d, constraint_force):
+        return self.branch_from_state(d, False)
+
+    def branch_from_state(self, d, no_impact):
+        if no_impact:
+            return Branch.OPEN
+        if d < self.low - LENGTH_TOL:
+            return self.closed_branches[0]
+        if d > self.high + LENGTH_TOL:
+            return self.closed_branches[1]
+        return Branch.OPEN
+
+    # ------------------------------------------------------------------ impacts
+    def johnson_bounds(self, m1, m2, v):
+        return self.contact.johnson_bounds(m1, m2, abs(v))
+
+    def impact_force(self, force):
+        return self.contact.impact_force(np.abs(force))
+
+    def describe(self) -> dict:
+        out = super().describe()
+        if "restitution" in {p.key for p in self.params}:
+            out.setdefault("restitution", None)
+        return out
+
+
+@register
+@dataclass(frozen=True)
+class LinearLash(Lash):
+    """Lash with a linear spring-damper contact on each side."""
+
+    law_name: ClassVar[str] = "linear"
+    summary: ClassVar[str] = "two-sided clearance: free while |d − offset| < clearance/2, a linear contact beyond either side"
+    params: ClassVar[tuple[Param, ...]] = (*LASH_PARAMS, *_law_params(LinearContact))
+    contact_class: ClassVar[type[Contact]] = LinearContact
 
     def linear_law(self, branch, damping):
         k, c = self.stiffness, damping["c"]
@@ -119,64 +259,91 @@ class Lash(Element):
         f = k * d + c * d_rate + f0
         return np.minimum(f, 0.0) if branch == Branch.CLOSED else np.maximum(f, 0.0)
 
-    def penetration(self, d: float) -> float:
-        return max(self.low - d, d - self.high)
 
-    # ------------------------------------------------------------------ guards and events
-    def _sides(self, ctx):
-        d, rate = ctx.deflection()
-        low = Affine(-d.Cz, -d.Du, -d.Fn, self.low - d.e)
-        low_rate = Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
-        high = Affine(d.Cz, d.Du, d.Fn, d.e - self.high)
-        return (low, low_rate), (high, rate)
+class _NonlinearLash(Lash):
+    """A lash whose law's force is nonlinear while a side is closed (integrated as F_nl)."""
 
-    def _law(self, ctx, side, sign):
-        delta, rate = side
-        k, c = sign * self.stiffness, sign * ctx.damping["c"]
-        return Affine.combine([(np.array([[k]]), delta), (np.array([[c]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
+    def is_nonlinear(self, branch):
+        return branch in self.closed_branches
 
-    def guards(self, branch, ctx):
-        low, high = self._sides(ctx)
-        if branch == Branch.CLOSED:
-            return [(GuardKind.RELEASE, self._law(ctx, low, 1.0), FORCE_TOL)]
-        if branch == Branch.CLOSED_HIGH:
-            return [(GuardKind.RELEASE, self._law(ctx, high, 1.0), FORCE_TOL)]
-        out = []
-        for side in (low, high):
-            delta = side[0]
-            if ctx.now(delta) <= LENGTH_TOL:
-                out.append((GuardKind.CLOSE, Affine(-delta.Cz, -delta.Du, -delta.Fn, -delta.e), LENGTH_TOL))
-            else:  # lifted on this side: closes when its law pushes again
-                out.append((GuardKind.CLOSE, self._law(ctx, side, -1.0), FORCE_TOL))
-                out.append((GuardKind.UNLIFT, delta, LENGTH_TOL))
-        return out
+    def nonlinear_force(self, delta, delta_rate, v_impact=None):
+        """The law's compressive force along the closed side's δ [N] (see :meth:`Lash.contact_side`)."""
+        return self.contact.nonlinear_force(delta, delta_rate, v_impact)
 
-    def outcome(self, kind, rate):
-        # rate = −ḋ: positive when d falls (the lower side closes), negative when it rises.
-        if kind == GuardKind.UNLIFT:
-            return Outcome()
-        if kind == GuardKind.RELEASE:
-            return Outcome(Branch.OPEN, EventKind.RELEASE, rate)
-        if rate >= 0.0:
-            return Outcome(Branch.CLOSED, EventKind.IMPACT, rate)
-        return Outcome(Branch.CLOSED_HIGH, EventKind.IMPACT, -rate)
+    def nonlinear_force_scalar(self, delta: float, delta_rate: float, v_impact=None) -> float:
+        return self.contact.nonlinear_force_scalar(delta, delta_rate, v_impact)
+
+    def nonlinear_tangent(self, delta, delta_rate, v_impact=None):
+        return self.contact.nonlinear_tangent(delta, delta_rate, v_impact)
+
+
+@register
+@dataclass(frozen=True)
+class PowerLash(_NonlinearLash):
+    """Lash with a power-law (Hunt–Crossley) contact on each side."""
+
+    law_name: ClassVar[str] = "power"
+    summary: ClassVar[str] = "two-sided clearance with a power-law contact F = C·δ^a on each side"
+    params: ClassVar[tuple[Param, ...]] = (*LASH_PARAMS, *_law_params(PowerContact))
+    contact_class: ClassVar[type[Contact]] = PowerContact
+    refused_hints: ClassVar[dict[str, str]] = PowerContact.refused_hints
+
+
+@register
+@dataclass(frozen=True)
+class AdamsImpactLash(_NonlinearLash):
+    """Lash with an Adams IMPACT contact on each side."""
+
+    law_name: ClassVar[str] = "adams-impact"
+    summary: ClassVar[str] = "two-sided clearance with an MSC Adams IMPACT contact on each side"
+    params: ClassVar[tuple[Param, ...]] = (*LASH_PARAMS, *_law_params(AdamsImpactContact))
+    contact_class: ClassVar[type[Contact]] = AdamsImpactContact
+
+
+@register
+@dataclass(frozen=True)
+class RigidLash(Lash):
+    """Lash with a rigid stop on each side (Newton's law with restitution e, sticking)."""
+
+    law_name: ClassVar[str] = "restitution"
+    summary: ClassVar[str] = "two-sided clearance with a rigid stop on each side (Newton's law, sticks when at rest)"
+    params: ClassVar[tuple[Param, ...]] = (*LASH_PARAMS, *_law_params(RigidContact))
+    contact_class: ClassVar[type[Contact]] = RigidContact
+    closed_branches: ClassVar[tuple[Branch, Branch]] = (Branch.STUCK, Branch.STUCK_HIGH)
+
+    @classmethod
+    def check(cls, values, error, driven) -> None:
+        super().check(values, error, driven)
+        if not values.get("clearance", 0.0) > 0.0:
+            raise error("clearance", "a rigid lash needs clearance > 0 (with none, both stops hold the nodes "
+                        "rigidly together: use a stiff spring)")
+
+    def is_constraint(self, branch):
+        return branch in self.closed_branches
+
+    def stuck_branch(self, sign):
+        return self.closed_branches[0 if sign > 0 else 1]
+
+    def reported_constraint_force(self, branch, lam):
+        return -self.side_of(branch) * lam  # tension-positive
+
+    def force(self, branch, d, d_rate, damping, v_impact):
+        return np.zeros_like(d)  # only on a constraint branch, whose force is λ
 
     def branch_at_rest(self, branch, d, constraint_force):
+        if self.side_of(branch):
+            return Branch.OPEN if constraint_force() < -FORCE_TOL else branch
         return self.branch_from_state(d, False)
 
     def branch_from_state(self, d, no_impact):
         if no_impact:
             return Branch.OPEN
-        if d < self.low - LENGTH_TOL:
-            return Branch.CLOSED
-        if d > self.high + LENGTH_TOL:
-            return Branch.CLOSED_HIGH
+        delta = self.penetration(d)
+        if delta > LENGTH_TOL:
+            raise ValueError(f"the initial state penetrates the rigid lash {self.name} by {delta:.3g} m")
+        if abs(delta) <= LENGTH_TOL:
+            return self.closed_branches[0] if self.low - d >= d - self.high else self.closed_branches[1]
         return Branch.OPEN
 
-    def johnson_bounds(self, m1, m2, v):
-        from camsim.impact import johnson_linear
 
-        return johnson_linear(m1, m2, abs(v), 0.0, self.stiffness)
-
-    def impact_force(self, force):
-        return np.abs(force)
+DEFAULT_LAW["lash"] = LinearLash.law_name

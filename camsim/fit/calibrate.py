@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
@@ -69,6 +70,8 @@ def fit(
     seed: int = 0,
     max_evaluations: int | None = None,
     progress: Callable[[str], None] | None = None,
+    evaluations: str | os.PathLike[str] | None = None,
+    resume: bool = False,
 ):
     """Fit machine keys so that the simulation reproduces measured traces and scalars.
 
@@ -116,6 +119,14 @@ def fit(
         parameter).
     progress : callable, optional
         Called with one line per solver iteration (iteration, cost, parameters).
+    evaluations : path, optional
+        Keep every finished simulation in this crash-safe row store
+        (:mod:`camsim.io.rowstore`: a journal beside an HDF5 view), so that a fit stopped
+        by Ctrl-C, SIGTERM or SIGKILL loses none; removed when the fit completes.
+    resume : bool
+        Reuse the evaluations of an interrupted fit stored at ``evaluations`` (the same
+        machine, parameters, traces and settings; refused otherwise). The solver is
+        deterministic, so it asks for the same points again and finds them stored.
 
     Returns
     -------
@@ -206,7 +217,8 @@ def fit(
         raise InputError("fit: nothing to fit to: give a MEASURED.csv file or at least one --target")
     all_params = list(parameters) + ([_Shift(shift_bound)] if shift_bound is not None else [])
     settings = SweepSettings(cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
-    evaluator = Evaluator(source, fixed, [p.key for p in parameters], objective.paths, settings, workers)
+    store = _evaluation_store(evaluations, resume, source, fixed, parameters, objective.paths, settings)
+    evaluator = Evaluator(source, fixed, [p.key for p in parameters], objective.paths, settings, workers, store=store)
     problem = Problem(params=all_params, n_sim=len(parameters), evaluator=evaluator, objective=objective)
     try:
         best, solutions = solve(problem, starts=starts, seed=seed, max_nfev=max_evaluations, report=progress)
@@ -217,9 +229,15 @@ def fit(
         (run,) = evaluator.runs([x[: len(parameters)]])
     except BaseException:
         evaluator.abort()
+        if store is not None:
+            store.close()  # the evaluations so far stay for --resume
         raise
     finally:
         evaluator.close()
+    if store is not None:  # the fit completed: its evaluations are not needed again
+        store.close()
+        store.remove_journal()
+        Path(store.path).unlink(missing_ok=True)
     # d z / d u: the span of the bounds (in ln for log parameters)
     span = np.array([math.log(p.high / p.low) if p.log else p.high - p.low for p in all_params])
     jac_z = jac_u / span
@@ -280,3 +298,33 @@ def fit(
         shift=shift,
         overrides=[override_text(p.key, float(v)) for p, v in zip(parameters, x)],
     )
+
+
+def _evaluation_store(path, resume: bool, source, fixed, parameters, paths, settings):
+    """The row store of a fit's simulations (None without ``path``)."""
+    if path is None:
+        if resume:
+            raise InputError("--resume: needs the evaluation store of the interrupted fit (-o names it)")
+        return None
+    import hashlib
+
+    from camsim.fit.solve import store_columns
+    from camsim.io.rowstore import RowStore, journal_path_for
+
+    keys = [p.key for p in parameters]
+    meta = {
+        "job": "camsim fit",
+        "machine_sha256": hashlib.sha256(source.text.encode()).hexdigest(),
+        "fixed": list(fixed),
+        "parameters": keys,
+        "traces": list(paths),
+        "cycles": settings.cycles,
+        "warmup_cycles": settings.warmup_cycles,
+        "sample_rate": settings.sample_rate,
+    }
+    if resume:
+        return RowStore.resume(path, meta, table="evaluations")
+    if journal_path_for(path).exists():
+        raise InputError(f"{path}: the evaluations of an interrupted fit are there; add --resume to continue it, "
+                         f"or delete {journal_path_for(path)} to start over")
+    return RowStore.create(path, store_columns(keys), meta, table="evaluations")

@@ -68,7 +68,8 @@ class Evaluator:
         Processes for simultaneous runs (1: in this process).
     """
 
-    def __init__(self, source, fixed: Sequence[str], keys: Sequence[str], paths: Sequence[str], settings, workers: int = 1):
+    def __init__(self, source, fixed: Sequence[str], keys: Sequence[str], paths: Sequence[str], settings, workers: int = 1,
+                 store=None):
         from dataclasses import replace
 
         from camsim.executors import make_executor
@@ -80,6 +81,14 @@ class Evaluator:
         self.settings = replace(settings, keep_traces=True)
         self.cache: dict[tuple[float, ...], Run] = {}
         self.count = 0
+        # The crash-safe row store (camsim.io.rowstore) keeps every finished evaluation, so
+        # a fit interrupted by Ctrl-C or a kill resumes without simulating them again.
+        self.store = store
+        if store is not None:
+            for row in store.rows().values():
+                key, run = _run_from_row(row, self.keys)
+                self.cache[key] = run
+        self.resumed = len(self.cache)
         self.executor = make_executor(max(1, workers), max(1, min(workers, 2 * len(self.keys))), None, None)
 
     def overrides(self, x: Sequence[float]) -> tuple[str, ...]:
@@ -107,11 +116,14 @@ class Evaluator:
                 if row.get("status") != "ok" or result is None:
                     where = ", ".join(f"{k}={v:.6g}" for k, v in zip(self.keys, todo[i]))
                     raise SimulationError(f"fit: the run at {where} failed: {row.get('status')}")
-                self.cache[todo[i]] = Run(
+                run = Run(
                     time=np.asarray(result.time, dtype=float),
                     traces={p: trace(result, p) for p in self.paths},
                     scalars=run_scalars(result),
                 )
+                self.cache[todo[i]] = run
+                if self.store is not None:
+                    self.store.append(len(self.cache) - 1, _row_of(todo[i], run, self.keys))
                 self.count += 1
         return [self.cache[k] for k in keys]
 
@@ -122,6 +134,31 @@ class Evaluator:
     def abort(self) -> None:
         """Stop the worker processes now (Ctrl-C)."""
         self.executor.abort()
+
+
+def store_columns(keys: Sequence[str]) -> list[tuple[str, str]]:
+    """Columns of a fit's evaluation store: each parameter's SI value, and the run (JSON)."""
+    from camsim.sweep import key_unit
+
+    return [(f"param:{k}", key_unit(k)) for k in keys] + [("run", "")]
+
+
+def _row_of(key: tuple[float, ...], run: Run, keys: Sequence[str]) -> dict:
+    import json
+
+    data = {"time": run.time.tolist(), "traces": {p: np.asarray(v, dtype=float).tolist() for p, v in run.traces.items()},
+            "scalars": {k: float(v) for k, v in run.scalars.items()}}
+    return {**{f"param:{k}": float(v) for k, v in zip(keys, key)}, "run": json.dumps(data, allow_nan=True)}
+
+
+def _run_from_row(row: dict, keys: Sequence[str]) -> tuple[tuple[float, ...], Run]:
+    import json
+
+    data = json.loads(row["run"])
+    run = Run(time=np.asarray(data["time"], dtype=float),
+              traces={p: np.asarray(v, dtype=float) for p, v in data["traces"].items()},
+              scalars={k: float(v) for k, v in data["scalars"].items()})
+    return tuple(float(row[f"param:{k}"]) for k in keys), run
 
 
 @dataclass

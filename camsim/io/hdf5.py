@@ -18,10 +18,13 @@ import numpy as np
 COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
 
-def create_file(path: Any) -> h5py.File:
-    """Open a new HDF5 file for writing with settings that make output reproducible."""
+def create_file(path: Any, **options: Any) -> h5py.File:
+    """Open a new HDF5 file for writing with settings that make output reproducible.
+
+    ``options`` go to :class:`h5py.File` (access settings such as ``rdcc_nbytes``, the
+    chunk cache, which do not change the bytes written)."""
     # track_order keeps attribute/group order stable; libver pins the on-disk format.
-    return h5py.File(path, "w", track_order=True, libver=("earliest", "v110"))
+    return h5py.File(path, "w", track_order=True, libver=("earliest", "v110"), **options)
 
 
 def write_time(group: h5py.Group, time: np.ndarray, name: str = "time") -> h5py.Dataset:

@@ -68,7 +68,35 @@ def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
     group.attrs["sample_rate"] = float(result.sample_rate)
     residual = result.periodicity_residual
     group.attrs["periodicity_residual"] = float(residual) if not math.isnan(residual) else float("nan")
+    write_summary(group, result)
     return time
+
+
+def write_summary(group: h5py.Group, result) -> h5py.Group:
+    """The run's flat summary as attributes of ``<group>/summary``.
+
+    One attribute per scalar of :meth:`~camsim.result.RunResult.scalars` (SI; NaN where
+    it does not apply) with its unit in ``units:<name>``; ``recorded``: the trace paths
+    the file holds (JSON list; all of them unless the run was recorded with ``--record``
+    or ``--summary-only``); ``record_last``: revolutions of traces kept (0: all). A
+    streamed run computes the scalars over every revolution, whatever it stored.
+    """
+    import json
+
+    from camsim.result import scalar_columns
+
+    scalars = result.scalars()
+    units = dict(scalar_columns([m.name for m in result.machine.masses]))
+    g = group.create_group("summary", track_order=True)
+    for name, value in scalars.items():
+        g.attrs[name] = value
+        g.attrs[f"units:{name}"] = units.get(name, "")
+    recorded = getattr(result, "recorded", None)
+    if recorded is None:
+        recorded = list(result.traces())
+    g.attrs["recorded"] = json.dumps(list(recorded))
+    g.attrs["record_last"] = int(getattr(result, "record_last", 0) or 0)
+    return g
 
 
 def write_run(result, path: str | os.PathLike[str]) -> None:

@@ -96,11 +96,39 @@ sample_rate = "10 kHz"
 """
 
 
+LASH_POWER = 'clearance = "1 mm"\nlaw = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = 1.5\n'
+LASH_ADAMS = ('clearance = "1 mm"\nlaw = "adams-impact"\nexponent = {n}\nstiffness = "1e8 N/m**1.5"\n'
+              'max_damping = {c}\npenetration_depth = {d}')
+
+
 @pytest.mark.parametrize(
     ("lash", "key"),
     [
         ('clearance = "-1 mm"\nstiffness = "1e6 N/m"', "element[0].clearance"),
-        ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nlaw = "power"', "element[0].law"),
+        ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nlaw = "hertz"', "element[0].law"),
+        ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nlaw = "power"', "element[0].stiffness"),
+        # power law
+        (LASH_POWER + "restitution = 0", "element[0].restitution"),
+        (LASH_POWER + "restitution = 1.2", "element[0].restitution"),
+        (LASH_POWER + 'restitution = 0.5\nhysteresis_damping = "0.3 s/m"', "element[0].hysteresis_damping"),
+        (LASH_POWER + 'restitution = 0.5\ndamping_model = "hunt"', "element[0].damping_model"),
+        (LASH_POWER + 'hysteresis_damping = "-1 s/m"', "element[0].hysteresis_damping"),
+        (LASH_POWER + 'damping = "3 N*s/m"', "element[0].damping"),
+        ('clearance = "1 mm"\nlaw = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = -1.5', "element[0].exponent"),
+        ('clearance = "1 mm"\nlaw = "power"\ncoefficient = "1e9 N/m"\nexponent = 1.5', "element[0].coefficient"),
+        ('clearance = "1 mm"\nlaw = "power"\nexponent = 1.5', "element[0].coefficient"),
+        # adams-impact
+        (LASH_ADAMS.format(n="-1.5", d='"0.1 mm"', c='"10 N*s/m"'), "element[0].exponent"),
+        (LASH_ADAMS.format(n="1.5", d='"-0.1 mm"', c='"10 N*s/m"'), "element[0].penetration_depth"),
+        (LASH_ADAMS.format(n="1.5", d='"0 mm"', c='"10 N*s/m"'), "element[0].penetration_depth"),
+        (LASH_ADAMS.format(n="1.5", d='"0.1 mm"', c='"-10 N*s/m"'), "element[0].max_damping"),
+        (LASH_ADAMS.format(n="1.5", d='"0.1 mm"', c='"10 N*s/m"') + "\nclamp = 1", "element[0].clamp"),
+        # restitution (rigid)
+        ('clearance = "1 mm"\nlaw = "restitution"\nrestitution = 1.5', "element[0].restitution"),
+        ('clearance = "1 mm"\nlaw = "restitution"', "element[0].restitution"),
+        ('clearance = "0 mm"\nlaw = "restitution"\nrestitution = 0.5', "element[0].clearance"),
+        ('clearance = "1 mm"\nlaw = "restitution"\nrestitution = 0.5\nstiffness = "1e6 N/m"', "element[0].stiffness"),
+        ('clearance = "1 mm"\nlaw = "restitution"\nrestitution = 0.5\ngap = "1 mm"', "element[0].gap"),
         ('clearance = "1 mm"\nstiffness = "-1e6 N/m"', "element[0].stiffness"),
         ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nrestitution = 0.5\ndamping = "3 N*s/m"', "element[0].restitution"),
         ('stiffness = "1e6 N/m"', "element[0].clearance"),
