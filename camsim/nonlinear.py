@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from camsim.collocation import Collocation, collocation_steps
 from camsim.model import N_INPUT
 
 #: Ratio of the stiffness / damping ladder of the reference linear laws.
@@ -65,6 +66,24 @@ MAX_ITER = 16
 #: Window lengths in grid steps (the first, the largest).
 FIRST_WINDOW = 16
 MAX_WINDOW = 1024
+#: Where the iteration does not converge, take exponential-collocation steps
+#: (:mod:`camsim.collocation`) before handing a step to DOP853.
+COLLOCATION = True
+#: Grid steps of DOP853 from a contact's onset before the collocation takes over.
+ONSET_STEPS = 2
+#: Grid steps of DOP853 before the collocation is tried again where it took no step.
+COLLOC_RETRY = 8
+#: Collocation from a contact's onset (after ONSET_STEPS of DOP853). Off: DOP853 then
+#: carries FALLBACK_STEPS from the onset (a whole bounce of the CDTM's seat) and the
+#: collocation only takes over where the iteration fails. Measured on cdtm-power
+#: (bench/bench_contacts.py): on, the cost is the same, but DOP853 restarted mid-bounce
+#: crosses the release with its velocity ~1e-8 m/s off (it is restarted where the
+#: collocation rejects a step, and starts with a step size its history would not allow),
+#: which the following bounces amplify to 6e-9 of the displacement against 4e-10 off.
+ONSET_COLLOC = False
+#: After the onset's DOP853 span, go on by collocation (not a window of the iteration,
+#: which fails there).
+AFTER_ONSET = True
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
 
@@ -180,12 +199,18 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     v_imp = state.v_impacts
     pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     t, z = state.t, z0
-    window = FIRST_WINDOW
+    # a stretch that continues the previous one of this configuration (it stopped at a
+    # cam segment join or an output stop, not at an event) starts with its window length
+    hint = stepper.__dict__.get("resume")
+    window = hint[1] if hint is not None and hint[0] == state.t else FIRST_WINDOW
+    stepper.resume = None
     first = True
     cur = state
     r_prev = None
     last_law = None
     fails = 0  # windows in a row that did not converge (the fallback span grows)
+    can_collocate = COLLOCATION and getattr(stepper.element, "analytic_closed", False)
+    colloc_next = False  # the next stretch goes to the collocation
 
     def finish(end_state, fired):
         stretch = None
@@ -197,6 +222,13 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 fn = integ.nonlinear_forces(config, Zs, Us, v_imp)
                 stretch = Stretch(state.branches, config, ts, Zs, Us, fn, dict(v_imp))
         return end_state, stretch, fired
+
+    def collocate(t_from, z_from, n_steps, just_started):
+        coll = stepper.__dict__.get("collocation")
+        if coll is None:
+            coll = stepper.collocation = Collocation(integ, config, stepper)
+        return collocation_steps(integ, stepper, config, coll, t_from, z_from, n_steps, t_stop, guards,
+                                 just_started, chi)
 
     def fallback(t_from, z_from, n_steps, just_started):
         """DOP853 over n grid steps from (t_from, z_from); returns (t, z, fired, end)."""
@@ -213,7 +245,37 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
 
     while True:
         if t >= t_stop - TIME_EPS:
+            stepper.resume = (t_stop, window)
             return finish(integ._state_from(config, z, t_stop, cur), None)
+        if colloc_next:
+            # exponential collocation step by step (camsim.collocation) while the contact
+            # stiffness sweeps (the iteration would not converge); DOP853 for a step it does
+            # not accept and for a step where a guard may cross
+            colloc_next = False
+            any_taken = hit = False
+            while True:
+                t_c, z_c, taken, hit, calm = collocate(t, z, FALLBACK_STEPS * 2 ** min(fails, 3), first)
+                if taken is None:
+                    break
+                any_taken = True
+                if record:
+                    mask = integ._on_grid(taken[0][:-1])
+                    pieces.append((taken[0][:-1][mask], taken[1][:-1][mask], taken[2][:-1][mask]))
+                t, z = t_c, z_c
+                cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
+                first = False
+                if hit or calm or t >= t_stop - TIME_EPS:
+                    break
+            if any_taken and not hit:
+                window = FIRST_WINDOW
+                r_prev = None
+                continue
+            t, z, fired, cur = fallback(t, z, 2 if any_taken else COLLOC_RETRY, first)
+            first = False
+            if fired is not None:
+                return finish(cur, fired)
+            colloc_next = True
+            continue
         # ---- the window's nodes: t, the grid points after it, its end
         k_end = math.floor((t - integ.t_ref) / h + 1e-7) + window
         t_end = min(t_stop, integ.t_ref + k_end * h)
@@ -248,11 +310,15 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         # ---- linear law at the window's start (tangent values on the ladder)
         _, _, F0, kt0, ct0 = stepper.force(z[None, :], U[:1], chi)
         if F0[0] <= 0.0:
-            t, z, fired, cur = fallback(t, z, FALLBACK_STEPS, first)
+            # the contact's onset (δ = 0: F ∝ δ^a is not smooth there): DOP853, then on
+            # by collocation
+            onset_colloc = can_collocate and ONSET_COLLOC
+            t, z, fired, cur = fallback(t, z, ONSET_STEPS if onset_colloc else FALLBACK_STEPS, first)
             first = False
             if fired is not None:
                 return finish(cur, fired)
             window = FIRST_WINDOW
+            colloc_next = can_collocate and (onset_colloc or AFTER_ONSET)
             continue
         k_now, c_now = float(kt0[0]), float(ct0[0])
         if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
@@ -345,8 +411,12 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if window > FIRST_WINDOW:
                 window = max(FIRST_WINDOW, window // 4)
                 continue
-            t, z, fired, cur = fallback(t, z, FALLBACK_STEPS * 2 ** min(fails, 3), first)
+            n_fallback = FALLBACK_STEPS * 2 ** min(fails, 3)
             fails += 1
+            if can_collocate:
+                colloc_next = True
+                continue
+            t, z, fired, cur = fallback(t, z, n_fallback, first)
             first = False
             if fired is not None:
                 return finish(cur, fired)
@@ -479,16 +549,21 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     me = np.array([stepper.de, stepper.re])
     force_of = stepper.element.nonlinear_force_scalar
     v_impact = stepper.v_impact
-    # per step: the cam input's polynomial pushed through B and the contact's rows
-    BC = np.einsum("mc,kcj->kmj", B, cam_input.C)
-    MC = np.einsum("rc,kcj->krj", Mu, cam_input.C)
+    # One matrix product per evaluation gives ż's linear part and the contact's δ, δ̇:
+    # rows [A; Mz] on z, and per step the cam input's polynomial pushed through [B; Mu]
+    # (its coefficients of τ^j) with the constants [b; me] folded into the τ^0 column.
+    n = A.shape[0]
+    AM = np.vstack([A, Mz])
+    BMC = np.einsum("mc,kcj->kmj", np.vstack([B, Mu]), cam_input.C)
+    BMC[:, :, 0] += np.concatenate([b, me])
     starts, powers, index = cam_input.starts, cam_input.powers, cam_input.index
 
     def rhs(t, z):
         k = index(t)
-        p = (t - starts[k]) ** powers
-        d, dd = Mz @ z + MC[k] @ p + me
-        return A @ z + BC[k] @ p + b + L * force_of(d, dd, v_impact)
+        y = AM @ z + BMC[k] @ ((t - starts[k]) ** powers)
+        out = y[:n]
+        out += L * force_of(y[n], y[n + 1], v_impact)
+        return out
 
     events = []
     u0 = cam_input(state.t)

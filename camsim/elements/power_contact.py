@@ -37,6 +37,9 @@ class PowerContact(Contact):
 
     law_name: ClassVar[str] = "power"
     summary: ClassVar[str] = "compliant contact F = C·δ^a, Hunt–Crossley damped with restitution"
+    #: The closed force is analytic in (δ, δ̇) for δ > 0 (no kink inside a closed phase):
+    #: camsim.collocation may carry it with polynomial node values.
+    analytic_closed: ClassVar[bool] = True
     params: ClassVar[tuple[Param, ...]] = (
         *CONTACT_PARAMS,
         Param("exponent", "number", "a", required=True, minimum=0.0, strict=True),
@@ -109,6 +112,14 @@ class PowerContact(Contact):
 
     def nonlinear_tangent(self, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None):
         """(F, ∂F/∂δ, ∂F/∂δ̇) on samples [N, N/m, N·s/m] (zero where the force is clamped)."""
+        chi = self.hysteresis(v_impact)
+        if np.all(delta > 0.0):
+            # the usual case inside a closed phase: the same arithmetic without the masks
+            base = self.coefficient * delta**self.exponent
+            factor = 1.0 + chi * delta_rate
+            F = base * factor
+            if np.all(F > 0.0):
+                return F, self.exponent * base / delta * factor, base * chi
         pen = np.maximum(delta, 0.0)
         base = self.coefficient * pen**self.exponent
         chi = self.hysteresis(v_impact)

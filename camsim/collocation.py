@@ -1,0 +1,227 @@
+"""Exponential Lobatto collocation of one closed nonlinear contact, grid step by grid step.
+
+Where the iterated remainder of :mod:`camsim.nonlinear` does not converge — the seat
+vibrating after an impact, the contact stiffness sweeping by tens of percent within a few
+grid steps — a configuration with one closed nonlinear contact
+
+    ż = A·z + B·u(t) + b + L·F(t),      F(t) = F(δ, δ̇),   δ, δ̇ affine in (z, u),
+
+is integrated one grid step h at a time, exactly for everything but the scalar F: on each
+step F is represented by its interpolating polynomial through the Chebyshev–Lobatto nodes
+σ_i = c_i·h (i = 0..m, c_0 = 0, c_m = 1; F_0 is known from the step's start state), and
+the linear system is propagated under that polynomial input exactly (the step maps
+Φ(σ) = e^{Aσ} and input integrals Γ_j(σ) of :class:`camsim.integrate.StepMaps`, built
+once per configuration). The contact then acts through m scalars: δ and δ̇ at the nodes
+are affine in the start state, the cam input and the node values F_1..F_m, and the m
+collocation conditions F_i = F(δ_i, δ̇_i) are solved by Newton's method (an m×m system;
+the element's ``nonlinear_tangent`` gives the Jacobian). This is exponential collocation
+(Hochbruck & Ostermann, Acta Numerica 19 (2010) 209, §2.4); the contact's stiffness sits
+in the implicit m×m solve, so the step is not limited by stability.
+
+Error control: the defect F(δ(s), δ̇(s)) − F_poly(s) is evaluated at :data:`CHECK` points
+between the nodes; the local error of the step is its response ∫ e^{A(h−s)}·L·defect(s) ds
+(the defect interpolated through the nodes, where it is zero, and the check points),
+accepted per component below ``atol + rtol·|z|`` with the tolerances of the DOP853 path
+(:meth:`camsim.integrate.Integrator._advance_nonlinear`). A step that fails the test, whose
+Newton iteration does not converge, or where the force reaches zero at a node (a release
+is near) is not taken: the caller hands that step to DOP853, as it does for events (guards
+are checked on the steps' end nodes with :func:`camsim.nonlinear._first_hit`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from camsim.model import N_INPUT
+
+#: Unknown node values per step (degree of F's polynomial on a step).
+NODES = 5
+#: Where the defect is checked, as fractions of the step (between the nodes).
+CHECK = (0.22, 0.78)
+#: Newton: stop when the node values move by less than this times the step's force.
+NEWTON_TOL = 1e-13
+NEWTON_MAX = 8
+#: Newton iterations with a fresh Jacobian (then chord steps with the last one).
+JACOBIANS = 2
+#: The local error estimate must stay below this fraction of the tolerance.
+SAFETY = 1.0
+#: Back to the iterated remainder when the contact's tangent stiffness over the last
+#: CALM_STEPS steps spans less than CALM of its largest value.
+CALM = 0.2
+CALM_STEPS = 16
+#: Also require the remainder's interpolation test of camsim.nonlinear to pass.
+CALM_REMAINDER = True
+
+
+class Collocation:
+    """Step maps of the collocation for one configuration with one closed nonlinear contact."""
+
+    def __init__(self, integrator, config, stepper):
+        from camsim.integrate import _FACT, _P, StepMaps
+
+        h = integrator.h
+        m = NODES
+        self.m = m
+        c = (1.0 - np.cos(np.pi * np.arange(m + 1) / m)) / 2.0
+        chk = np.array(CHECK)
+        sig = np.concatenate([c[1:], chk]) * h  # nodes 1..m, then the check points
+        maps = [StepMaps(config, float(s)) for s in sig]
+        nq = len(sig)
+        rows = np.stack([stepper.dz, stepper.rz])  # (2, n)
+        # δ, δ̇ at each point: Pz·z0 + PE·E (cam forcing coefficients) + du·u + de + Q·F_nodes
+        self.Pz = np.concatenate([rows @ mp.Phi for mp in maps])  # (2 nq, n), rows δ_q, δ̇_q interleaved
+        self.PE = np.concatenate([np.einsum("rn,jnk->rjk", rows, mp.Gamma) for mp in maps])  # (2 nq, 8, n)
+        vand = (h * c)[:, None] ** np.arange(m + 1)[None, :] / _FACT[: m + 1][None, :]
+        vinv = np.linalg.inv(vand)  # node values → Taylor coefficients of F
+        GL = np.stack([np.stack([mp.Gamma[k] @ stepper.L for k in range(m + 1)], axis=1) for mp in maps])  # (nq, n, m+1)
+        self.Q = np.concatenate([rows @ GL[q] @ vinv for q in range(nq)])  # (2 nq, m+1)
+        self.powers = np.stack([s ** np.arange(_P + 1) / _FACT[: _P + 1] for s in sig])  # (nq, 8)
+        end = maps[m - 1]
+        self.Phi = end.Phi
+        self.Gamma = end.Gamma  # (8, n, n)
+        self.endL = GL[m - 1] @ vinv  # (n, m+1)
+        # the polynomial's values at the check points, and its extrapolation one step on
+        lag = lambda x: (x[:, None] ** np.arange(m + 1)[None, :]) @ np.linalg.inv(c[:, None] ** np.arange(m + 1)[None, :])  # noqa: E731
+        self.at_check = lag(chk)  # (ncheck, m+1)
+        self.extrap = lag(1.0 + c[1:])  # (m, m+1)
+        # local error: response at h to the defect, interpolated through nodes (zero) and checks
+        allc = np.concatenate([c, chk])
+        vand_all = (h * allc)[:, None] ** np.arange(allc.size)[None, :] / _FACT[: allc.size][None, :]
+        cols = np.linalg.inv(vand_all)[:, m + 1 :]  # Taylor coefficients per unit defect at each check
+        G_end = np.stack([end.Gamma[k] @ stepper.L for k in range(allc.size)], axis=1)  # (n, m+1+ncheck)
+        self.G_err = G_end @ cols  # (n, ncheck)
+        self.nq = nq
+        self.rows_d = np.arange(0, 2 * nq, 2)
+        self.rows_r = np.arange(1, 2 * nq, 2)
+
+
+def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guards, first, chi):
+    """Up to ``n_steps`` grid steps from the grid point ``t``.
+
+    Returns (t_end, z_end, (nodes, Z, U) of the steps taken — ``None`` if none —, hit,
+    calm): ``hit`` is True when the next step must go to DOP853 (a guard may cross in it,
+    or the step was not accepted); ``calm`` when the contact stiffness has settled (see
+    :data:`CALM`).
+    """
+    from camsim.integrate import TIME_EPS, forcing_coefficients, step_input_derivatives
+    from camsim.nonlinear import _first_hit
+
+    h = integ.h
+    k0 = round((t - integ.t_ref) / h)
+    if abs(integ.t_ref + k0 * h - t) > TIME_EPS:
+        return t, z, None, True, False
+    K = min(n_steps, math.floor((t_stop - TIME_EPS - integ.t_ref) / h) - k0)
+    if K <= 0:
+        return t, z, None, True, False
+    m, nq = coll.m, coll.nq
+    U = integ._grid_inputs(k0, k0 + K + 1)
+    D = step_input_derivatives(U[:-1], U[1:], np.full(K, h), h)
+    E = forcing_coefficients(config, D)  # (K, 8, n)
+    Dp = np.concatenate([D, np.zeros((K, N_INPUT - 1))], axis=1)
+    u_pts = np.stack([Dp[:, ci : ci + coll.powers.shape[1]] @ coll.powers.T for ci in range(N_INPUT)], axis=2)  # (K, nq, 4)
+    dr_u = np.stack([u_pts @ stepper.du + stepper.de, u_pts @ stepper.ru + stepper.re], axis=2).reshape(K, 2 * nq)
+    pre = np.einsum("rjn,kjn->kr", coll.PE, E) + dr_u  # (K, 2 nq)
+    end_in = np.einsum("jnl,kjl->kn", coll.Gamma, E)  # (K, n)
+    u0 = U[:-1]
+    pre0 = np.stack([u0 @ stepper.du + stepper.de, u0 @ stepper.ru + stepper.re], axis=1)
+    M0 = np.stack([stepper.dz, stepper.rz])
+    Q = coll.Q
+    Qd, Qr = Q[coll.rows_d[:m]], Q[coll.rows_r[:m]]
+    Qd1, Qr1 = Qd[:, 1:], Qr[:, 1:]
+    Pz = coll.Pz
+    eye = np.eye(m)
+    element, v_impact = stepper.element, stepper.v_impact
+    n = z.size
+    lengths = np.concatenate([np.full(n // 2, 1e-13), np.full(n // 2, 1e-10)])
+    rtol = integ.rtol_nonlinear
+    rows_cd, rows_cr = coll.rows_d[m:], coll.rows_r[m:]
+    Zs = np.empty((K + 1, n))
+    Zs[0] = z
+    Fs = np.empty(K + 1)
+    Fall = None
+    taken = 0
+    kt_lo = np.full(K, np.inf)
+    kt_hi = np.zeros(K)
+    ct_hi = np.zeros(K)
+    d_s = np.empty(K + 1)
+    r_s = np.empty(K + 1)
+    for k in range(K):
+        d0, r0 = M0 @ z + pre0[k]
+        F0 = element.nonlinear_force_scalar(float(d0), float(r0), v_impact)
+        Fs[k] = F0
+        d_s[k], r_s[k] = d0, r0
+        if F0 <= 0.0:
+            break
+        base = Pz @ z + pre[k]
+        base += Q[:, 0] * F0
+        Fn = coll.extrap @ Fall if Fall is not None else np.full(m, F0)
+        bd, br = base[coll.rows_d[:m]], base[coll.rows_r[:m]]
+        converged = False
+        Jinv = None
+        for it in range(NEWTON_MAX):
+            F, kt, ct = element.nonlinear_tangent(bd + Qd1 @ Fn, br + Qr1 @ Fn, v_impact)
+            if it < JACOBIANS:
+                # Newton's Jacobian on the first two iterations, then kept (chord steps)
+                Jinv = np.linalg.inv(eye - kt[:, None] * Qd1 - ct[:, None] * Qr1)
+            dF = Jinv @ (Fn - F)
+            Fn = Fn - dF
+            if abs(dF).max() <= NEWTON_TOL * max(abs(F0), abs(Fn).max()):
+                converged = True
+                break
+        if not converged or float(np.min(F)) <= 0.0:
+            Fall = None
+            break
+        Fall = np.concatenate([[F0], Fn])
+        kt_lo[k], kt_hi[k] = float(np.min(kt)), float(np.max(kt))
+        ct_hi[k] = float(np.max(ct))
+        y = base + Q[:, 1:] @ Fn
+        Fc = element.nonlinear_force(y[rows_cd], y[rows_cr], v_impact)
+        if float(np.min(Fc)) <= 0.0:
+            Fall = None
+            break
+        err = coll.G_err @ (Fc - coll.at_check @ Fall)
+        z_new = coll.Phi @ z + end_in[k] + coll.endL @ Fall
+        if np.any(np.abs(err) > SAFETY * (lengths + rtol * np.maximum(np.abs(z), np.abs(z_new)))):
+            Fall = None
+            break
+        z = z_new
+        Zs[k + 1] = z
+        taken = k + 1
+    hit = taken < K
+    if taken == 0:
+        return t, Zs[0], None, True, False
+    # calm: the contact stiffness of the last steps varies little (the iteration of
+    # camsim.nonlinear will converge again)
+    last = slice(max(0, taken - CALM_STEPS), taken)
+    hi = float(np.max(kt_hi[last]))
+    calm = hi > 0.0 and (hi - float(np.min(kt_lo[last]))) <= CALM * hi
+    if calm and CALM_REMAINDER and taken >= 8:
+        # ... and the remainder about the ladder's linear law would pass the iteration's
+        # interpolation test (|Δ⁴r|/384 below INTERP_TOL of the force) on the last steps
+        from camsim.nonlinear import INTERP_TOL, LADDER
+
+        ks = slice(taken - 8, taken)
+        kq = LADDER ** round(math.log(hi) / math.log(LADDER))
+        cmax = float(np.max(ct_hi[ks]))
+        cq = LADDER ** round(math.log(cmax) / math.log(LADDER)) if cmax > 0 else 0.0
+        r = Fs[ks] - kq * d_s[ks] - cq * r_s[ks]
+        calm = float(np.max(np.abs(np.diff(r, 4)))) / 384.0 <= INTERP_TOL * float(np.max(np.abs(Fs[ks])))
+    # guards on the end nodes of the steps taken (values and exact rates)
+    Z = Zs[: taken + 1]
+    Un = U[: taken + 1]
+    Fn_nodes = stepper.force(Z, Un, chi)[2]
+    zdot = Z @ config.A.T + Un @ config.B.T + config.b + np.outer(Fn_nodes, stepper.L)
+    Udot = np.zeros_like(Un)
+    Udot[:, :3] = Un[:, 1:]
+    nodes = integ.t_ref + np.arange(k0, k0 + taken + 1) * h
+    nodes[0] = t
+    steps = np.full(taken, h)
+    hit_step = _first_hit(guards, Z, Un, zdot, Udot, Fn_nodes, steps, first)
+    if hit_step is not None:
+        if hit_step == 0:
+            return t, Zs[0], None, True, False
+        taken = hit_step
+        hit = True
+    return float(nodes[taken]), Zs[taken].copy(), (nodes[: taken + 1], Zs[: taken + 1], U[: taken + 1]), hit, calm
