@@ -258,8 +258,9 @@ def test_sigkill_sweep_and_workers_at_random_moments(tmp_path):
                 view = read_table(f["sweep/summary"])
             if "index" in view:  # the running view: only stored rows
                 assert set(int(i) for i in view["index"]) <= set(rows)
-            else:  # killed after the final table was written, before the journal was removed
-                assert set(rows) == set(range(len(next(iter(ref_rows.values()))))), trial
+            else:  # the final table (all variants; a variant lost with a killed worker shows its
+                # error there and is missing from the journal, so that --resume reruns it)
+                assert len(next(iter(view.values()))) == len(next(iter(ref_rows.values()))), trial
     assert completed >= 4, outcomes
     leftovers = [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
     assert leftovers == [] or all(".journal." not in n for n in leftovers)
