@@ -652,6 +652,47 @@ class Integrator:
             t = t_new
         return t, z
 
+    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, atol):
+        """DOP853 (rtol ``rtol_nonlinear``) from t0 towards t_stop with every guard as a
+        terminal event; returns (solution with dense output, the guard that fired or None,
+        the end time).
+
+        A guard that sits at zero at the start (the one just crossed) is watched for a
+        real re-crossing, below −tol, so the solver does not stop at once; a root at the
+        very start is ignored for the same reason.
+        """
+        from scipy.integrate import solve_ivp  # only contact phases of nonlinear contacts
+
+        events = []
+        u0 = cam_input(t0)
+        for guard in guards:
+            cz, du, e = guard.value.Cz[0], guard.value.Du[0], float(guard.value.e[0])
+            offset = guard.tol if abs(cz @ z0 + du @ u0 + e) <= guard.tol else 0.0
+
+            def ev(t, z, cz=cz, du=du, e=e, offset=offset):
+                return float(cz @ z + du @ cam_input(t) + e + offset)
+
+            ev.terminal = True
+            ev.direction = -1
+            events.append(ev)
+        sol = solve_ivp(
+            rhs, (t0, t_stop), z0, method="DOP853", rtol=self.rtol_nonlinear, atol=atol,
+            events=events or None, dense_output=True, max_step=max(self.h * 4, 1e-6),
+        )
+        if sol.status == -1:
+            raise SimulationError(f"nonlinear contact phase failed at t = {sol.t[-1]:.9g} s: {sol.message}")
+        fired = None
+        t_end = t_stop
+        if sol.status == 1:
+            for guard, te in zip(guards, sol.t_events):
+                if te.size and (fired is None or te[0] < t_end):
+                    if te[0] <= t0 + TIME_EPS:
+                        continue
+                    fired, t_end = guard, float(te[0])
+            if fired is None:
+                t_end = float(sol.t[-1])
+        return sol, fired, t_end
+
     # ------------------------------------------------------------------ nonlinear
     def _advance_nonlinear(self, state, config, z0, guards, t_stop, record):
         v_imp = state.v_impacts
@@ -673,40 +714,8 @@ class Integrator:
                 fn[k] = force_of[k](delta, rate, v_imp.get(i))
             return A @ z + B @ u + b + L @ fn
 
-        events = []
-        u0 = cam_input(state.t)
-        for guard in guards:
-            cz, du, e = guard.value.Cz[0], guard.value.Du[0], float(guard.value.e[0])
-            # A guard that sits at zero at the start (the one just crossed) is watched
-            # for a real re-crossing, below −tol, so the solver does not stop at once.
-            offset = guard.tol if abs(cz @ z0 + du @ u0 + e) <= guard.tol else 0.0
-
-            def ev(t, z, cz=cz, du=du, e=e, offset=offset):
-                return float(cz @ z + du @ cam_input(t) + e + offset)
-
-            ev.terminal = True
-            ev.direction = -1
-            events.append(ev)
         t0 = state.t
-        from scipy.integrate import solve_ivp  # only contact phases of power-law contacts
-
-        sol = solve_ivp(
-            rhs, (t0, t_stop), z0, method="DOP853", rtol=self.rtol_nonlinear, atol=lengths,
-            events=events or None, dense_output=True, max_step=max(self.h * 4, 1e-6),
-        )
-        if sol.status == -1:
-            raise SimulationError(f"nonlinear contact phase failed at t = {sol.t[-1]:.9g} s: {sol.message}")
-        fired = None
-        t_end = t_stop
-        if sol.status == 1:
-            for guard, te in zip(guards, sol.t_events):
-                if te.size and (fired is None or te[0] < t_end):
-                    # ignore a root at the very start (the guard that was just crossed)
-                    if te[0] <= t0 + TIME_EPS:
-                        continue
-                    fired, t_end = guard, float(te[0])
-            if fired is None:
-                t_end = float(sol.t[-1])
+        sol, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
         z_end = sol.sol(t_end)
         grid = self.grid_between(t0, t_end)
         stretch = None

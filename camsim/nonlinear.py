@@ -535,10 +535,8 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     :meth:`camsim.integrate.Integrator._advance_nonlinear`, with the cam input from
     :class:`_FastInput` and the one contact's force in scalar arithmetic.
     """
-    from scipy.integrate import solve_ivp
 
-    from camsim.errors import SimulationError
-    from camsim.integrate import TIME_EPS, Stretch
+    from camsim.integrate import Stretch
 
     v_imp = state.v_impacts
     lengths = np.concatenate([np.full(config.dim // 2, 1e-13), np.full(config.dim // 2, 1e-10)])
@@ -565,35 +563,8 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
         out += L * force_of(y[n], y[n + 1], v_impact)
         return out
 
-    events = []
-    u0 = cam_input(state.t)
-    for guard in guards:
-        cz, du, e = guard.value.Cz[0], guard.value.Du[0], float(guard.value.e[0])
-        offset = guard.tol if abs(cz @ z0 + du @ u0 + e) <= guard.tol else 0.0
-
-        def ev(t, z, cz=cz, du=du, e=e, offset=offset):
-            return float(cz @ z + du @ cam_input(t) + e + offset)
-
-        ev.terminal = True
-        ev.direction = -1
-        events.append(ev)
     t0 = state.t
-    sol = solve_ivp(
-        rhs, (t0, t_stop), z0, method="DOP853", rtol=integ.rtol_nonlinear, atol=lengths,
-        events=events or None, dense_output=True, max_step=max(integ.h * 4, 1e-6),
-    )
-    if sol.status == -1:
-        raise SimulationError(f"nonlinear contact phase failed at t = {sol.t[-1]:.9g} s: {sol.message}")
-    fired = None
-    t_end = t_stop
-    if sol.status == 1:
-        for guard, te in zip(guards, sol.t_events):
-            if te.size and (fired is None or te[0] < t_end):
-                if te[0] <= t0 + TIME_EPS:
-                    continue
-                fired, t_end = guard, float(te[0])
-        if fired is None:
-            t_end = float(sol.t[-1])
+    sol, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
     z_end = sol.sol(t_end)
     grid = integ.grid_between(t0, t_end)
     stretch = None
