@@ -247,6 +247,21 @@ class Integrator:
         s, v, a, j = self.cam.svaj(t)
         return np.stack([s, v, a, j], axis=-1)
 
+    def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
+        """Cam input [s, ṡ, s̈, s⃛] at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
+
+        The last step ends at the chunk's end, maybe a cam segment join: its end values are
+        the limits from the left there (acceleration or jerk may jump).
+        """
+        U = np.empty((nodes.size, N_INPUT))
+        U[0] = self._node_input(float(nodes[0]))
+        U[1:-1] = self._grid_inputs(k0, k1)
+        U[-1] = self._node_input(float(nodes[-1]))
+        if nodes[-1] in self._joins:
+            s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
+            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+        return U
+
     def _node_input(self, t: float) -> np.ndarray:
         """Cam input at a chunk's first or last node: the cached grid value when the node
         is a grid point (so a sample's value never depends on where a stretch began)."""
@@ -396,15 +411,7 @@ class Integrator:
                 k1 -= 1  # the end is that grid point: it is the last node
             # Nodes: the start, the interior grid points, the end.
             nodes = np.concatenate([[t_start], self.t_ref + np.arange(k0, k1) * h, [t_chunk_end]])
-            U = np.empty((nodes.size, N_INPUT))
-            U[0] = self._node_input(t_start)
-            U[1:-1] = self._grid_inputs(k0, k1)
-            U[-1] = self._node_input(t_chunk_end)
-            # The last step ends at the chunk's end, maybe a cam segment join: its end
-            # values are the limits from the left (acceleration or jerk may jump there).
-            if nodes[-1] in self._joins:
-                s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
-                U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+            U = self.chunk_inputs(nodes, k0, k1)
             steps = np.diff(nodes)
             D = step_input_derivatives(U[:-1], U[1:], steps, h)
             Z = np.empty((nodes.size, config.dim))

@@ -295,13 +295,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if fired is not None:
                 return finish(cur, fired)
             continue
-        U = np.empty((nodes.size, N_INPUT))
-        U[0] = integ._node_input(t)
-        U[1:-1] = integ._grid_inputs(k0, k1)
-        U[-1] = integ._node_input(t_end)
-        if nodes[-1] in integ._joins:
-            s_, v_, a_, j_ = integ.cam.svaj(nodes[-1:], side="left")
-            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+        U = integ.chunk_inputs(nodes, k0, k1)
         from camsim.integrate import exact_partial, forcing_coefficients, step_input_derivatives
 
         D = step_input_derivatives(U[:-1], U[1:], steps, h)
