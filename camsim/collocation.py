@@ -67,7 +67,7 @@ class Collocation:
         c = (1.0 - np.cos(np.pi * np.arange(m + 1) / m)) / 2.0
         chk = np.array(CHECK)
         sig = np.concatenate([c[1:], chk]) * h  # nodes 1..m, then the check points
-        maps = [StepMaps(config, float(s)) for s in sig]
+        maps = [StepMaps(config, float(s), series=True) for s in sig]
         nq = len(sig)
         rows = np.stack([stepper.dz, stepper.rz])  # (2, n)
         # δ, δ̇ at each point: Pz·z0 + PE·E (cam forcing coefficients) + du·u + de + Q·F_nodes

@@ -153,7 +153,7 @@ class PowerContactStepper:
             B = cfg.B + np.outer(self.L, kq * self.du + cq * self.ru)
             b = cfg.b + self.L * (kq * self.de + cq * self.re)
             lin = _LinearLaw(A, B, b)
-            maps = StepMaps(lin, self.integrator.h)
+            maps = StepMaps(lin, self.integrator.h, series=True)
             WL = np.array([maps.Gamma[j] @ self.L for j in range(4)])  # (4, m)
             hit = (lin, maps, WL, kq, cq)
             if len(self.laws) > 512:
