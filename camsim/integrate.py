@@ -661,14 +661,20 @@ class Integrator:
 
     def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, atol):
         """DOP853 (rtol ``rtol_nonlinear``) from t0 towards t_stop with every guard as a
-        terminal event; returns (solution with dense output, the guard that fired or None,
-        the end time).
+        terminal event; returns (grid points in [t0, t_end), the states there, the state at
+        t_end, the guard that fired or None, t_end).
+
+        scipy's DOP853 stepped here rather than through ``solve_ivp``: the same steps, dense
+        output and event roots (``brentq`` on the dense output, as ``solve_ivp`` does), but
+        the dense output is built only for the steps that hold a grid point or a root, and
+        no solution object is kept (a third of the cost of a bounce).
 
         A guard that sits at zero at the start (the one just crossed) is watched for a
         real re-crossing, below −tol, so the solver does not stop at once; a root at the
         very start is ignored for the same reason.
         """
-        from scipy.integrate import solve_ivp  # only contact phases of nonlinear contacts
+        from scipy.integrate import DOP853  # only contact phases of nonlinear contacts
+        from scipy.optimize import brentq
 
         events = []
         u0 = cam_input(t0)
@@ -679,26 +685,45 @@ class Integrator:
             def ev(t, z, cz=cz, du=du, e=e, offset=offset):
                 return float(cz @ z + du @ cam_input(t) + e + offset)
 
-            ev.terminal = True
-            ev.direction = -1
             events.append(ev)
-        sol = solve_ivp(
-            rhs, (t0, t_stop), z0, method="DOP853", rtol=self.rtol_nonlinear, atol=atol,
-            events=events or None, dense_output=True, max_step=max(self.h * 4, 1e-6),
-        )
-        if sol.status == -1:
-            raise SimulationError(f"nonlinear contact phase failed at t = {sol.t[-1]:.9g} s: {sol.message}")
+        solver = DOP853(rhs, t0, z0, t_stop, rtol=self.rtol_nonlinear, atol=atol, max_step=max(self.h * 4, 1e-6))
+        grid = self.grid_between(t0, t_stop)
+        Z = np.empty((grid.size, z0.size))
+        done = 0  # grid points filled
+        if grid.size and grid[0] <= t0:
+            Z[0] = z0
+            done = 1
+        g_old = [ev(t0, z0) for ev in events]
         fired = None
-        t_end = t_stop
-        if sol.status == 1:
-            for guard, te in zip(guards, sol.t_events):
-                if te.size and (fired is None or te[0] < t_end):
-                    if te[0] <= t0 + TIME_EPS:
-                        continue
-                    fired, t_end = guard, float(te[0])
-            if fired is None:
-                t_end = float(sol.t[-1])
-        return sol, fired, t_end
+        eps = np.finfo(float).eps
+        while True:
+            message = solver.step()
+            if solver.status == "failed":
+                raise SimulationError(f"nonlinear contact phase failed at t = {solver.t:.9g} s: {message}")
+            t_old, t_new, z_new = solver.t_old, solver.t, solver.y
+            dense = None
+            t_end, z_end = t_new, z_new
+            if events:
+                g_new = [ev(t_new, z_new) for ev in events]
+                for k, (a, c) in enumerate(zip(g_old, g_new)):
+                    if a >= 0.0 and c <= 0.0:  # a crossing downwards (solve_ivp's test)
+                        if dense is None:
+                            dense = solver.dense_output()
+                        root = brentq(lambda t, ev=events[k]: ev(t, dense(t)), t_old, t_new, xtol=4 * eps, rtol=4 * eps)
+                        if root > t0 + TIME_EPS and (fired is None or root < t_end):
+                            fired, t_end = guards[k], root
+                g_old = g_new
+                if fired is not None:
+                    z_end = dense(t_end)
+            # grid points reached by this step (before the root when a guard fired)
+            stop = int(np.searchsorted(grid, t_end, side="left" if fired is not None or solver.status == "finished" else "right"))
+            if stop > done:
+                if dense is None:
+                    dense = solver.dense_output()
+                Z[done:stop] = dense(grid[done:stop]).T
+                done = stop
+            if fired is not None or solver.status == "finished":
+                return grid[:done], Z[:done], np.asarray(z_end, dtype=float).copy(), fired, float(t_end)
 
     # ------------------------------------------------------------------ nonlinear
     def _advance_nonlinear(self, state, config, z0, guards, t_stop, record):
@@ -722,12 +747,9 @@ class Integrator:
             return A @ z + B @ u + b + L @ fn
 
         t0 = state.t
-        sol, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
-        z_end = sol.sol(t_end)
-        grid = self.grid_between(t0, t_end)
+        grid, Zs, z_end, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
         stretch = None
         if record and grid.size:
-            Zs = sol.sol(grid).T
             Us = self.inputs(grid)
             fn = self.nonlinear_forces(config, Zs, Us, v_imp)
             stretch = Stretch(state.branches, config, grid, Zs, Us, fn, dict(v_imp))

@@ -585,12 +585,9 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
         return out
 
     t0 = state.t
-    sol, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
-    z_end = sol.sol(t_end)
-    grid = integ.grid_between(t0, t_end)
+    grid, Zs, z_end, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
     stretch = None
     if record and grid.size:
-        Zs = sol.sol(grid).T
         ks = np.round((grid - integ.t_ref) / integ.h).astype(int)
         Us = integ._grid_inputs(int(ks[0]), int(ks[-1]) + 1)  # exact cam values, as on every grid point
         fn = integ.nonlinear_forces(config, Zs, Us, v_imp)
