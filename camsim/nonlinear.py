@@ -308,6 +308,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             continue
         U = integ.chunk_inputs(nodes, k0, k1)
         from camsim.integrate import exact_partial, forcing_coefficients, step_input_derivatives
+        from camsim.stepping import phi_series
 
         D = step_input_derivatives(U[:-1], U[1:], steps, h)
         Udot = np.zeros_like(U)  # u̇ = [ṡ, s̈, s⃛, s⁗]; B and the guards take no s⁗
@@ -346,6 +347,21 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         else:
             r = np.full(K + 1, r0)
             rd = np.zeros(K + 1)
+        partial_maps: dict[int, tuple] = {}
+
+        def partial(k, z_k, R_k):
+            """The state after the partial step k from z_k, the remainder's Taylor terms R_k."""
+            hit = partial_maps.get(k)
+            if hit is None:
+                # Φ, Γ_j of the step's own length (built once per window, not per iteration)
+                hit = partial_maps[k] = (phi_series(lin.A, float(steps[k])), forcing_coefficients(lin, D[k : k + 1])[0])
+            maps_k, E = hit
+            E = E.copy()
+            E[:4] += np.outer(R_k, L)
+            if maps_k is None:
+                return exact_partial(lin, z_k, E, steps[k])
+            return maps_k[0] @ z_k + np.tensordot(maps_k[1], E, axes=([0, 2], [0, 1]))
+
         ok = False
         scale = max(abs(float(F0[0])), 1e-300)
         prev_change = math.inf
@@ -361,19 +377,12 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             Z = np.empty((K + 1, z.size))
             Z[0] = z
             # first and last steps may be partial: exact maps of their own length
-            E0 = forcing_coefficients(lin, D[:1])[0]
-            E0[:4] += np.outer(R[0], L)
-            Z[1] = exact_partial(lin, z, E0, steps[0]) if not full[0] else maps.Phi @ z + g_u[0] + R[0] @ WL
+            Z[1] = maps.Phi @ z + g_u[0] + R[0] @ WL if full[0] else partial(0, z, R[0])
             if K > 2:
                 g = g_u[1 : K - 1] + R[1 : K - 1] @ WL
                 Z[2:K] = _propagate(maps, Z[1], g)
             if K > 1:
-                if full[-1]:
-                    Z[K] = maps.Phi @ Z[K - 1] + g_u[-1] + R[-1] @ WL
-                else:
-                    E1 = forcing_coefficients(lin, D[-1:])[0]
-                    E1[:4] += np.outer(R[-1], L)
-                    Z[K] = exact_partial(lin, Z[K - 1], E1, steps[-1])
+                Z[K] = maps.Phi @ Z[K - 1] + g_u[-1] + R[-1] @ WL if full[-1] else partial(K - 1, Z[K - 1], R[-1])
             d, dd, F, kt, ct = stepper.force(Z, U, chi)
             zdot = Z @ A.T + U @ B.T + b + np.outer(F, L)
             ddd = zdot @ stepper.rz + Udot @ stepper.ru  # δ̈
