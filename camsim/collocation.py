@@ -127,20 +127,23 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     u0 = U[:-1]
     pre0 = np.stack([u0 @ stepper.du + stepper.de, u0 @ stepper.ru + stepper.re], axis=1)
     M0 = np.stack([stepper.dz, stepper.rz])
-    Q = coll.Q
-    Qd, Qr = Q[coll.rows_d[:m]], Q[coll.rows_r[:m]]
-    Qd1, Qr1 = Qd[:, 1:], Qr[:, 1:]
-    Pz = coll.Pz
+    # rows reordered once per call so that each Newton iteration reads slices: δ at the
+    # nodes, δ̇ at the nodes, then δ and δ̇ at the check points
+    order = np.concatenate([coll.rows_d[:m], coll.rows_r[:m], coll.rows_d[m:], coll.rows_r[m:]])
+    Pz, pre, Q = coll.Pz[order], pre[:, order], coll.Q[order]
+    Q0, Q1 = Q[:, 0], Q[:, 1:]
+    Qd1, Qr1, Qn = Q1[:m], Q1[m : 2 * m], Q1[: 2 * m]
+    nc = nq - m
     eye = np.eye(m)
     element, v_impact = stepper.element, stepper.v_impact
     n = z.size
     lengths = np.concatenate([np.full(n // 2, 1e-13), np.full(n // 2, 1e-10)])
     rtol = integ.rtol_nonlinear
-    rows_cd, rows_cr = coll.rows_d[m:], coll.rows_r[m:]
     Zs = np.empty((K + 1, n))
     Zs[0] = z
     Fs = np.empty(K + 1)
-    Fall = None
+    Fall = np.empty(m + 1)
+    have_prev = False
     taken = 0
     kt_lo = np.full(K, np.inf)
     kt_hi = np.zeros(K)
@@ -148,43 +151,45 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     d_s = np.empty(K + 1)
     r_s = np.empty(K + 1)
     for k in range(K):
-        d0, r0 = M0 @ z + pre0[k]
-        F0 = element.nonlinear_force_scalar(float(d0), float(r0), v_impact)
+        d0, r0 = (M0 @ z + pre0[k]).tolist()
+        F0 = element.nonlinear_force_scalar(d0, r0, v_impact)
         Fs[k] = F0
         d_s[k], r_s[k] = d0, r0
         if F0 <= 0.0:
             break
-        base = Pz @ z + pre[k]
-        base += Q[:, 0] * F0
-        Fn = coll.extrap @ Fall if Fall is not None else np.full(m, F0)
-        bd, br = base[coll.rows_d[:m]], base[coll.rows_r[:m]]
+        base = Pz @ z + pre[k] + Q0 * F0
+        base_n = base[: 2 * m]
+        Fn = coll.extrap @ Fall if have_prev else np.full(m, F0)
         converged = False
         Jinv = None
         for it in range(NEWTON_MAX):
-            F, kt, ct = element.nonlinear_tangent(bd + Qd1 @ Fn, br + Qr1 @ Fn, v_impact)
+            y = base_n + Qn @ Fn
+            F, kt, ct = element.nonlinear_tangent(y[:m], y[m:], v_impact)
             if it < JACOBIANS:
                 # Newton's Jacobian on the first two iterations, then kept (chord steps)
                 Jinv = np.linalg.inv(eye - kt[:, None] * Qd1 - ct[:, None] * Qr1)
             dF = Jinv @ (Fn - F)
             Fn = Fn - dF
-            if abs(dF).max() <= NEWTON_TOL * max(abs(F0), abs(Fn).max()):
+            if np.max(np.abs(dF)) <= NEWTON_TOL * max(F0, np.max(np.abs(Fn))):
                 converged = True
                 break
-        if not converged or float(np.min(F)) <= 0.0:
-            Fall = None
+        if not converged or np.min(F) <= 0.0:
+            have_prev = False
             break
-        Fall = np.concatenate([[F0], Fn])
-        kt_lo[k], kt_hi[k] = float(np.min(kt)), float(np.max(kt))
-        ct_hi[k] = float(np.max(ct))
-        y = base + Q[:, 1:] @ Fn
-        Fc = element.nonlinear_force(y[rows_cd], y[rows_cr], v_impact)
-        if float(np.min(Fc)) <= 0.0:
-            Fall = None
+        Fall[0] = F0
+        Fall[1:] = Fn
+        have_prev = True
+        kt_lo[k], kt_hi[k] = np.min(kt), np.max(kt)
+        ct_hi[k] = np.max(ct)
+        y = base[2 * m :] + Q1[2 * m :] @ Fn
+        Fc = element.nonlinear_force(y[:nc], y[nc:], v_impact)
+        if np.min(Fc) <= 0.0:
+            have_prev = False
             break
         err = coll.G_err @ (Fc - coll.at_check @ Fall)
         z_new = coll.Phi @ z + end_in[k] + coll.endL @ Fall
         if np.any(np.abs(err) > SAFETY * (lengths + rtol * np.maximum(np.abs(z), np.abs(z_new)))):
-            Fall = None
+            have_prev = False
             break
         z = z_new
         Zs[k + 1] = z
