@@ -156,8 +156,10 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
     the Taylor series of φ_{P+1}(X) = Σ_i X^i/(i+P+1)! on the balanced X = A·h and the
     recurrence φ_{k−1}(X) = X·φ_k(X) + I/(k−1)!, which loses nothing while ‖X‖ ≤ 1.
 
-    About 30 small matrix products instead of ``expm`` of the (P+2)·n augmented matrix (a
-    twentieth of the time); returns None when the balanced norm exceeds
+    About 20 small matrix products instead of ``expm`` of the (P+2)·n augmented matrix:
+    half the time, and accurate to rounding on every Γ_j (the augmented ``expm`` carries the
+    high Γ_j, many orders below its largest block, to 1e-12 … 1e-6 of themselves for a stiff
+    seat at h = 20 µs; tests/test_stepping.py). Returns None when the balanced norm exceeds
     :data:`PHI_SERIES_NORM` (then use the augmented ``expm``).
     """
     m = A.shape[0]

@@ -1,0 +1,78 @@
+"""Step maps of a linear configuration (camsim.stepping): the φ-function series.
+
+Reference: the defining integrals Γ_j(h) = ∫₀ʰ e^{A(h−s)}·s^j/j! ds evaluated by adaptive
+quadrature (``scipy.integrate.quad_vec``, Gauss–Kronrod, epsrel 1e-14) of
+``scipy.linalg.expm`` at each node, and Φ = ``expm(A·h)`` — independent of both ways
+camsim builds them. The test system is a two-mass chain with a stiff seat (ω·h from 0.05
+to 0.6, lightly damped), as in the power-law stepper's linear laws. Tolerance: 1e-12 of
+each matrix's largest entry (the quadrature's own error is ~1e-15).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad_vec
+from scipy.linalg import expm
+
+from camsim.stepping import PHI_SERIES_NORM, StepMaps, phi_series
+
+
+def chain(k_seat: float) -> np.ndarray:
+    """State matrix of two 1 kg masses: ground–k_seat–M1–1e5 N/m–M2, 0.1 % damping."""
+    K = np.array([[k_seat + 1e5, -1e5], [-1e5, 1e5]])
+    C = 1e-3 * K / math.sqrt(k_seat)
+    return np.block([[np.zeros((2, 2)), np.eye(2)], [-K, -C]])
+
+
+def gamma_reference(A: np.ndarray, h: float, j: int) -> np.ndarray:
+    value, _ = quad_vec(lambda s: expm(A * (h - s)) * s**j / math.factorial(j), 0.0, h, epsabs=0.0, epsrel=1e-14)
+    return value
+
+
+@pytest.mark.parametrize("k_seat", [1e7, 1e8, 5e8])
+def test_phi_series_against_quadrature(k_seat):
+    A, h = chain(k_seat), 2e-5
+    maps = phi_series(A, h)
+    assert maps is not None
+    Phi, Gamma = maps
+    assert np.max(np.abs(Phi - expm(A * h))) <= 1e-12 * np.max(np.abs(Phi))
+    assert Gamma.shape[0] == 8
+    for j in range(8):
+        ref = gamma_reference(A, h, j)
+        assert np.max(np.abs(Gamma[j] - ref)) <= 1e-12 * np.max(np.abs(ref)), j
+
+
+def test_step_maps_from_the_series():
+    """StepMaps(series=True) holds the series' maps; the augmented expm agrees with them."""
+    A, h = chain(1e8), 2e-5
+    Phi, Gamma = phi_series(A, h)
+
+    class Config:  # the attributes StepMaps reads
+        dim = 4
+
+    Config.A, Config.B, Config.b = A, np.zeros((4, 4)), np.zeros(4)
+    series, augmented = StepMaps(Config, h, series=True), StepMaps(Config, h)
+    assert np.array_equal(series.Phi, Phi) and np.array_equal(series.Gamma, Gamma)
+    # the augmented-matrix expm (the linear path's maps) agrees to its own accuracy, which
+    # falls with j (here 7e-13 at j = 3, 5e-12 at j = 4, 1e-6 at j = 7, relative to each
+    # Γ_j; the quadrature test above is the reference)
+    assert np.max(np.abs(series.Phi - augmented.Phi)) <= 1e-13 * np.max(np.abs(Phi))
+    for j in range(5):
+        assert np.max(np.abs(series.Gamma[j] - augmented.Gamma[j])) <= 1e-10 * np.max(np.abs(series.Gamma[j])), j
+
+
+def test_phi_series_declines_large_steps():
+    """Beyond its norm bound the series is not used (StepMaps falls back to expm)."""
+    A = chain(1e8)
+    h = 40 * PHI_SERIES_NORM / 1e4  # ω·h ≈ 40
+    assert phi_series(A, h) is None
+
+    class Config:
+        dim = 4
+
+    Config.A, Config.B, Config.b = A, np.zeros((4, 4)), np.zeros(4)
+    maps = StepMaps(Config, h, series=True)
+    assert np.max(np.abs(maps.Phi - expm(A * h))) <= 1e-10 * np.max(np.abs(maps.Phi))
