@@ -207,6 +207,9 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     h = integ.h
     chi = stepper.chi(state.v_impacts)
     A, B, b, L = config.A, config.B, config.b, stepper.L
+    # δ̈ = rz·ż + ru·u̇ with ż = A·z + B·u + b + L·F, folded into vectors (one matrix-vector
+    # product per node set instead of forming ż in the iteration)
+    rate_A, rate_B, rate_b, rate_L = A.T @ stepper.rz, B.T @ stepper.rz, float(b @ stepper.rz), float(L @ stepper.rz)
     v_imp = state.v_impacts
     pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     t, z = state.t, z0
@@ -384,8 +387,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if K > 1:
                 Z[K] = maps.Phi @ Z[K - 1] + g_u[-1] + R[-1] @ WL if full[-1] else partial(K - 1, Z[K - 1], R[-1])
             d, dd, F, kt, ct = stepper.force(Z, U, chi)
-            zdot = Z @ A.T + U @ B.T + b + np.outer(F, L)
-            ddd = zdot @ stepper.rz + Udot @ stepper.ru  # δ̈
+            ddd = Z @ rate_A + U @ rate_B + Udot @ stepper.ru + (F * rate_L + rate_b)  # δ̈ = ṙz·ż + ru·u̇
             Fd = kt * dd + ct * ddd
             r_new = F - kq * d - cq * dd
             rd_new = Fd - kq * dd - cq * ddd
@@ -401,7 +403,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                     nodes, steps, full = nodes[: K + 1], steps[:K], full[:K]
                     U, D, Udot, g_u = U[: K + 1], D[:K], Udot[: K + 1], g_u[:K]
                     r, rd, r_new, rd_new = r[: K + 1], rd[: K + 1], r_new[: K + 1], rd_new[: K + 1]
-                    Z, F, zdot = Z[: K + 1], F[: K + 1], zdot[: K + 1]
+                    Z, F = Z[: K + 1], F[: K + 1]
                     hist_f = [np.concatenate([v[: K + 1], v[oK + 1 : oK + K + 2]]) for v in hist_f]
                     hist_g = [np.concatenate([v[: K + 1], v[oK + 1 : oK + K + 2]]) for v in hist_g]
                     window = K
@@ -452,6 +454,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 return finish(cur, fired)
             continue
         fails = 0
+        zdot = Z @ A.T + U @ B.T + b + np.outer(F, L)
         # ---- guards on the nodes: values and exact rates
         hit_step = _first_hit(guards, Z, U, zdot, Udot, F, steps, first)
         if hit_step is not None:
@@ -584,14 +587,23 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     AM = np.vstack([A, Mz])
     BMC = np.einsum("mc,kcj->kmj", np.vstack([B, Mu]), cam_input.C)
     BMC[:, :, 0] += np.concatenate([b, me])
-    starts, powers, index = cam_input.starts, cam_input.powers, cam_input.index
+    # plain floats where numpy scalars would cost more (the hot loop of a bounce)
+    starts, powers = cam_input.starts.tolist(), cam_input.powers.astype(float)
+    t1, step, last = cam_input.t1, cam_input.h, cam_input.last
 
     def rhs(t, z):
-        k = index(t)
+        # the step holding t: _FastInput.index inlined
+        if t < t1:
+            k = 0
+        else:
+            k = 1 + int((t - t1) / step)
+            if k > last:
+                k = last
+            elif t < starts[k]:  # rounding at a node
+                k -= 1
         y = AM @ z + BMC[k] @ ((t - starts[k]) ** powers)
-        out = y[:n]
-        out += L * force_of(y[n], y[n + 1], v_impact)
-        return out
+        delta, rate = y[n:].tolist()
+        return y[:n] + L * force_of(delta, rate, v_impact)
 
     t0 = state.t
     grid, Zs, z_end, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
