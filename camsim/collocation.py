@@ -18,6 +18,15 @@ the element's ``nonlinear_tangent`` gives the Jacobian). This is exponential col
 (Hochbruck & Ostermann, Acta Numerica 19 (2010) 209, §2.4); the contact's stiffness sits
 in the implicit m×m solve, so the step is not limited by stability.
 
+The steps of one call (:data:`camsim.nonlinear.COLLOC_STEPS`, eight grid steps) are solved
+together: step k's node values act on step j > k through exact linear maps (Φ^(j−k−1)
+and the step's input integrals), so the δ, δ̇ rows of all steps are one linear map of all
+node values, and Newton's method runs on the K·m conditions at once — one small dense
+solve per iteration instead of a Python loop over steps (:func:`_block_steps`). Where that
+Newton iteration does not converge the steps are taken one by one
+(:func:`_steps_one_by_one`). Either way the steps are accepted up to the first that fails
+a test below (the later ones do not affect the earlier: the maps are causal).
+
 Error control: the defect F(δ(s), δ̇(s)) − F_poly(s) is evaluated at :data:`CHECK` points
 between the nodes; the local error of the step is its response ∫ e^{A(h−s)}·L·defect(s) ds
 (the defect interpolated through the nodes, where it is zero, and the check points),
@@ -43,6 +52,9 @@ CHECK = (0.22, 0.78)
 #: Newton: stop when the node values move by less than this times the step's force.
 NEWTON_TOL = 1e-13
 NEWTON_MAX = 8
+#: Solve the steps of a call together (:func:`_block_steps`); Newton iterations allowed.
+BLOCK = True
+BLOCK_NEWTON_MAX = 12
 #: Newton iterations with a fresh Jacobian (then chord steps with the last one).
 JACOBIANS = 2
 #: The local error estimate must stay below this fraction of the tolerance.
@@ -97,6 +109,85 @@ class Collocation:
         self.rows_r = np.arange(1, 2 * nq, 2)
 
 
+def _block_matrices(coll, K):
+    """MU (K·2nq, K·m + 1): the δ, δ̇ rows of K consecutive steps as linear maps of their
+    node forces U = [F_0, F_{0,1..m}, F_{1,1..m}, …] (step k's polynomial is U[k·m : k·m+m+1],
+    its first node being the previous step's last); cached per block length."""
+    cache = coll.__dict__.setdefault("blocks", {})
+    hit = cache.get(K)
+    if hit is not None:
+        return hit
+    m, nq = coll.m, coll.nq
+    rows = 2 * nq
+    PPhi = [coll.Pz]
+    for _ in range(K):
+        PPhi.append(PPhi[-1] @ coll.Phi)
+    T = [P @ coll.endL for P in PPhi]  # (2nq, m+1): step j's polynomial seen l+1 steps on
+    MU = np.zeros((K * rows, K * m + 1))
+    for k in range(K):
+        MU[k * rows : (k + 1) * rows, k * m : k * m + m + 1] += coll.Q
+        for j in range(k):
+            MU[k * rows : (k + 1) * rows, j * m : j * m + m + 1] += T[k - 1 - j]
+    node_d = np.array([k * rows + coll.rows_d[q] for k in range(K) for q in range(m)])
+    node_r = np.array([k * rows + coll.rows_r[q] for k in range(K) for q in range(m)])
+    chk_d = np.array([k * rows + coll.rows_d[m + c] for k in range(K) for c in range(nq - m)])
+    chk_r = np.array([k * rows + coll.rows_r[m + c] for k in range(K) for c in range(nq - m)])
+    hit = cache[K] = (MU, node_d, node_r, chk_d, chk_r)
+    return hit
+
+
+def _block_steps(coll, stepper, K, z, F0, pre, end_in, lengths, rtol):
+    """K collocation steps solved together: Newton on all K·m node values at once (one
+    K·m × K·m system; the steps' couplings are exact linear maps), then each step's local
+    error as in the step-by-step loop. Returns (steps taken, Zs, Fs, δ and δ̇ at the step
+    starts, the contact stiffness range per step) or None when Newton does not converge.
+    """
+    m, nq = coll.m, coll.nq
+    nc = nq - m
+    MU, node_d, node_r, chk_d, chk_r = _block_matrices(coll, K)
+    n = z.size
+    # states without the contact force after the first node: s_{k+1} = Φ·s_k + in_k (+ F_0's share)
+    S = np.empty((K, n))
+    s_k = z
+    for k in range(K):
+        S[k] = s_k
+        s_k = coll.Phi @ s_k + end_in[k]
+    Ylin = (S @ coll.Pz.T + pre).reshape(-1) + MU[:, 0] * F0
+    MD, MR = MU[node_d, 1:], MU[node_r, 1:]
+    YD, YR = Ylin[node_d], Ylin[node_r]
+    element, v_impact = stepper.element, stepper.v_impact
+    X = np.full(K * m, F0)
+    eye = np.eye(K * m)
+    for _ in range(BLOCK_NEWTON_MAX):
+        F, kt, ct = element.nonlinear_tangent(YD + MD @ X, YR + MR @ X, v_impact)
+        dX = np.linalg.solve(eye - kt[:, None] * MD - ct[:, None] * MR, X - F)
+        X = X - dX
+        if np.max(np.abs(dX)) <= NEWTON_TOL * max(F0, np.max(np.abs(X))):
+            break
+    else:
+        return None
+    U = np.concatenate([[F0], X])
+    F, kt, ct = element.nonlinear_tangent(YD + MD @ X, YR + MR @ X, v_impact)
+    Y_chk = Ylin + MU[:, 1:] @ X  # (Ylin holds F_0's share)
+    Fc = element.nonlinear_force(Y_chk[chk_d], Y_chk[chk_r], v_impact).reshape(K, nc)
+    idx = np.arange(K)[:, None] * m + np.arange(m + 1)[None, :]
+    Fall = U[idx]  # (K, m+1)
+    err = (Fc - Fall @ coll.at_check.T) @ coll.G_err.T  # (K, n)
+    Zs = np.empty((K + 1, n))
+    Zs[0] = z
+    for k in range(K):
+        Zs[k + 1] = coll.Phi @ Zs[k] + end_in[k] + coll.endL @ Fall[k]
+    bound = SAFETY * (lengths + rtol * np.maximum(np.abs(Zs[:-1]), np.abs(Zs[1:])))
+    F_nodes = F.reshape(K, m)
+    bad = np.any(np.abs(err) > bound, axis=1) | (np.min(F_nodes, axis=1) <= 0.0) | (np.min(Fc, axis=1) <= 0.0)
+    taken = int(np.argmax(bad)) if bad.any() else K
+    kt_nodes, ct_nodes = kt.reshape(K, m), ct.reshape(K, m)
+    Fs = np.append(Fall[:, 0], Fall[-1, -1])
+    d_nodes, r_nodes = (YD + MD @ X).reshape(K, m), (YR + MR @ X).reshape(K, m)
+    return (taken, Zs, Fs, d_nodes, r_nodes, np.min(kt_nodes, axis=1), np.max(kt_nodes, axis=1),
+            np.max(ct_nodes, axis=1))
+
+
 def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guards, first, chi):
     """Up to ``n_steps`` grid steps from the grid point ``t``.
 
@@ -127,6 +218,64 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     u0 = U[:-1]
     pre0 = np.stack([u0 @ stepper.du + stepper.de, u0 @ stepper.ru + stepper.re], axis=1)
     M0 = np.stack([stepper.dz, stepper.rz])
+    element, v_impact = stepper.element, stepper.v_impact
+    n = z.size
+    lengths = np.concatenate([np.full(n // 2, 1e-13), np.full(n // 2, 1e-10)])
+    rtol = integ.rtol_nonlinear
+    block = None
+    if BLOCK and K >= 2:
+        d0, r0 = (M0 @ z + pre0[0]).tolist()
+        F0 = element.nonlinear_force_scalar(d0, r0, v_impact)
+        if F0 > 0.0:
+            block = _block_steps(coll, stepper, K, z, F0, pre, end_in, lengths, rtol)
+    if block is not None:
+        taken, Zs, Fs, d_nodes, r_nodes, kt_lo, kt_hi, ct_hi = block
+        d_s = np.concatenate([[d0], d_nodes[:, -1]])
+        r_s = np.concatenate([[r0], r_nodes[:, -1]])
+    else:
+        taken, Zs, Fs, d_s, r_s, kt_lo, kt_hi, ct_hi = _steps_one_by_one(
+            coll, stepper, K, z, pre, pre0, end_in, M0, lengths, rtol)
+    hit = taken < K
+    if taken == 0:
+        return t, Zs[0], None, True, False
+    # calm: the contact stiffness of the last steps varies little (the iteration of
+    # camsim.nonlinear will converge again)
+    last = slice(max(0, taken - CALM_STEPS), taken)
+    hi = float(np.max(kt_hi[last]))
+    calm = hi > 0.0 and (hi - float(np.min(kt_lo[last]))) <= CALM * hi
+    if calm and CALM_REMAINDER and taken >= 8:
+        # ... and the remainder about the ladder's linear law would pass the iteration's
+        # interpolation test (|Δ⁴r|/384 below INTERP_TOL of the force) on the last steps
+        from camsim.nonlinear import INTERP_TOL, LADDER
+
+        ks = slice(taken - 8, taken)
+        kq = LADDER ** round(math.log(hi) / math.log(LADDER))
+        cmax = float(np.max(ct_hi[ks]))
+        cq = LADDER ** round(math.log(cmax) / math.log(LADDER)) if cmax > 0 else 0.0
+        r = Fs[ks] - kq * d_s[ks] - cq * r_s[ks]
+        calm = float(np.max(np.abs(np.diff(r, 4)))) / 384.0 <= INTERP_TOL * float(np.max(np.abs(Fs[ks])))
+    # guards on the end nodes of the steps taken (values and exact rates)
+    Z = Zs[: taken + 1]
+    Un = U[: taken + 1]
+    Fn_nodes = stepper.force(Z, Un, chi)[2]
+    zdot = Z @ config.A.T + Un @ config.B.T + config.b + np.outer(Fn_nodes, stepper.L)
+    Udot = np.zeros_like(Un)
+    Udot[:, :3] = Un[:, 1:]
+    nodes = integ.t_ref + np.arange(k0, k0 + taken + 1) * h
+    nodes[0] = t
+    steps = np.full(taken, h)
+    hit_step = _first_hit(guards, Z, Un, zdot, Udot, Fn_nodes, steps, first)
+    if hit_step is not None:
+        if hit_step == 0:
+            return t, Zs[0], None, True, False
+        taken = hit_step
+        hit = True
+    return float(nodes[taken]), Zs[taken].copy(), (nodes[: taken + 1], Zs[: taken + 1], U[: taken + 1]), hit, calm
+
+
+def _steps_one_by_one(coll, stepper, K, z, pre, pre0, end_in, M0, lengths, rtol):
+    """The steps one at a time (Newton on each step's m node values); see collocation_steps."""
+    m, nq = coll.m, coll.nq
     # rows reordered once per call so that each Newton iteration reads slices: δ at the
     # nodes, δ̇ at the nodes, then δ and δ̇ at the check points
     order = np.concatenate([coll.rows_d[:m], coll.rows_r[:m], coll.rows_d[m:], coll.rows_r[m:]])
@@ -137,8 +286,6 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     eye = np.eye(m)
     element, v_impact = stepper.element, stepper.v_impact
     n = z.size
-    lengths = np.concatenate([np.full(n // 2, 1e-13), np.full(n // 2, 1e-10)])
-    rtol = integ.rtol_nonlinear
     Zs = np.empty((K + 1, n))
     Zs[0] = z
     Fs = np.empty(K + 1)
@@ -194,39 +341,4 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
         z = z_new
         Zs[k + 1] = z
         taken = k + 1
-    hit = taken < K
-    if taken == 0:
-        return t, Zs[0], None, True, False
-    # calm: the contact stiffness of the last steps varies little (the iteration of
-    # camsim.nonlinear will converge again)
-    last = slice(max(0, taken - CALM_STEPS), taken)
-    hi = float(np.max(kt_hi[last]))
-    calm = hi > 0.0 and (hi - float(np.min(kt_lo[last]))) <= CALM * hi
-    if calm and CALM_REMAINDER and taken >= 8:
-        # ... and the remainder about the ladder's linear law would pass the iteration's
-        # interpolation test (|Δ⁴r|/384 below INTERP_TOL of the force) on the last steps
-        from camsim.nonlinear import INTERP_TOL, LADDER
-
-        ks = slice(taken - 8, taken)
-        kq = LADDER ** round(math.log(hi) / math.log(LADDER))
-        cmax = float(np.max(ct_hi[ks]))
-        cq = LADDER ** round(math.log(cmax) / math.log(LADDER)) if cmax > 0 else 0.0
-        r = Fs[ks] - kq * d_s[ks] - cq * r_s[ks]
-        calm = float(np.max(np.abs(np.diff(r, 4)))) / 384.0 <= INTERP_TOL * float(np.max(np.abs(Fs[ks])))
-    # guards on the end nodes of the steps taken (values and exact rates)
-    Z = Zs[: taken + 1]
-    Un = U[: taken + 1]
-    Fn_nodes = stepper.force(Z, Un, chi)[2]
-    zdot = Z @ config.A.T + Un @ config.B.T + config.b + np.outer(Fn_nodes, stepper.L)
-    Udot = np.zeros_like(Un)
-    Udot[:, :3] = Un[:, 1:]
-    nodes = integ.t_ref + np.arange(k0, k0 + taken + 1) * h
-    nodes[0] = t
-    steps = np.full(taken, h)
-    hit_step = _first_hit(guards, Z, Un, zdot, Udot, Fn_nodes, steps, first)
-    if hit_step is not None:
-        if hit_step == 0:
-            return t, Zs[0], None, True, False
-        taken = hit_step
-        hit = True
-    return float(nodes[taken]), Zs[taken].copy(), (nodes[: taken + 1], Zs[: taken + 1], U[: taken + 1]), hit, calm
+    return taken, Zs, Fs, d_s, r_s, kt_lo, kt_hi, ct_hi

@@ -97,6 +97,8 @@ ONSET_COLLOC = False
 AFTER_ONSET = True
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
+#: Grid steps per call of the collocation (solved together, camsim.collocation).
+COLLOC_STEPS = 8
 
 
 @dataclass
@@ -268,7 +270,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             colloc_next = False
             any_taken = hit = False
             while True:
-                t_c, z_c, taken, hit, calm = collocate(t, z, FALLBACK_STEPS * 2 ** min(fails, 3), first)
+                t_c, z_c, taken, hit, calm = collocate(t, z, COLLOC_STEPS * 2 ** min(fails, 3), first)
                 if taken is None:
                     break
                 any_taken = True

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
@@ -78,7 +79,11 @@ def reference(t):
     return sol.y[0], C * np.maximum(-sol.y[0], 0) ** 1.5, x0
 
 
-def test_collocation_against_independent_solver():
+@pytest.mark.parametrize("block", [True, False], ids=["steps-together", "one-by-one"])
+def test_collocation_against_independent_solver(block, monkeypatch):
+    """Both ways of solving the collocation conditions: the steps of a call together (one
+    Newton system) and step by step (the fall-back when that Newton does not converge)."""
+    monkeypatch.setattr(collocation, "BLOCK", block)
     steps = {"n": 0}
     original = nonlinear.collocation_steps
 
