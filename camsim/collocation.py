@@ -40,6 +40,7 @@ are checked on the steps' end nodes with :func:`camsim.nonlinear._first_hit`).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -67,11 +68,20 @@ CALM_STEPS = 16
 CALM_REMAINDER = True
 
 
+@dataclass(frozen=True)
+class _Maps:
+    """Φ and Γ_j of one step length (the part of StepMaps the collocation reads)."""
+
+    Phi: np.ndarray
+    Gamma: np.ndarray
+
+
 class Collocation:
     """Step maps of the collocation for one configuration with one closed nonlinear contact."""
 
     def __init__(self, integrator, config, stepper):
         from camsim.integrate import _FACT, _P, StepMaps
+        from camsim.stepping import phi_series
 
         h = integrator.h
         m = NODES
@@ -79,7 +89,9 @@ class Collocation:
         c = (1.0 - np.cos(np.pi * np.arange(m + 1) / m)) / 2.0
         chk = np.array(CHECK)
         sig = np.concatenate([c[1:], chk]) * h  # nodes 1..m, then the check points
-        maps = [StepMaps(config, float(s), series=True) for s in sig]
+        # only Φ and Γ_j of each node's step are needed (not the modal form StepMaps adds)
+        maps = [_Maps(*fast) if (fast := phi_series(config.A, float(s))) is not None else StepMaps(config, float(s))
+                for s in sig]
         nq = len(sig)
         rows = np.stack([stepper.dz, stepper.rz])  # (2, n)
         # δ, δ̇ at each point: Pz·z0 + PE·E (cam forcing coefficients) + du·u + de + Q·F_nodes
