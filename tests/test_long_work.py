@@ -367,8 +367,9 @@ def test_sigterm_and_sigint_remove_the_temporary_file(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_sigkill_run_at_random_moments(tmp_path):
-    """20 runs killed with SIGKILL at seeded random moments: the previous result stays
-    intact (bytes), and after the next complete run no temporary file remains.
+    """20 runs killed with SIGKILL — ten at seeded random moments of the whole run, ten at
+    seeded moments after their streaming began: the previous result stays intact (bytes),
+    and after the next complete run no temporary file remains.
 
     The run streams its traces into its temporary file from the start of the
     integration: a kill mid-run leaves that file (pid-tagged), which the next run of the
@@ -383,7 +384,16 @@ def test_sigkill_run_at_random_moments(tmp_path):
     left_mid_stream = 0
     for trial in range(20):
         proc = subprocess.Popen(base, env=env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(0.1, 1.0) * duration)
+        if trial % 2:
+            # every other kill at a random moment of the whole run (start-up included) ...
+            time.sleep(rng.uniform(0.1, 1.0) * duration)
+        else:
+            # ... the others once the run streams into its temporary file (a slow first
+            # run on a loaded machine would otherwise put every kill after the end)
+            deadline = time.monotonic() + 2 * duration
+            while not any(f".{proc.pid}." in p.name for p in tmp_path.iterdir()) and time.monotonic() < deadline:
+                time.sleep(0.005)
+            time.sleep(rng.uniform(0.0, 0.2) * duration)
         proc.kill()
         proc.wait()
         assert out.read_bytes() == previous, trial  # deterministic output: a finished run writes the same bytes
