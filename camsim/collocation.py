@@ -121,6 +121,12 @@ class Collocation:
         self.rows_r = np.arange(1, 2 * nq, 2)
 
 
+def _error_bound(lengths, rtol, z0, z1):
+    """What a step's local error must stay below, per component (the DOP853 path's atol and
+    rtol, times SAFETY); z0, z1 the states at the step's ends (or rows of them)."""
+    return SAFETY * (lengths + rtol * np.maximum(np.abs(z0), np.abs(z1)))
+
+
 def _block_matrices(coll, K):
     """MU (K·2nq, K·m + 1): the δ, δ̇ rows of K consecutive steps as linear maps of their
     node forces U = [F_0, F_{0,1..m}, F_{1,1..m}, …] (step k's polynomial is U[k·m : k·m+m+1],
@@ -189,7 +195,7 @@ def _block_steps(coll, stepper, K, z, F0, pre, end_in, lengths, rtol):
     Zs[0] = z
     for k in range(K):
         Zs[k + 1] = coll.Phi @ Zs[k] + end_in[k] + coll.endL @ Fall[k]
-    bound = SAFETY * (lengths + rtol * np.maximum(np.abs(Zs[:-1]), np.abs(Zs[1:])))
+    bound = _error_bound(lengths, rtol, Zs[:-1], Zs[1:])
     F_nodes = F.reshape(K, m)
     bad = np.any(np.abs(err) > bound, axis=1) | (np.min(F_nodes, axis=1) <= 0.0) | (np.min(Fc, axis=1) <= 0.0)
     taken = int(np.argmax(bad)) if bad.any() else K
@@ -218,7 +224,7 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     K = min(n_steps, math.floor((t_stop - TIME_EPS - integ.t_ref) / h) - k0)
     if K <= 0:
         return t, z, None, True, False
-    m, nq = coll.m, coll.nq
+    nq = coll.nq
     U = integ._grid_inputs(k0, k0 + K + 1)
     D = step_input_derivatives(U[:-1], U[1:], np.full(K, h), h)
     E = forcing_coefficients(config, D)  # (K, 8, n)
@@ -232,7 +238,7 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     M0 = np.stack([stepper.dz, stepper.rz])
     element, v_impact = stepper.element, stepper.v_impact
     n = z.size
-    lengths = np.concatenate([np.full(n // 2, 1e-13), np.full(n // 2, 1e-10)])
+    lengths = integ.nonlinear_atol(n)
     rtol = integ.rtol_nonlinear
     block = None
     if BLOCK and K >= 2:
@@ -347,7 +353,7 @@ def _steps_one_by_one(coll, stepper, K, z, pre, pre0, end_in, M0, lengths, rtol)
             break
         err = coll.G_err @ (Fc - coll.at_check @ Fall)
         z_new = coll.Phi @ z + end_in[k] + coll.endL @ Fall
-        if np.any(np.abs(err) > SAFETY * (lengths + rtol * np.maximum(np.abs(z), np.abs(z_new)))):
+        if np.any(np.abs(err) > _error_bound(lengths, rtol, z, z_new)):
             have_prev = False
             break
         z = z_new

@@ -574,7 +574,6 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     from camsim.integrate import Stretch
 
     v_imp = state.v_impacts
-    lengths = np.concatenate([np.full(config.dim // 2, 1e-13), np.full(config.dim // 2, 1e-10)])
     cam_input = _FastInput(integ, state.t, t_stop)
     A, B, b, L = config.A, config.B, config.b, stepper.L
     Mz = np.vstack([stepper.dz, stepper.rz])
@@ -590,25 +589,16 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     BMC = np.einsum("mc,kcj->kmj", np.vstack([B, Mu]), cam_input.C)
     BMC[:, :, 0] += np.concatenate([b, me])
     # plain floats where numpy scalars would cost more (the hot loop of a bounce)
-    starts, powers = cam_input.starts.tolist(), cam_input.powers.astype(float)
-    t1, step, last = cam_input.t1, cam_input.h, cam_input.last
+    starts, powers, index = cam_input.starts.tolist(), cam_input.powers.astype(float), cam_input.index
 
     def rhs(t, z):
-        # the step holding t: _FastInput.index inlined
-        if t < t1:
-            k = 0
-        else:
-            k = 1 + int((t - t1) / step)
-            if k > last:
-                k = last
-            elif t < starts[k]:  # rounding at a node
-                k -= 1
+        k = index(t)
         y = AM @ z + BMC[k] @ ((t - starts[k]) ** powers)
         delta, rate = y[n:].tolist()
         return y[:n] + L * force_of(delta, rate, v_impact)
 
     t0 = state.t
-    grid, Zs, z_end, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, lengths)
+    grid, Zs, z_end, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input)
     stretch = None
     if record and grid.size:
         ks = np.round((grid - integ.t_ref) / integ.h).astype(int)

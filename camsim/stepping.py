@@ -35,6 +35,17 @@ _FACT = np.array([math.factorial(j) for j in range(_P + 4)], dtype=float)
 STEP_LENGTH_RTOL = 1e-9
 
 
+def balance(M: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(T⁻¹·M·T, diag(T)) of the diagonal balancing of M by powers of two (an exact
+    similarity), or None when the scaling is degenerate."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        balanced, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
+    if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
+        return None
+    return balanced, scale
+
+
 def expm_balanced(M: np.ndarray) -> np.ndarray:
     """e^M after a diagonal balancing by powers of two (exact similarity).
 
@@ -42,12 +53,11 @@ def expm_balanced(M: np.ndarray) -> np.ndarray:
     balanced matrix has a norm near ω·h, so ``expm`` needs fewer squarings and keeps more
     digits.
     """
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        balanced, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
-    if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
+    balanced = balance(M)
+    if balanced is None:
         return scipy.linalg.expm(M)
-    return (scale[:, None] * scipy.linalg.expm(balanced)) / scale[None, :]
+    B, scale = balanced
+    return (scale[:, None] * scipy.linalg.expm(B)) / scale[None, :]
 
 
 def _hermite_matrix() -> np.ndarray:
@@ -143,12 +153,12 @@ def input_at(D: np.ndarray, tau: float) -> np.ndarray:
     return out
 
 
-_INV_FACT = [1.0 / math.factorial(j) for j in range(40)]
 #: Largest 1-norm of the balanced A·h for which :func:`phi_series` is used.
 PHI_SERIES_NORM = 1.0
 #: Terms of the Taylor series of φ_{P+1} (the last term is below 1/20! ≈ 4e-19 of the first
 #: when the norm is at most PHI_SERIES_NORM).
 PHI_SERIES_TERMS = 12
+_INV_FACT = [1.0 / math.factorial(j) for j in range(PHI_SERIES_TERMS + _P + 2)]
 
 
 def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -163,11 +173,10 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
     :data:`PHI_SERIES_NORM` (then use the augmented ``expm``).
     """
     m = A.shape[0]
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        X, (scale, _) = scipy.linalg.matrix_balance(A * h, permute=False, separate=True)
-    if not (np.all(np.isfinite(scale)) and np.all(scale > 0)) or np.linalg.norm(X, 1) > PHI_SERIES_NORM:
+    balanced = balance(A * h)
+    if balanced is None or np.linalg.norm(balanced[0], 1) > PHI_SERIES_NORM:
         return None
+    X, scale = balanced
     p = _P + 1
     diag = slice(None, None, m + 1)  # the diagonal of an m×m matrix, flattened
     S = np.zeros((m, m))
@@ -286,12 +295,8 @@ def exact_partial(config: Configuration, z0: np.ndarray, E: np.ndarray, tau: flo
         return np.zeros(0)
     scale = config.cache.get("balance")
     if scale is None:
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            _, (scale, _) = scipy.linalg.matrix_balance(config.A, permute=False, separate=True)
-        if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
-            scale = np.ones(m)
-        config.cache["balance"] = scale
+        balanced = balance(config.A)
+        scale = config.cache["balance"] = np.ones(m) if balanced is None else balanced[1]
     n_aug = m + _P + 1
     M = np.zeros((n_aug, n_aug))
     # D⁻¹·M·D with D = diag(scale, 1, …, 1): exact similarity by powers of two.
