@@ -32,11 +32,8 @@ V0 = -4.0e-3  # [m/s] downward at the start: the contact rings
 TEXT = machine_text("ringing Hertz contact", V0)
 
 
-@pytest.mark.parametrize("block", [True, False], ids=["steps-together", "one-by-one"])
-def test_collocation_against_independent_solver(block, monkeypatch):
-    """Both ways of solving the collocation conditions: the steps of a call together (one
-    Newton system) and step by step (the fall-back when that Newton does not converge)."""
-    monkeypatch.setattr(collocation, "BLOCK", block)
+def simulate_counting(text, monkeypatch):
+    """Run the machine ``text``; (result, grid steps the collocation carried)."""
     steps = {"n": 0}
     original = nonlinear.collocation_steps
 
@@ -46,13 +43,18 @@ def test_collocation_against_independent_solver(block, monkeypatch):
             steps["n"] += len(out[2][0]) - 1
         return out
 
-    nonlinear.collocation_steps = counting
-    try:
-        result = simulate(load_machine_text(TEXT))
-    finally:
-        nonlinear.collocation_steps = original
+    monkeypatch.setattr(nonlinear, "collocation_steps", counting)
+    return simulate(load_machine_text(text)), steps["n"]
+
+
+@pytest.mark.parametrize("block", [True, False], ids=["steps-together", "one-by-one"])
+def test_collocation_against_independent_solver(block, monkeypatch):
+    """Both ways of solving the collocation conditions: the steps of a call together (one
+    Newton system) and step by step (the fall-back when that Newton does not converge)."""
+    monkeypatch.setattr(collocation, "BLOCK", block)
+    result, collocated = simulate_counting(TEXT, monkeypatch)
     n_grid = result.time.size
-    assert steps["n"] > 0.9 * n_grid, f"collocation carried {steps['n']} of {n_grid} steps"
+    assert collocated > 0.9 * n_grid, f"collocation carried {collocated} of {n_grid} steps"
     assert [e.kind for e in result.events] == []
     x_ref, f_ref, x0 = reference(result.time, V0)
     assert np.min(f_ref) > 0.1 * M * G  # the contact never opens
@@ -60,28 +62,15 @@ def test_collocation_against_independent_solver(block, monkeypatch):
     assert np.max(np.abs(result.elements["contact"] - f_ref)) < 1e-9 * np.max(f_ref)
 
 
-def test_collocation_error_control_rejects_a_coarse_step():
+def test_collocation_error_control_rejects_a_coarse_step(monkeypatch):
     """The local error estimate is not blind: at a tolerance far below what one grid step
     of the polynomial can reach, no step is accepted (DOP853 carries the phase)."""
     text = TEXT.replace('sample_rate = "20 kHz"', 'sample_rate = "500 Hz"')
-    steps = {"n": 0}
-    original = nonlinear.collocation_steps
-
-    def counting(*args):
-        out = original(*args)
-        if out[2] is not None:
-            steps["n"] += len(out[2][0]) - 1
-        return out
-
-    nonlinear.collocation_steps = counting
-    try:
-        result = simulate(load_machine_text(text))
-    finally:
-        nonlinear.collocation_steps = original
+    result, collocated = simulate_counting(text, monkeypatch)
     # a 2 ms step spans more than half a period of the ringing: the degree-5 polynomial
     # cannot carry it to 1e-11, so every step goes to DOP853 (rtol 1e-11, whose error
     # over the 28 periods of the revolution is ~1e-7 of the static penetration)
-    assert steps["n"] == 0
+    assert collocated == 0
     x_ref, _, x0 = reference(result.time, V0)
     assert np.max(np.abs(result.masses["M"]["displacement"] - x_ref)) < 1e-6 * abs(x0)
     assert collocation.NODES == 5
