@@ -665,7 +665,11 @@ class Integrator:
         1e-10 m/s on the velocities (DOP853's, and the collocation's local-error test)."""
         return np.concatenate([np.full(dim // 2, 1e-13), np.full(dim // 2, 1e-10)])
 
-    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input):
+    def dop853_max_step(self) -> float:
+        """Largest DOP853 step of a nonlinear phase [s] (four grid steps)."""
+        return max(self.h * 4, 1e-6)
+
+    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, solver=None):
         """DOP853 (rtol ``rtol_nonlinear``) from t0 towards t_stop with every guard as a
         terminal event; returns (grid points in [t0, t_end), the states there, the state at
         t_end, the guard that fired or None, t_end).
@@ -678,6 +682,9 @@ class Integrator:
         A guard that sits at zero at the start (the one just crossed) is watched for a
         real re-crossing, below −tol, so the solver does not stop at once; a root at the
         very start is ignored for the same reason.
+
+        ``solver``: a stepper with the same interface started at (t0, z0) towards t_stop
+        (:class:`camsim.dop853.OneContactDOP853`); default scipy's DOP853 on ``rhs``.
         """
         from scipy.integrate import DOP853  # only contact phases of nonlinear contacts
         from scipy.optimize import brentq
@@ -692,8 +699,9 @@ class Integrator:
                 return float(cz @ z + du @ cam_input(t) + e + offset)
 
             events.append(ev)
-        solver = DOP853(rhs, t0, z0, t_stop, rtol=self.rtol_nonlinear, atol=self.nonlinear_atol(z0.size),
-                        max_step=max(self.h * 4, 1e-6))
+        if solver is None:
+            solver = DOP853(rhs, t0, z0, t_stop, rtol=self.rtol_nonlinear, atol=self.nonlinear_atol(z0.size),
+                            max_step=self.dop853_max_step())
         grid = self.grid_between(t0, t_stop)
         Z = np.empty((grid.size, z0.size))
         done = 0  # grid points filled

@@ -568,9 +568,14 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
 
     The same method, tolerances, events and output as
     :meth:`camsim.integrate.Integrator._advance_nonlinear`, with the cam input from
-    :class:`_FastInput` and the one contact's force in scalar arithmetic.
+    :class:`_FastInput` and the one contact's force in scalar arithmetic, stepped by
+    :class:`camsim.dop853.OneContactDOP853` (the linear structure around the one force).
+    Its first step is the one that worked last time: at an onset (δ = 0 at the start) the
+    first accepted step after the last onset, elsewhere the largest accepted step of the
+    last span.
     """
 
+    from camsim.dop853 import OneContactDOP853
     from camsim.integrate import Stretch
 
     v_imp = state.v_impacts
@@ -584,21 +589,38 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     # One matrix product per evaluation gives ż's linear part and the contact's δ, δ̇:
     # rows [A; Mz] on z, and per step the cam input's polynomial pushed through [B; Mu]
     # (its coefficients of τ^j) with the constants [b; me] folded into the τ^0 column.
-    n = A.shape[0]
-    AM = np.vstack([A, Mz])
     BMC = np.einsum("mc,kcj->kmj", np.vstack([B, Mu]), cam_input.C)
     BMC[:, :, 0] += np.concatenate([b, me])
-    # plain floats where numpy scalars would cost more (the hot loop of a bounce)
-    starts, powers, index = cam_input.starts.tolist(), cam_input.powers.astype(float), cam_input.index
+    starts, powers = cam_input.starts, cam_input.powers.astype(float)
 
-    def rhs(t, z):
+    def inputs(ts, t_lo, t_hi):
+        """[B·u + b; Mu·u + me] at the times ts ⊂ [t_lo, t_hi]: (len(ts), n + 2)."""
+        k0 = index(t_lo)
+        if k0 == index(t_hi):  # the usual case: one grid step's polynomial
+            return ((ts - start_list[k0])[:, None] ** powers) @ BMC[k0].T
+        ks = np.searchsorted(later_starts, ts, side="right")
+        return (BMC[ks] @ ((ts - starts[ks])[:, None] ** powers)[:, :, None])[:, :, 0]
+
+    start_list, index, later_starts = starts.tolist(), cam_input.index, starts[1:]
+
+    def input_at(t):
         k = index(t)
-        y = AM @ z + BMC[k] @ ((t - starts[k]) ** powers)
-        delta, rate = y[n:].tolist()
-        return y[:n] + L * force_of(delta, rate, v_impact)
+        return BMC[k] @ ((t - start_list[k]) ** powers)
+
+    def force(delta, rate):
+        return force_of(delta, rate, v_impact)
 
     t0 = state.t
-    grid, Zs, z_end, fired, t_end = integ.dop853_span(rhs, z0, t0, t_stop, guards, cam_input)
+    # the first step: what worked last time (see the docstring)
+    memory = integ.__dict__.setdefault("_dop853_first_steps", {})
+    onset = bool(Mz[0] @ z0 + input_at(t0)[-2] <= 0.0)
+    solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
+                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset))
+    grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver)
+    if onset and solver.first_accepted is not None:
+        memory[True] = solver.first_accepted
+    elif not onset and solver.largest > 0.0:
+        memory[False] = solver.largest
     stretch = None
     if record and grid.size:
         ks = np.round((grid - integ.t_ref) / integ.h).astype(int)
