@@ -32,6 +32,7 @@ rejections differ.
 from __future__ import annotations
 
 import math
+from operator import mul
 
 import numpy as np
 from scipy.integrate import DOP853
@@ -91,7 +92,8 @@ class OneContactDOP853:
     ``first_accepted`` and ``largest`` (the first and the largest accepted step [s]).
     """
 
-    def __init__(self, A, L, M, inputs, input_at, force, t0, z0, t_bound, rtol, atol, max_step, first_step=None):
+    def __init__(self, A, L, M, inputs, input_at, force, t0, z0, t_bound, rtol, atol, max_step, first_step=None,
+                 structure=None):
         self.A, self.L, self.M = A, L, M
         self.inputs, self.input_at, self.force = inputs, input_at, force
         self.t = float(t0)
@@ -101,22 +103,26 @@ class OneContactDOP853:
         self.rtol, self.atol = rtol, np.asarray(atol, dtype=float)
         self.max_step = max_step
         self.status = "running" if self.t_bound > self.t else "finished"
-        n = self.y.size
-        # M·A^p, M·A^p·L and (Aᵀ)^p, p = 0..11 (constant per configuration)
-        Ap = [np.eye(n)]
-        for _ in range(_STAGES - 1):
-            Ap.append(Ap[-1] @ A)
-        self.MAp = np.array([M @ P for P in Ap]).reshape(2 * _STAGES, n)  # [(p, k), n]
-        self.MApT = self.MAp.T.copy()
-        self.MApL = (self.MAp @ L).reshape(_STAGES, 2)  # [p, k]
-        self.ApT = np.array([P.T for P in Ap])  # (12, n, n)
-        self.K = np.empty((16, n))
+        self.MAp, self.MApT, self.MApL, self.ApT = structure if structure is not None else self.structure(A, L, M)
+        self.K = np.empty((16, self.y.size))
         self.f, self.F = self._rhs(self.t, self.y)
         self.first_accepted = None
         self.largest = 0.0
         self.h_abs = min(first_step, max_step) if first_step else self._initial_step()
         self.h_previous = None
         self.y_old = None
+
+    @staticmethod
+    def structure(A, L, M):
+        """M·A^p, its transpose, M·A^p·L and (Aᵀ)^p for p = 0..11: constant per
+        configuration, so a caller that starts many spans passes them as ``structure``."""
+        n = A.shape[0]
+        Ap = [np.eye(n)]
+        for _ in range(_STAGES - 1):
+            Ap.append(Ap[-1] @ A)
+        MAp = np.array([M @ P for P in Ap]).reshape(2 * _STAGES, n)  # [(p, k), n]
+        MApL = (MAp @ L).reshape(_STAGES, 2)  # [p, k]
+        return MAp, MAp.T.copy(), MApL, np.array([P.T for P in Ap])  # ApT: (12, n, n)
 
     # ------------------------------------------------------------------ evaluation
     def _rhs(self, t, z):
@@ -157,15 +163,12 @@ class OneContactDOP853:
         W = (_APOW1 * hp1).reshape(_STAGES, _STAGES * _STAGES)  # [s, (j, p)]: h^(p+1)·(a^(p+1))_sj
         N0 = (W @ Q + (self.M @ y) + m).T.tolist()  # [k][s]
         beta = (self.MApL.T @ W.reshape(_STAGES * _STAGES, _STAGES).T).reshape(2, _STAGES, _STAGES).tolist()  # [k][s][j]
-        # the stages' forces one after the other, in plain floats (12 scalars)
+        # the stages' forces one after the other, in plain floats (12 scalars; map and sum
+        # stop at the forces known so far)
         F = [self.F]
         force = self.force
-        for s, (delta, rate, bd, br) in enumerate(zip(N0[0], N0[1], beta[0], beta[1])):
-            if s:
-                for j, Fj in enumerate(F):
-                    delta += bd[j] * Fj
-                    rate += br[j] * Fj
-                F.append(force(delta, rate))
+        for delta, rate, bd, br in zip(N0[0][1:], N0[1][1:], beta[0][1:], beta[1][1:]):
+            F.append(force(delta + sum(map(mul, bd, F)), rate + sum(map(mul, br, F))))
         F = np.array(F)
         # all stages at once: K = Σ_p h^p·a^p·X·(Aᵀ)^p, X = 1·(A y)ᵀ + G + F·Lᵀ
         X = G + Ay + np.outer(F, self.L)

@@ -730,14 +730,15 @@ class Integrator:
                 g_old = g_new
                 if fired is not None:
                     z_end = dense(t_end)
+            ended = fired is not None or solver.status == "finished"
             # grid points reached by this step (before the root when a guard fired)
-            stop = int(np.searchsorted(grid, t_end, side="left" if fired is not None or solver.status == "finished" else "right"))
-            if stop > done:
+            last = int(np.searchsorted(grid, t_end, side="left" if ended else "right"))
+            if last > done:
                 if dense is None:
                     dense = solver.dense_output()
-                Z[done:stop] = dense(grid[done:stop]).T
-                done = stop
-            if fired is not None or solver.status == "finished":
+                Z[done:last] = dense(grid[done:last]).T
+                done = last
+            if ended:
                 return grid[:done], Z[:done], np.asarray(z_end, dtype=float).copy(), fired, float(t_end)
 
     # ------------------------------------------------------------------ nonlinear

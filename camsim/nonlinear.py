@@ -173,17 +173,18 @@ class PowerContactStepper:
 
 def _propagate(maps, z0, g):
     """z_{k+1} = Φ·z_k + g_k for all k (modal recurrence when available)."""
-    from camsim.recurrence import linear_recurrence
+    from camsim.recurrence import linear_recurrences
 
     K = g.shape[0]
     if maps.modal:
-        keep = maps.keep
-        gm = g @ maps.Vinv[keep].T
-        w0 = maps.Vinv[keep] @ z0
-        W = np.empty((K, keep.size), dtype=complex)
-        for col, i in enumerate(keep):
-            W[:, col] = linear_recurrence(maps.mu[i], gm[:, col], w0[col])
-        return np.real(W @ (maps.V[:, keep] * maps.weights[keep]).T)
+        modes = maps.__dict__.get("_kept_modes")
+        if modes is None:
+            # the kept modes' multipliers, projection and reconstruction, once per map
+            keep = maps.keep
+            modes = maps._kept_modes = (maps.mu[keep], maps.Vinv[keep].T.copy(), (maps.V[:, keep] * maps.weights[keep]).T.copy())
+        mu, to_modes, from_modes = modes
+        W = linear_recurrences(mu, g @ to_modes, z0 @ to_modes)
+        return (W @ from_modes).real
     out = np.empty((K, z0.size))
     z = z0
     for k in range(K):
@@ -212,6 +213,11 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     # δ̈ = rz·ż + ru·u̇ with ż = A·z + B·u + b + L·F, folded into vectors (one matrix-vector
     # product per node set instead of forming ż in the iteration)
     rate_A, rate_B, rate_b, rate_L = A.T @ stepper.rz, B.T @ stepper.rz, float(b @ stepper.rz), float(L @ stepper.rz)
+    # δ, δ̇ and δ̈'s linear part in one product: [δ, δ̇, δ̈ − rate_L·F] = z·proj_z + u·proj_u + proj_e
+    # (+ u̇·ru in the third column)
+    proj_z = np.column_stack([stepper.dz, stepper.rz, rate_A])
+    proj_u = np.column_stack([stepper.du, stepper.ru, rate_B])
+    proj_e = np.array([stepper.de, stepper.re, rate_b])
     v_imp = state.v_impacts
     pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     t, z = state.t, z0
@@ -312,17 +318,17 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 return finish(cur, fired)
             continue
         U = integ.chunk_inputs(nodes, k0, k1)
-        from camsim.integrate import exact_partial, forcing_coefficients, step_input_derivatives
-        from camsim.stepping import phi_series
+        from camsim.integrate import step_input_derivatives
 
         D = step_input_derivatives(U[:-1], U[1:], steps, h)
         Udot = np.zeros_like(U)  # u̇ = [ṡ, s̈, s⃛, s⁗]; B and the guards take no s⁗
         Udot[:, :3] = U[:, 1:]
         # ---- linear law at the window's start (tangent values on the ladder)
-        _, _, F0, kt0, ct0 = stepper.force(z[None, :], U[:1], chi)
-        if F0[0] <= 0.0:
-            # the contact's onset (δ = 0: F ∝ δ^a is not smooth there): DOP853, then on
-            # by collocation
+        d0, dd0, F0, kt0, ct0 = stepper.force(z[None, :], U[:1], chi)
+        if F0[0] <= 0.0 or 0.0 <= d0[0] < dd0[0] * h:
+            # the contact's onset (δ = 0, or closing and less than one grid step's approach
+            # deep: F ∝ δ^a is not smooth there, and no window of the iteration converges
+            # across it): DOP853, then on by collocation
             onset_colloc = can_collocate and ONSET_COLLOC
             t, z, fired, cur = fallback(t, z, ONSET_STEPS if onset_colloc else FALLBACK_STEPS, first)
             first = False
@@ -339,7 +345,6 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         else:
             lin, maps, WL, kq, cq = last_law = stepper.law(k_now, c_now)
         g_u = D @ maps.W + maps.g0  # cam-input part of each full step's forcing
-        # ---- fixed-point iteration on the remainder
         K = steps.size
         d0, dd0, Fz, _, _ = stepper.force(z[None, :], U[:1], chi)
         r0 = float(Fz[0] - kq * d0[0] - cq * dd0[0])
@@ -352,21 +357,21 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         else:
             r = np.full(K + 1, r0)
             rd = np.zeros(K + 1)
-        partial_maps: dict[int, tuple] = {}
-
-        def partial(k, z_k, R_k):
-            """The state after the partial step k from z_k, the remainder's Taylor terms R_k."""
-            hit = partial_maps.get(k)
-            if hit is None:
-                # Φ, Γ_j of the step's own length (built once per window, not per iteration)
-                hit = partial_maps[k] = (phi_series(lin.A, float(steps[k])), forcing_coefficients(lin, D[k : k + 1])[0])
-            maps_k, E = hit
-            E = E.copy()
-            E[:4] += np.outer(R_k, L)
-            if maps_k is None:
-                return exact_partial(lin, z_k, E, steps[k])
-            return maps_k[0] @ z_k + np.tensordot(maps_k[1], E, axes=([0, 2], [0, 1]))
-
+        # ---- the window's states are linear in the remainder: the part driven by the start
+        # state and the cam input (Zu) is propagated once per window, and each iteration
+        # propagates only the remainder's part (from zero), projected in one product on
+        # δ, δ̇ and δ̈'s linear part (Yu holds the same projection of Zu and of the input)
+        first_map = _step_affine(lin, maps, WL, L, bool(full[0]), float(steps[0]), D[0], g_u[0])
+        last_map = _step_affine(lin, maps, WL, L, bool(full[-1]), float(steps[-1]), D[-1], g_u[-1])
+        Zu = np.empty((K + 1, z.size))
+        Zu[0] = z
+        Zu[1] = first_map[0] @ z + first_map[1]
+        if K > 2:
+            Zu[2:K] = _propagate(maps, Zu[1], g_u[1 : K - 1])
+        Zu[K] = last_map[0] @ Zu[K - 1] + last_map[1]
+        Yu = Zu @ proj_z + U @ proj_u + proj_e
+        Yu[:, 2] += Udot @ stepper.ru
+        Zr = np.zeros((K + 1, z.size))
         ok = False
         scale = max(abs(float(F0[0])), 1e-300)
         prev_change = math.inf
@@ -379,17 +384,16 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             c2 = (3 * (r[1:] - r[:-1]) / hk - 2 * rd[:-1] - rd[1:]) / hk
             c3 = (2 * (r[:-1] - r[1:]) / hk + rd[:-1] + rd[1:]) / hk**2
             R = np.stack([r[:-1], rd[:-1], 2 * c2, 6 * c3], axis=1)  # (K, 4)
-            Z = np.empty((K + 1, z.size))
-            Z[0] = z
-            # first and last steps may be partial: exact maps of their own length
-            Z[1] = maps.Phi @ z + g_u[0] + R[0] @ WL if full[0] else partial(0, z, R[0])
+            # the remainder's part of the states (first and last steps may be partial:
+            # their own exact maps)
+            Zr[1] = R[0] @ first_map[2]
             if K > 2:
-                g = g_u[1 : K - 1] + R[1 : K - 1] @ WL
-                Z[2:K] = _propagate(maps, Z[1], g)
-            if K > 1:
-                Z[K] = maps.Phi @ Z[K - 1] + g_u[-1] + R[-1] @ WL if full[-1] else partial(K - 1, Z[K - 1], R[-1])
-            d, dd, F, kt, ct = stepper.force(Z, U, chi)
-            ddd = Z @ rate_A + U @ rate_B + Udot @ stepper.ru + (F * rate_L + rate_b)  # δ̈ = ṙz·ż + ru·u̇
+                Zr[2:K] = _propagate(maps, Zr[1], R[1 : K - 1] @ WL)
+            Zr[K] = last_map[0] @ Zr[K - 1] + R[-1] @ last_map[2]
+            Y = Yu + Zr @ proj_z
+            d, dd = Y[:, 0], Y[:, 1]
+            F, kt, ct = stepper.element.nonlinear_tangent(d, dd, stepper.v_impact)
+            ddd = Y[:, 2] + F * rate_L  # δ̈ = rz·ż + ru·u̇
             Fd = kt * dd + ct * ddd
             r_new = F - kq * d - cq * dd
             rd_new = Fd - kq * dd - cq * ddd
@@ -405,7 +409,8 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                     nodes, steps, full = nodes[: K + 1], steps[:K], full[:K]
                     U, D, Udot, g_u = U[: K + 1], D[:K], Udot[: K + 1], g_u[:K]
                     r, rd, r_new, rd_new = r[: K + 1], rd[: K + 1], r_new[: K + 1], rd_new[: K + 1]
-                    Z, F = Z[: K + 1], F[: K + 1]
+                    Zu, Zr, Yu, F = Zu[: K + 1], Zr[: K + 1], Yu[: K + 1], F[: K + 1]
+                    last_map = _step_affine(lin, maps, WL, L, True, h, D[-1], g_u[-1])
                     hist_f = [np.concatenate([v[: K + 1], v[oK + 1 : oK + K + 2]]) for v in hist_f]
                     hist_g = [np.concatenate([v[: K + 1], v[oK + 1 : oK + K + 2]]) for v in hist_g]
                     window = K
@@ -435,6 +440,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 hist_f.pop(0)
                 hist_g.pop(0)
             r, rd = gx_acc[: K + 1], gx_acc[K + 1 :] / h
+        Z = Zu + Zr
         if ok and K >= 5:
             # The remainder is carried by its cubic Hermite per step, whose error is
             # h⁴·|r⁗|/384 ≈ |Δ⁴r|/384: where that is not negligible (a bounce, the
@@ -481,6 +487,32 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         first = False
         r_prev = (float(r[-1]), float(rd[-1]), kq, cq)
         window = min(window * 2, MAX_WINDOW)
+
+
+def _step_affine(lin, maps, WL, L, full, tau, D_k, g_u_k):
+    """One step of a window as an affine map: (P, c, W) with z⁺ = P·z + c + R·W, R the
+    remainder's Taylor terms (r, ṙ, r̈, r⃛) at the step's start. A full step uses the law's
+    maps; a partial one (a window's first or last) the exact maps of its own length."""
+    from camsim.integrate import exact_partial, forcing_coefficients
+    from camsim.stepping import phi_series
+
+    if full:
+        return maps.Phi, g_u_k, WL
+    E = forcing_coefficients(lin, D_k[None, :])[0]
+    series = phi_series(lin.A, tau)
+    if series is not None:
+        Phi, Gamma = series
+        return Phi, np.tensordot(Gamma, E, axes=([0, 2], [0, 1])), Gamma[:4] @ L
+    # beyond the series' norm bound: the augmented expm, column by column (rare)
+    n = lin.A.shape[0]
+    zero = np.zeros_like(E)
+    P = np.column_stack([exact_partial(lin, e, zero, tau) for e in np.eye(n)])
+    W = np.empty((4, n))
+    for j in range(4):
+        Ej = zero.copy()
+        Ej[j] = L
+        W[j] = exact_partial(lin, np.zeros(n), Ej, tau)
+    return P, exact_partial(lin, np.zeros(n), E, tau), W
 
 
 def _fresh(guards):
@@ -584,7 +616,6 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     Mz = np.vstack([stepper.dz, stepper.rz])
     Mu = np.vstack([stepper.du, stepper.ru])
     me = np.array([stepper.de, stepper.re])
-    force_of = stepper.element.nonlinear_force_scalar
     v_impact = stepper.v_impact
     # One matrix product per evaluation gives ż's linear part and the contact's δ, δ̇:
     # rows [A; Mz] on z, and per step the cam input's polynomial pushed through [B; Mu]
@@ -607,15 +638,17 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
         k = index(t)
         return BMC[k] @ ((t - start_list[k]) ** powers)
 
-    def force(delta, rate):
-        return force_of(delta, rate, v_impact)
+    force = stepper.element.scalar_force(v_impact)
 
     t0 = state.t
     # the first step: what worked last time (see the docstring)
     memory = integ.__dict__.setdefault("_dop853_first_steps", {})
     onset = bool(Mz[0] @ z0 + input_at(t0)[-2] <= 0.0)
+    structure = stepper.__dict__.get("dop853_structure")
+    if structure is None:
+        structure = stepper.dop853_structure = OneContactDOP853.structure(A, L, Mz)
     solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
-                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset))
+                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure)
     grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver)
     if onset and solver.first_accepted is not None:
         memory[True] = solver.first_accepted

@@ -93,6 +93,10 @@ class AdamsImpactContact(Contact):
         force = self.stiffness * delta**self.exponent + c * delta_rate
         return force if (force > 0.0 or not self.clamp) else 0.0
 
+    def scalar_force(self, v_impact=None):
+        """:meth:`nonlinear_force_scalar` as a function of (δ, δ̇) (the DOP853 hot path)."""
+        return lambda delta, delta_rate: self.nonlinear_force_scalar(delta, delta_rate)
+
     def force(self, branch, d, d_rate, damping, v_impact):
         if branch != Branch.CLOSED:
             return np.zeros_like(d)

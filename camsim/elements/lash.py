@@ -273,6 +273,9 @@ class _NonlinearLash(Lash):
     def nonlinear_force_scalar(self, delta: float, delta_rate: float, v_impact=None) -> float:
         return self.contact.nonlinear_force_scalar(delta, delta_rate, v_impact)
 
+    def scalar_force(self, v_impact=None):
+        return self.contact.scalar_force(v_impact)
+
     def nonlinear_tangent(self, delta, delta_rate, v_impact=None):
         return self.contact.nonlinear_tangent(delta, delta_rate, v_impact)
 

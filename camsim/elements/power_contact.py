@@ -110,6 +110,19 @@ class PowerContact(Contact):
             force *= 1.0 + chi * delta_rate
         return force if force > 0.0 else 0.0
 
+    def scalar_force(self, v_impact: float | None):
+        """:meth:`nonlinear_force_scalar` at a fixed approach speed, as a function of
+        (δ, δ̇) with the law's constants bound (called thousands of times per bounce)."""
+        C, a, chi = self.coefficient, self.exponent, self.hysteresis(v_impact)
+
+        def force(delta: float, delta_rate: float) -> float:
+            if delta <= 0.0:
+                return 0.0
+            F = C * delta**a * (1.0 + chi * delta_rate)
+            return F if F > 0.0 else 0.0
+
+        return force
+
     def nonlinear_tangent(self, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None):
         """(F, ∂F/∂δ, ∂F/∂δ̇) on samples [N, N/m, N·s/m] (zero where the force is clamped)."""
         chi = self.hysteresis(v_impact)
