@@ -689,16 +689,15 @@ class Integrator:
         from scipy.integrate import DOP853  # only contact phases of nonlinear contacts
         from scipy.optimize import brentq
 
-        events = []
-        u0 = cam_input(t0)
-        for guard in guards:
-            cz, du, e = guard.value.Cz[0], guard.value.Du[0], float(guard.value.e[0])
-            offset = guard.tol if abs(cz @ z0 + du @ u0 + e) <= guard.tol else 0.0
-
-            def ev(t, z, cz=cz, du=du, e=e, offset=offset):
-                return float(cz @ z + du @ cam_input(t) + e + offset)
-
-            events.append(ev)
+        # every guard's value in one product: G_z·z + G_u·u(t) + e (+ tol for a guard at
+        # zero at the start)
+        events = bool(guards)
+        if events:
+            Gz = np.array([guard.value.Cz[0] for guard in guards])
+            Gu = np.array([guard.value.Du[0] for guard in guards])
+            tol = np.array([guard.tol for guard in guards])
+            ge = np.array([float(guard.value.e[0]) for guard in guards])
+            ge = ge + np.where(np.abs(Gz @ z0 + Gu @ cam_input(t0) + ge) <= tol, tol, 0.0)
         if solver is None:
             solver = DOP853(rhs, t0, z0, t_stop, rtol=self.rtol_nonlinear, atol=self.nonlinear_atol(z0.size),
                             max_step=self.dop853_max_step())
@@ -708,7 +707,7 @@ class Integrator:
         if grid.size and grid[0] <= t0:
             Z[0] = z0
             done = 1
-        g_old = [ev(t0, z0) for ev in events]
+        g_old = Gz @ z0 + Gu @ cam_input(t0) + ge if events else None
         fired = None
         eps = np.finfo(float).eps
         while True:
@@ -719,14 +718,16 @@ class Integrator:
             dense = None
             t_end, z_end = t_new, z_new
             if events:
-                g_new = [ev(t_new, z_new) for ev in events]
-                for k, (a, c) in enumerate(zip(g_old, g_new)):
-                    if a >= 0.0 and c <= 0.0:  # a crossing downwards (solve_ivp's test)
-                        if dense is None:
-                            dense = solver.dense_output()
-                        root = brentq(lambda t, ev=events[k]: ev(t, dense(t)), t_old, t_new, xtol=4 * eps, rtol=4 * eps)
-                        if root > t0 + TIME_EPS and (fired is None or root < t_end):
-                            fired, t_end = guards[k], root
+                g_new = Gz @ z_new + Gu @ cam_input(t_new) + ge
+                # a crossing downwards (solve_ivp's test)
+                for k in np.flatnonzero((g_old >= 0.0) & (g_new <= 0.0)).tolist():
+                    if dense is None:
+                        dense = solver.dense_output()
+                    gz, gu, gk = Gz[k], Gu[k], float(ge[k])
+                    root = brentq(lambda t: float(gz @ dense(t) + gu @ cam_input(t)) + gk, t_old, t_new,
+                                  xtol=4 * eps, rtol=4 * eps)
+                    if root > t0 + TIME_EPS and (fired is None or root < t_end):
+                        fired, t_end = guards[k], root
                 g_old = g_new
                 if fired is not None:
                     z_end = dense(t_end)

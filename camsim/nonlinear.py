@@ -256,14 +256,14 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         """DOP853 over n grid steps from (t_from, z_from); returns (t, z, fired, end)."""
         k_end = math.floor((t_from - integ.t_ref) / h + 1e-7) + n_steps
         t_lim = min(t_stop, integ.t_ref + k_end * h)
-        st = integ._state_from(config, z_from, t_from, cur)
         gs = guards if just_started else _fresh(guards)
-        end, stretch, fired = dop853_span(integ, st, config, z_from, gs, t_lim, record, stepper, chi)
+        t_end, z_end, stretch, fired = dop853_span(integ, t_from, cur, config, z_from, gs, t_lim, record, stepper)
         if stretch is not None:
             pieces.append((stretch.t, stretch.z, stretch.u))
-        u_end = integ.inputs(np.array([end.t]))[0]
-        z_end = config.state_from_full(end.x, end.v, u_end[0], u_end[1])
-        return end.t, z_end, fired, end
+        # the full state only where an event needs it (elsewhere a placeholder, as below)
+        end = integ._state_from(config, z_end, t_end, cur) if fired is not None else State(
+            t_end, cur.x, cur.v, cur.branches, cur.v_impacts)
+        return t_end, z_end, fired, end
 
     while True:
         if t >= t_stop - TIME_EPS:
@@ -595,8 +595,10 @@ class _FastInput:
         return self.C[k] @ ((t - self.starts[k]) ** self.powers)
 
 
-def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
-    """DOP853 (rtol of the integrator) from ``state`` to ``t_stop`` or the first event.
+def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper):
+    """DOP853 (rtol of the integrator) from (t0, z0) to ``t_stop`` or the first event;
+    returns (t_end, z_end, the recorded stretch or None, the guard that fired or None).
+    ``state`` gives the branches and approach speeds of the stretch.
 
     The same method, tolerances, events and output as
     :meth:`camsim.integrate.Integrator._advance_nonlinear`, with the cam input from
@@ -611,7 +613,7 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
     from camsim.integrate import Stretch
 
     v_imp = state.v_impacts
-    cam_input = _FastInput(integ, state.t, t_stop)
+    cam_input = _FastInput(integ, t0, t_stop)
     A, B, b, L = config.A, config.B, config.b, stepper.L
     Mz = np.vstack([stepper.dz, stepper.rz])
     Mu = np.vstack([stepper.du, stepper.ru])
@@ -640,7 +642,6 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
 
     force = stepper.element.scalar_force(v_impact)
 
-    t0 = state.t
     # the first step: what worked last time (see the docstring)
     memory = integ.__dict__.setdefault("_dop853_first_steps", {})
     onset = bool(Mz[0] @ z0 + input_at(t0)[-2] <= 0.0)
@@ -660,5 +661,4 @@ def dop853_span(integ, state, config, z0, guards, t_stop, record, stepper, chi):
         Us = integ._grid_inputs(int(ks[0]), int(ks[-1]) + 1)  # exact cam values, as on every grid point
         fn = integ.nonlinear_forces(config, Zs, Us, v_imp)
         stretch = Stretch(state.branches, config, grid, Zs, Us, fn, dict(v_imp))
-    end = integ._state_from(config, z_end, t_end, state)
-    return end, stretch, fired
+    return t_end, z_end, stretch, fired
