@@ -275,7 +275,11 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             # not accept and for a step where a guard may cross
             colloc_next = False
             any_taken = hit = False
-            while True:
+            d_now, dd_now = stepper.force(z[None, :], integ._node_input(t)[None, :], chi)[:2]
+            # a contact unloading fast enough to release within a collocation call: the
+            # collocation would refuse its singular end, so DOP853 goes on at once
+            releasing = dd_now[0] < 0.0 and d_now[0] + dd_now[0] * COLLOC_STEPS * h < 0.0
+            while not releasing:
                 t_c, z_c, taken, hit, calm = collocate(t, z, COLLOC_STEPS * 2 ** min(fails, 3), first)
                 if taken is None:
                     break
