@@ -341,6 +341,11 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             window = FIRST_WINDOW
             colloc_next = can_collocate and (onset_colloc or AFTER_ONSET)
             continue
+        if can_collocate and abs(dd0[0]) * MIN_CUT * h > d0[0]:
+            # the penetration changes by more than itself within MIN_CUT grid steps (a
+            # bounce under way): no window converges there; the collocation, or DOP853
+            colloc_next = True
+            continue
         k_now, c_now = float(kt0[0]), float(ct0[0])
         if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
             (c_now == 0.0 and last_law[4] == 0.0) or (last_law[4] > 0 and abs(c_now / last_law[4] - 1.0) < HYSTERESIS)
