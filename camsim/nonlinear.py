@@ -355,8 +355,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             lin, maps, WL, kq, cq = last_law = stepper.law(k_now, c_now)
         g_u = D @ maps.W + maps.g0  # cam-input part of each full step's forcing
         K = steps.size
-        d0, dd0, Fz, _, _ = stepper.force(z[None, :], U[:1], chi)
-        r0 = float(Fz[0] - kq * d0[0] - cq * dd0[0])
+        r0 = float(F0[0] - kq * d0[0] - cq * dd0[0])
         if r_prev is not None and r_prev[2] == kq and r_prev[3] == cq:
             # continue the previous window's remainder: its value and rate at the join
             # (same linear law), extrapolated linearly
@@ -439,7 +438,10 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if hist_f:
                 dF = np.stack([f - fo for fo in hist_f], axis=1)
                 dG = np.stack([gx - go for go in hist_g], axis=1)
-                gamma = np.linalg.lstsq(dF, f, rcond=None)[0]
+                # least squares by its normal equations (at most ANDERSON unknowns; a
+                # relative ridge of 1e-13 keeps nearly dependent differences harmless)
+                gram = dF.T @ dF
+                gamma = np.linalg.solve(gram + (1e-13 * np.trace(gram) + 1e-300) * np.eye(gram.shape[0]), dF.T @ f)
                 gx_acc = gx - dG @ gamma
             else:
                 gx_acc = gx
