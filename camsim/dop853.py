@@ -59,6 +59,11 @@ _PP = np.arange(_STAGES, dtype=float)
 #: that the sums over p and j, or p and s, are one matrix product each).
 _APOW1 = np.ascontiguousarray(np.array([np.linalg.matrix_power(_A, p + 1) for p in _PP.astype(int)]).transpose(1, 2, 0))
 _APOW0 = np.ascontiguousarray(np.array([np.linalg.matrix_power(_A, p) for p in _PP.astype(int)]).transpose(1, 0, 2))
+#: The same as matrices: [s, (j, p)], [(s, j), p] and [t, (p, s)] (the powers of h are
+#: applied to the smaller operand of each product).
+_APOW1_S_JP = _APOW1.reshape(_STAGES, _STAGES * _STAGES)
+_APOW1_SJ_P = _APOW1.reshape(_STAGES * _STAGES, _STAGES)
+_APOW0_T_PS = _APOW0.reshape(_STAGES, _STAGES * _STAGES)
 
 
 class OneContactDOP853:
@@ -152,17 +157,15 @@ class OneContactDOP853:
     def _attempt(self, t, y, h):
         """One DOP853 step of length h: (y_new, f_new, F_new); fills self.K[:13]."""
         n = y.size
-        ts = t + _C * h
-        gm = self.inputs(ts, t, t + h)  # (12, n + 2)
+        gm = self.inputs(t + _C * h, t, t + h)  # (12, n + 2)
         G, m = gm[:, :n], gm[:, n:]
-        hp1 = h ** (_PP + 1.0)
+        hp = h**_PP
+        hp1 = hp * h
         Ay = self.A @ y
         # ν_s = M·y + m_s + Σ_p h^(p+1)·[a^(p+1)·(1·(M A^p A y)ᵀ + G·(M A^p)ᵀ + F·(M A^p L)ᵀ)]_s
-        c = self.MAp @ Ay  # (12 p · 2)
-        Q = (G @ self.MApT + c).reshape(_STAGES * _STAGES, 2)  # [(j, p), k]: M A^p (A y + g_j)
-        W = (_APOW1 * hp1).reshape(_STAGES, _STAGES * _STAGES)  # [s, (j, p)]: h^(p+1)·(a^(p+1))_sj
-        N0 = (W @ Q + (self.M @ y) + m).T.tolist()  # [k][s]
-        beta = (self.MApL.T @ W.reshape(_STAGES * _STAGES, _STAGES).T).reshape(2, _STAGES, _STAGES).tolist()  # [k][s][j]
+        Q = (G @ self.MApT + self.MAp @ Ay).reshape(_STAGES, _STAGES, 2) * hp1[:, None]  # [j, p, k]: h^(p+1)·M A^p (A y + g_j)
+        N0 = (_APOW1_S_JP @ Q.reshape(_STAGES * _STAGES, 2) + (self.M @ y) + m).T.tolist()  # [k][s]
+        beta = (_APOW1_SJ_P @ (self.MApL * hp1[:, None])).reshape(_STAGES, _STAGES, 2).transpose(2, 0, 1).tolist()  # [k][s][j]
         # the stages' forces one after the other, in plain floats (12 scalars; map and sum
         # stop at the forces known so far)
         F = [self.F]
@@ -172,8 +175,8 @@ class OneContactDOP853:
         F = np.array(F)
         # all stages at once: K = Σ_p h^p·a^p·X·(Aᵀ)^p, X = 1·(A y)ᵀ + G + F·Lᵀ
         X = G + Ay + np.outer(F, self.L)
-        XA = (X @ self.ApT).reshape(_STAGES * _STAGES, n)  # [(p, s), m]: (X (Aᵀ)^p)_sm
-        Kst = (_APOW0 * (h**_PP)[:, None]).reshape(_STAGES, _STAGES * _STAGES) @ XA
+        XA = (X @ self.ApT) * hp[:, None, None]  # [p, s, m]: h^p·(X (Aᵀ)^p)_sm
+        Kst = _APOW0_T_PS @ XA.reshape(_STAGES * _STAGES, n)
         K = self.K
         K[:_STAGES] = Kst
         y_new = y + h * (_B @ Kst)
