@@ -72,6 +72,9 @@ ANDERSON = 3
 #: drift), after at least MIN_CUT steps.
 DRIFT = 0.1
 MIN_CUT = 8
+#: A window whose penetration's Taylor polynomial (δ, δ̇, δ̈ at its start) changes by more
+#: than this fraction of itself over FIRST_WINDOW steps is not tried (see advance_power).
+SWEEP = 0.5
 #: Most iterations per window.
 MAX_ITER = 16
 #: Window lengths in grid steps (the first, the largest).
@@ -341,11 +344,15 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             window = FIRST_WINDOW
             colloc_next = can_collocate and (onset_colloc or AFTER_ONSET)
             continue
-        if can_collocate and abs(dd0[0]) * MIN_CUT * h > d0[0]:
-            # the penetration changes by more than itself within MIN_CUT grid steps (a
-            # bounce under way): no window converges there; the collocation, or DOP853
-            colloc_next = True
-            continue
+        if can_collocate:
+            # the penetration's Taylor polynomial over the first window (δ̈ from the true
+            # ż): where it changes by more than SWEEP of itself (a bounce under way, or a
+            # contact unloading fast), no window converges; the collocation, or DOP853
+            ddd0 = float(z @ rate_A + U[0] @ rate_B + Udot[0] @ stepper.ru + F0[0] * rate_L + rate_b)
+            tw = FIRST_WINDOW * h
+            if abs(dd0[0] * tw + 0.5 * ddd0 * tw * tw) > SWEEP * d0[0] or abs(dd0[0]) * MIN_CUT * h > d0[0]:
+                colloc_next = True
+                continue
         k_now, c_now = float(kt0[0]), float(ct0[0])
         if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
             (c_now == 0.0 and last_law[4] == 0.0) or (last_law[4] > 0 and abs(c_now / last_law[4] - 1.0) < HYSTERESIS)
