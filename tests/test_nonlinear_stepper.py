@@ -47,3 +47,58 @@ def test_stepper_against_independent_solver():
     x_ref, f_ref, x0 = reference(result.time)
     assert np.max(np.abs(result.masses["M"]["displacement"] - x_ref)) < 1e-9 * abs(x0)
     assert np.max(np.abs(result.elements["contact"] - f_ref)) < 1e-9 * M * G
+
+
+def test_partial_step_maps_against_quadrature(monkeypatch):
+    """A window's partial first/last step as an affine map of the state and the remainder's
+    Taylor terms (camsim.nonlinear._step_affine), by the φ-series and by the augmented
+    matrix exponential (the fall-back beyond the series' norm bound).
+
+    Reference: solve_ivp DOP853 (rtol 1e-13) of the same linear ODE
+    ż = A·z + B·u(σ) + b + L·r(σ), u_c(σ) = Σ_j D_{j+c}·σ^j/j!, r(σ) = Σ_j R_j·σ^j/j!
+    over one partial step and one full step; tolerance 1e-10 of each state component (the
+    remainder's part is about a tenth of the state, so its map is checked to ~1e-9).
+    """
+    import math
+
+    from scipy.integrate import solve_ivp
+
+    import camsim.stepping as stepping
+    from camsim.stepping import StepMaps
+
+    rng = np.random.default_rng(12)
+    n = 4
+    # a stiff, lightly damped two-mass train (frequencies ~1e3 and ~2.4e4 rad/s)
+    A = np.zeros((n, n))
+    A[:2, 2:] = np.eye(2)
+    A[2:, :2] = [[-1.2e6, 2.0e5], [1.1e6, -5.8e8]]
+    A[2:, 2:] = [[-40.0, 4.0], [5.0, -900.0]]
+    B = np.vstack([np.zeros((2, 4)), rng.normal(size=(2, 4)) * 1e5])  # the cam input acts on the accelerations
+    b = np.array([0.0, 0.0, -9.81, 3.0])
+    L = np.array([0.0, 0.0, 0.0, -1.0 / 0.175])
+    lin = nonlinear._LinearLaw(A, B, b)
+    h = 2e-5
+    maps = StepMaps(lin, h, series=True)
+    WL = np.array([maps.Gamma[j] @ L for j in range(4)])
+    D_k = rng.normal(size=8) * np.array([1e-3, 1e-1, 1e1, 1e3, 1e5, 1e7, 1e9, 1e11])
+    R = np.array([3e5, -2e9, 4e13, -3e17])
+    z0 = np.array([1e-3, 2e-5, 0.1, -0.02])
+    tau = 0.37 * h
+    g_u = (D_k[None, :] @ maps.W + maps.g0)[0]
+
+    def rhs(s, z):
+        u = [sum(D_k[j + c] * s**j / math.factorial(j) for j in range(8 - c)) for c in range(4)]
+        r = sum(R[j] * s**j / math.factorial(j) for j in range(4))
+        return A @ z + B @ np.array(u) + b + L * r
+
+    ref = solve_ivp(rhs, (0.0, tau), z0, method="DOP853", rtol=1e-13, atol=1e-20).y[:, -1]
+    ref_full = solve_ivp(rhs, (0.0, h), z0, method="DOP853", rtol=1e-13, atol=1e-20).y[:, -1]
+
+    def error(P, c, W, reference):
+        return np.max(np.abs(P @ z0 + c + R @ W - reference) / np.abs(reference))
+
+    assert abs(R @ nonlinear._step_affine(lin, maps, WL, L, False, tau, D_k, g_u)[2] / ref).max() > 0.01
+    assert error(*nonlinear._step_affine(lin, maps, WL, L, False, tau, D_k, g_u), ref) < 1e-10
+    assert error(*nonlinear._step_affine(lin, maps, WL, L, True, h, D_k, g_u), ref_full) < 1e-10
+    monkeypatch.setattr(stepping, "phi_series", lambda A, h: None)  # force the augmented expm
+    assert error(*nonlinear._step_affine(lin, maps, WL, L, False, tau, D_k, g_u), ref) < 1e-10
