@@ -116,6 +116,7 @@ class OneContactDOP853:
         self.h_abs = min(first_step, max_step) if first_step else self._initial_step()
         self.h_previous = None
         self.y_old = None
+        self._dense = None
 
     @staticmethod
     def structure(A, L, M):

@@ -71,3 +71,139 @@ def test_rigid_initial_penetration_is_refused():
     with pytest.raises(ValueError, match="penetrates the rigid contact r"):
         rigid.branch_from_state(-1e-3, no_impact=False)
     assert rigid.branch_from_state(0.0, no_impact=False) is Branch.STUCK
+
+
+# --------------------------------------------------------------------------- scalar_force
+# scalar_force(v_impact) binds a nonlinear law's constants for the DOP853 hot path. It
+# must return what nonlinear_force_scalar returns bit for bit (==), and the vectorised
+# nonlinear_force to 1e-15 relative (numpy's pow may round differently by an ulp). The
+# reference for the values themselves is each law as documented, written out here:
+# power F = C·δ^a·(1 + χ·δ̇), χ = α(e)/v (or hysteresis_damping), clamped at 0; Adams
+# IMPACT F = k·δ^n + c_max·u²(3 − 2u)·δ̇ (u = min(δ/d, 1)), clamped with clamp = true; 0
+# for δ ≤ 0. Tolerance 1e-14 of the terms' magnitude (the same operations, maybe in
+# another order).
+
+#: δ [m]: separated, touching, then 1e-9 .. 1e-4 (through Adams's d = 50 µm); δ̇ [m/s].
+GRID_DELTA = [-1e-4, -1e-9, -0.0, 0.0, 1e-9, 1e-8, 1e-7, 1e-6, 3e-6, 1e-5, 3e-5, 5e-5, 7e-5, 1e-4]
+GRID_RATE = [-1.0, -0.7, -0.3, -0.05, -0.0, 0.0, 0.05, 0.3, 0.7, 1.0]
+C_P, A_P, E_P, V_P = 4.0e9, 1.425, 0.8, 0.3  # power law: N/m^a, -, -, m/s
+K_A, N_A, CMAX_A, D_A = 1.0e8, 1.5, 200.0, 5.0e-5  # Adams IMPACT: N/m^n, -, N·s/m, m
+
+LASH_TOML = f"""
+schema = 1
+[machine]
+name = "lashes"
+[[mass]]
+name = "M"
+mass = "0.5 kg"
+[[element]]
+name = "power_slot"
+type = "lash"
+between = ["ground", "M"]
+clearance = "1 mm"
+law = "power"
+exponent = {A_P}
+coefficient = "{C_P} N/m**{A_P}"
+restitution = {E_P}
+[[element]]
+name = "adams_slot"
+type = "lash"
+between = ["ground", "M"]
+clearance = "1 mm"
+law = "adams-impact"
+exponent = {N_A}
+stiffness = "{K_A} N/m**{N_A}"
+max_damping = "{CMAX_A} N*s/m"
+penetration_depth = "{D_A} m"
+[initial.M]
+displacement = "0 m"
+velocity = "0 m/s"
+[simulation]
+duration = "1 ms"
+warmup_cycles = 0
+sample_rate = "100 kHz"
+"""
+
+
+def _power_law(chi):
+    def law(delta, rate):
+        if delta <= 0.0:
+            return 0.0, 0.0
+        elastic = C_P * delta**A_P
+        return max(elastic * (1.0 + chi * rate), 0.0), elastic * (1.0 + abs(chi * rate))
+    return law
+
+
+def _adams_law(clamp):
+    def law(delta, rate):
+        if delta <= 0.0:
+            return 0.0, 0.0
+        u = min(delta / D_A, 1.0)
+        elastic, damping = K_A * delta**N_A, CMAX_A * u * u * (3.0 - 2.0 * u) * rate
+        force = elastic + damping
+        return (max(force, 0.0) if clamp else force), abs(elastic) + abs(damping)
+    return law
+
+
+def _nonlinear_elements():
+    """(label, element, v_impact, documented law (δ, δ̇) → (F, scale of its terms))."""
+    from camsim.loader import load_machine_text
+    from camsim.restitution import hc_alpha
+
+    chi_e = hc_alpha(E_P, "exact") / V_P
+    lashes = {e.name: e for e in load_machine_text(LASH_TOML).elements}
+    restituted = elements.PowerContact("p", "ground", "M", coefficient=C_P, exponent=A_P, restitution=E_P)
+    return [
+        ("power restitution", restituted, V_P, _power_law(chi_e)),
+        ("power restitution, closed from the start", restituted, None, _power_law(0.0)),
+        ("power hysteresis_damping", elements.PowerContact("p", "ground", "M", coefficient=C_P, exponent=A_P,
+                                                           hysteresis_damping=1.5), V_P, _power_law(1.5)),
+        ("power undamped", elements.PowerContact("p", "ground", "M", coefficient=C_P, exponent=A_P), V_P,
+         _power_law(0.0)),
+        ("adams clamp", elements.AdamsImpactContact("a", "ground", "M", stiffness=K_A, exponent=N_A,
+                                                    max_damping=CMAX_A, penetration_depth=D_A), V_P, _adams_law(True)),
+        ("adams no clamp", elements.AdamsImpactContact("a", "ground", "M", stiffness=K_A, exponent=N_A,
+                                                       max_damping=CMAX_A, penetration_depth=D_A, clamp=False), V_P,
+         _adams_law(False)),
+        ("power lash", lashes["power_slot"], V_P, _power_law(chi_e)),
+        ("adams lash", lashes["adams_slot"], V_P, _adams_law(True)),
+    ]
+
+
+SCALAR_CASES = ["power-restitution", "power-not-yet-impacted", "power-hysteresis", "power-undamped", "adams-clamp",
+                "adams-no-clamp", "power-lash", "adams-lash"]
+
+
+@pytest.mark.parametrize("case", range(len(SCALAR_CASES)), ids=SCALAR_CASES)
+def test_scalar_force_is_the_scalar_and_vector_law(case):
+    """scalar_force(v) == nonlinear_force_scalar bit for bit; nonlinear_force to 1e-15
+    relative; the documented law to 1e-14 of its terms (see above)."""
+    label, element, v_impact, law = _nonlinear_elements()[case]
+    force = element.scalar_force(v_impact)
+    deltas, rates = np.meshgrid(GRID_DELTA, GRID_RATE, indexing="ij")
+    bound = np.array([[force(d, r) for r in GRID_RATE] for d in GRID_DELTA])
+    scalar = np.array([[element.nonlinear_force_scalar(d, r, v_impact) for r in GRID_RATE] for d in GRID_DELTA])
+    assert bound.tobytes() == scalar.tobytes(), label  # bit for bit (the sign of a zero too)
+    vector = element.nonlinear_force(deltas, rates, v_impact)
+    np.testing.assert_allclose(bound, vector, rtol=1e-15, atol=0, err_msg=label)
+    for (i, j), value in np.ndenumerate(bound):
+        ref, scale = law(GRID_DELTA[i], GRID_RATE[j])
+        assert abs(value - ref) <= 1e-14 * scale, (label, GRID_DELTA[i], GRID_RATE[j], value, ref)
+    # the grid reaches every branch of the law: zero, positive, and (unclamped) negative
+    assert (bound == 0.0).any() and (bound > 0.0).any(), label
+    if label == "adams no clamp":
+        assert (bound < 0.0).any()
+    # damped and clamped: the damping term cancels the force at some δ > 0, δ̇ < 0
+    clamps = label in ("power restitution", "power hysteresis_damping", "adams clamp", "power lash", "adams lash")
+    assert ((bound == 0.0) & (deltas > 0.0)).any() == clamps, label
+
+
+def test_power_scalar_force_by_hand():
+    """One value by hand: F = C·δ^a·(1 + χ·δ̇), χ = α_exact(0.8)/0.3 m/s, to 1e-14."""
+    from camsim.restitution import hc_alpha
+
+    contact = elements.PowerContact("p", "ground", "M", coefficient=4.0e9, exponent=1.425, restitution=0.8)
+    chi = hc_alpha(0.8, "exact") / 0.3
+    expected = 4.0e9 * (2.5e-5) ** 1.425 * (1.0 + chi * -0.4)
+    assert expected > 0.0
+    assert contact.scalar_force(0.3)(2.5e-5, -0.4) == pytest.approx(expected, rel=1e-14)

@@ -94,7 +94,8 @@ class AdamsImpactContact(Contact):
         return force if (force > 0.0 or not self.clamp) else 0.0
 
     def scalar_force(self, v_impact=None):
-        """:meth:`nonlinear_force_scalar` as a function of (δ, δ̇) (the DOP853 hot path)."""
+        """:meth:`nonlinear_force_scalar` as a function of (δ, δ̇) (the law has no
+        approach-speed dependence to bind)."""
         return lambda delta, delta_rate: self.nonlinear_force_scalar(delta, delta_rate)
 
     def force(self, branch, d, d_rate, damping, v_impact):

@@ -115,13 +115,16 @@ class PowerContact(Contact):
         (δ, δ̇) with the law's constants bound (called thousands of times per bounce)."""
         C, a, chi = self.coefficient, self.exponent, self.hysteresis(v_impact)
 
-        def force(delta: float, delta_rate: float) -> float:
+        def damped(delta: float, delta_rate: float) -> float:
             if delta <= 0.0:
                 return 0.0
             F = C * delta**a * (1.0 + chi * delta_rate)
             return F if F > 0.0 else 0.0
 
-        return force
+        def undamped(delta: float, delta_rate: float) -> float:
+            return C * delta**a if delta > 0.0 else 0.0
+
+        return damped if chi else undamped
 
     def nonlinear_tangent(self, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None):
         """(F, ∂F/∂δ, ∂F/∂δ̇) on samples [N, N/m, N·s/m] (zero where the force is clamped)."""
