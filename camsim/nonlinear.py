@@ -348,7 +348,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             # the penetration's Taylor polynomial over the first window (δ̈ from the true
             # ż): where it changes by more than SWEEP of itself (a bounce under way, or a
             # contact unloading fast), no window converges; the collocation, or DOP853
-            ddd0 = float(z @ rate_A + U[0] @ rate_B + Udot[0] @ stepper.ru + F0[0] * rate_L + rate_b)
+            ddd0 = float((z @ proj_z + U[0] @ proj_u + proj_e)[2] + Udot[0] @ stepper.ru + F0[0] * rate_L)
             tw = FIRST_WINDOW * h
             if abs(dd0[0] * tw + 0.5 * ddd0 * tw * tw) > SWEEP * d0[0] or abs(dd0[0]) * MIN_CUT * h > d0[0]:
                 colloc_next = True
