@@ -538,14 +538,33 @@ def _fresh(guards):
     return guards
 
 
+#: The guards of a stretch stacked into one affine map, by the id of the guard list (the
+#: list is kept with its entry, so the id cannot be reused while the entry lives).
+_GUARD_STACKS: dict[int, tuple] = {}
+
+
+def _guard_stack(guards):
+    """(guards, Cz, Du, Fn, e, tol) of all guards at once: (g, m), (g, 4), (g, p), (g,), (g,)."""
+    hit = _GUARD_STACKS.get(id(guards))
+    if hit is None or hit[0] is not guards:
+        values = [g.value for g in guards]
+        hit = (guards, np.vstack([v.Cz for v in values]), np.vstack([v.Du for v in values]),
+               np.vstack([v.Fn for v in values]), np.concatenate([v.e for v in values]), np.array([g.tol for g in guards]))
+        if len(_GUARD_STACKS) > 64:
+            _GUARD_STACKS.clear()
+        _GUARD_STACKS[id(guards)] = hit
+    return hit
+
+
 def _first_hit(guards, Z, U, zdot, Udot, F, steps, first):
     """Index of the first step whose guard may cross zero (sign change or Hermite dip)."""
     if not guards:
         return None
-    Fn = F[:, None]
-    G = np.stack([g.value(Z, U, Fn)[:, 0] for g in guards], axis=1)
-    Gd = np.stack([zdot @ g.value.Cz[0] + Udot @ g.value.Du[0] for g in guards], axis=1)
-    tol = np.array([g.tol for g in guards])
+    _, Cz, Du, Fn, e, tol = _guard_stack(guards)
+    G = Z @ Cz.T + U @ Du.T + e
+    if Fn.shape[1]:
+        G = G + F[:, None] @ Fn.T
+    Gd = zdot @ Cz.T + Udot @ Du.T
     g0 = G[:-1].copy()
     if first:
         just = np.abs(g0[0]) <= tol
