@@ -54,11 +54,7 @@ def linear_recurrence(mu: complex, f: np.ndarray, w0: complex) -> np.ndarray:
             out[j:] += power * f[:-j]
         out += mu ** np.arange(1, K + 1) * w0
         return out
-    if r >= 1.0:
-        L = 64 if r == 1.0 else max(1, min(512, int(math.log(_MAX_GROWTH) / math.log(r))))
-    else:
-        L = max(1, min(512, int(math.log(_MAX_GROWTH) / -math.log(r))))
-    L = min(L, K)
+    L = min(_block_length(r), K)
     nb = -(-K // L)
     padded = np.zeros(nb * L, dtype=complex)
     padded[:K] = f
@@ -76,6 +72,14 @@ def linear_recurrence(mu: complex, f: np.ndarray, w0: complex) -> np.ndarray:
     starts = np.concatenate([[w0], ends[:-1]])
     out = local + starts[:, None] * up1
     return out.reshape(-1)[:K]
+
+
+def _block_length(r: float) -> int:
+    """Block length L for a mode of modulus r: |μ|^(−L) ≤ _MAX_GROWTH (64 undamped, 512 at
+    most)."""
+    if r == 1.0:
+        return 64
+    return max(1, min(512, int(math.log(_MAX_GROWTH) / abs(math.log(r)))))
 
 
 _POWERS: dict[tuple[complex, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -147,8 +151,7 @@ def _blocked(mu: np.ndarray, r: np.ndarray, f: np.ndarray, w0: np.ndarray) -> np
     """:func:`linear_recurrence`'s blocked cumulative sum on all columns at once (one block
     length, the shortest any column needs; |μ| ≥ 0.5)."""
     K, m = f.shape
-    lengths = [64 if ri == 1.0 else max(1, min(512, int(math.log(_MAX_GROWTH) / abs(math.log(ri))))) for ri in r.tolist()]
-    L = min(min(lengths), K)
+    L = min(min(_block_length(ri) for ri in r.tolist()), K)
     nb = -(-K // L)
     if nb * L == K:
         blocks = f.reshape(nb, L, m)
