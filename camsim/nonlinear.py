@@ -49,6 +49,7 @@ import numpy as np
 
 from camsim.collocation import Collocation, collocation_steps
 from camsim.model import N_INPUT
+from camsim.recurrence import linear_recurrences
 
 #: Ratio of the stiffness / damping ladder of the reference linear laws.
 LADDER = 1.05
@@ -386,32 +387,23 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         Zu[K] = last_map[0] @ Zu[K - 1] + last_map[1]
         Yu = Zu @ proj_z + U @ proj_u + proj_e
         Yu[:, 2] += Udot @ stepper.ru
-        Zr = np.zeros((K + 1, z.size))
+        resp = _RemainderResponse(maps, WL, proj_z, h, steps, first_map, last_map, K, z.size)
+        X = np.column_stack([r, rd * h])  # the iterate: (r, h·ṙ) at each node
         ok = False
         scale = max(abs(float(F0[0])), 1e-300)
         prev_change = math.inf
-        Z = None
-        hist_f: list[np.ndarray] = []
-        hist_g: list[np.ndarray] = []
+        anderson = _Anderson(ANDERSON)
         for it in range(MAX_ITER):
-            # cubic Hermite of r per step → Taylor derivatives R_j (j = 0..3) at each start
-            hk = steps
-            c2 = (3 * (r[1:] - r[:-1]) / hk - 2 * rd[:-1] - rd[1:]) / hk
-            c3 = (2 * (r[:-1] - r[1:]) / hk + rd[:-1] + rd[1:]) / hk**2
-            R = np.stack([r[:-1], rd[:-1], 2 * c2, 6 * c3], axis=1)  # (K, 4)
-            # the remainder's part of the states (first and last steps may be partial:
-            # their own exact maps)
-            Zr[1] = R[0] @ first_map[2]
-            if K > 2:
-                Zr[2:K] = _propagate(maps, Zr[1], R[1 : K - 1] @ WL)
-            Zr[K] = last_map[0] @ Zr[K - 1] + R[-1] @ last_map[2]
-            Y = Yu + Zr @ proj_z
+            # the remainder's part of δ, δ̇ and δ̈'s linear part at the nodes (its cubic
+            # Hermite per step as the input)
+            Y = Yu + resp.project(X)
             d, dd = Y[:, 0], Y[:, 1]
             F, kt, ct = stepper.element.nonlinear_tangent(d, dd, stepper.v_impact)
             ddd = Y[:, 2] + F * rate_L  # δ̈ = rz·ż + ru·u̇
-            Fd = kt * dd + ct * ddd
-            r_new = F - kq * d - cq * dd
-            rd_new = Fd - kq * dd - cq * ddd
+            GX = np.empty_like(X)
+            r_new = GX[:, 0]
+            np.subtract(F - kq * d, cq * dd, out=r_new)
+            np.multiply(kt * dd + ct * ddd - kq * dd - cq * ddd, h, out=GX[:, 1])
             if K > 2 * MIN_CUT:
                 # The window reaches where the contact stiffness has left its linear law by
                 # more than DRIFT (or the force vanishes): the iteration would contract
@@ -420,44 +412,27 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 drift = (np.abs(kt[1:] - kq) > DRIFT * kq) | (F[1:] <= 0.0)
                 far = np.flatnonzero(drift)
                 if far.size and MIN_CUT <= far[0] < K - 1:
-                    oK, K = K, int(far[0])
+                    K = int(far[0])
                     nodes, steps, full = nodes[: K + 1], steps[:K], full[:K]
                     U, D, Udot, g_u = U[: K + 1], D[:K], Udot[: K + 1], g_u[:K]
-                    r, rd, r_new, rd_new = r[: K + 1], rd[: K + 1], r_new[: K + 1], rd_new[: K + 1]
-                    Zu, Zr, Yu, F = Zu[: K + 1], Zr[: K + 1], Yu[: K + 1], F[: K + 1]
+                    X, GX, r_new, F = X[: K + 1], GX[: K + 1], r_new[: K + 1], F[: K + 1]
+                    Zu, Yu = Zu[: K + 1], Yu[: K + 1]
                     last_map = _step_affine(lin, maps, WL, L, True, h, D[-1], g_u[-1])
-                    hist_f = [np.concatenate([v[: K + 1], v[oK + 1 : oK + K + 2]]) for v in hist_f]
-                    hist_g = [np.concatenate([v[: K + 1], v[oK + 1 : oK + K + 2]]) for v in hist_g]
+                    resp.cut(K, last_map)
+                    anderson.cut(2 * (K + 1))
                     window = K
-            change = float(np.max(np.abs(r_new - r)))
+            change = float(np.max(np.abs(r_new - X[:, 0])))
             scale = max(scale, float(np.max(np.abs(F))))
             if change <= RTOL * scale:
-                r, rd = r_new, rd_new
+                X = GX
                 ok = True
                 break
             if it >= 5 and change > prev_change:
                 break  # not contracting: too far from the linear law
             prev_change = change
-            # Anderson acceleration (depth ANDERSON) of the fixed point x = G(x), x = (r, h·ṙ)
-            x = np.concatenate([r, rd * h])
-            gx = np.concatenate([r_new, rd_new * h])
-            f = gx - x
-            if hist_f:
-                dF = np.stack([f - fo for fo in hist_f], axis=1)
-                dG = np.stack([gx - go for go in hist_g], axis=1)
-                # least squares by its normal equations (at most ANDERSON unknowns; a
-                # relative ridge of 1e-13 keeps nearly dependent differences harmless)
-                gram = dF.T @ dF
-                gamma = np.linalg.solve(gram + (1e-13 * np.trace(gram) + 1e-300) * np.eye(gram.shape[0]), dF.T @ f)
-                gx_acc = gx - dG @ gamma
-            else:
-                gx_acc = gx
-            hist_f.append(f)
-            hist_g.append(gx)
-            if len(hist_f) > ANDERSON:
-                hist_f.pop(0)
-                hist_g.pop(0)
-            r, rd = gx_acc[: K + 1], gx_acc[K + 1 :] / h
+            X = anderson.next(X, GX)
+        r = X[:, 0]
+        Zr = resp.states()
         Z = Zu + Zr
         if ok and K >= 5:
             # The remainder is carried by its cubic Hermite per step, whose error is
@@ -503,8 +478,171 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         t, z = nodes[-1], Z[-1]
         cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
         first = False
-        r_prev = (float(r[-1]), float(rd[-1]), kq, cq)
+        r_prev = (float(X[-1, 0]), float(X[-1, 1]) / h, kq, cq)
         window = min(window * 2, MAX_WINDOW)
+
+
+class _RemainderResponse:
+    """The part of a window's states driven by the remainder (from zero), given (r, h·ṙ)
+    at the nodes, each step's input being r's cubic Hermite on it.
+
+    Each iteration needs only its projection on δ, δ̇ and δ̈'s linear part (``proj_z``),
+    which :meth:`project` forms in modal coordinates (the forcing is linear in the
+    step's end values: one product with constant matrices per iteration, no state
+    vectors); :meth:`states` builds the states of the last call once, at the end.
+    """
+
+    def __init__(self, maps, WL, proj_z, h, steps, first_map, last_map, K, n):
+        self.maps, self.WL, self.proj_z, self.h = maps, WL, proj_z, h
+        self.first_map, self.last_map, self.K, self.n = first_map, last_map, K, n
+        self.tau_first, self.tau_last = float(steps[0]), float(steps[-1])
+        self.modal = _modal_remainder(maps, WL, proj_z, h) if maps.modal else None
+        self._last = None
+
+    def cut(self, K, last_map):
+        """The window now ends at node K (its last step a full one, ``last_map``)."""
+        self.K, self.last_map, self.tau_last = K, last_map, self.h
+
+    def _hermite(self, xa, xb, tau):
+        """(r, ṙ, r̈, r⃛) at a step's start from (r, h·ṙ) at its ends, step length tau."""
+        h = self.h
+        ra, rda, rb, rdb = xa[0], xa[1] / h, xb[0], xb[1] / h
+        c2 = (3.0 * (rb - ra) / tau - 2.0 * rda - rdb) / tau
+        c3 = (2.0 * (ra - rb) / tau + rda + rdb) / (tau * tau)
+        return np.array([ra, rda, 2.0 * c2, 6.0 * c3])
+
+    def project(self, X):
+        """(K + 1, 3): the remainder's part of [δ, δ̇, δ̈'s linear part] at the nodes."""
+        K = self.K
+        ends = X[[0, 1, K - 1, K]].tolist()
+        z1 = self._hermite(ends[0], ends[1], self.tau_first) @ self.first_map[2]
+        Yr = np.zeros((K + 1, 3))
+        Yr[1] = z1 @ self.proj_z
+        if K > 2:
+            if self.modal is not None:
+                mu, to_modes, from_modes, H, from_proj = self.modal
+                # forcing of the middle steps in modal coordinates, from the rows
+                # [r_k, h·ṙ_k, r_k+1, h·ṙ_k+1] (a strided view of X, no copy)
+                X = np.ascontiguousarray(X)
+                pairs = np.ndarray((K - 2, 4), dtype=float, buffer=X, offset=2 * X.itemsize, strides=(2 * X.itemsize, X.itemsize))
+                forcing = (pairs @ H).view(complex)
+                W = linear_recurrences(mu, forcing, z1 @ to_modes)
+                Yr[2:K] = W.view(float) @ from_proj
+                z_before = (W[-1] @ from_modes).real
+            else:
+                xs = X.tolist()
+                R = np.empty((K - 2, 4))
+                for k in range(1, K - 1):
+                    R[k - 1] = self._hermite(xs[k], xs[k + 1], self.h)
+                W = _propagate(self.maps, z1, R @ self.WL)
+                Yr[2:K] = W @ self.proj_z
+                z_before = W[-1]
+        else:
+            W, z_before = None, z1
+        zK = self.last_map[0] @ z_before + self._hermite(ends[2], ends[3], self.tau_last) @ self.last_map[2]
+        Yr[K] = zK @ self.proj_z
+        self._last = (K, z1, W, zK)
+        return Yr
+
+    def states(self):
+        """(K + 1, n): the remainder's part of the states of the last :meth:`project`."""
+        K, z1, W, zK = self._last
+        Zr = np.zeros((K + 1, self.n))
+        Zr[1] = z1
+        if W is not None:
+            Zr[2:K] = (W @ self.modal[2]).real if self.modal is not None else W
+        Zr[K] = zK
+        return Zr[: self.K + 1]  # a window cut after the last projection ends earlier
+
+
+def _modal_remainder(maps, WL, proj_z, h):
+    """Per linear law (cached on its maps): the kept modes' multipliers, projection and
+    reconstruction, the middle steps' forcing matrix H (4, 2·modes: rows for r_k, h·ṙ_k,
+    r_k+1, h·ṙ_k+1, columns the modes' real and imaginary parts interleaved, so that a real
+    product viewed as complex is the modal forcing), and the reconstruction projected on
+    ``proj_z`` for the interleaved real view of the modal states (2·modes, 3)."""
+    hit = maps.__dict__.get("_remainder_modal")
+    if hit is None:
+        keep = maps.keep
+        mu = maps.mu[keep]
+        to_modes = maps.Vinv[keep].T.copy()
+        from_modes = (maps.V[:, keep] * maps.weights[keep]).T.copy()
+        WLm = WL @ to_modes  # (4, modes): r, ṙ, r̈, r⃛ at a step's start → modal forcing
+        # the cubic Hermite's Taylor terms at a step's start in the end values (r, h·ṙ):
+        # r̈ = (6·Δr/h − 4·ṙ_a − 2·ṙ_b)/h, r⃛ = (12·(−Δr)/h + 6·(ṙ_a + ṙ_b))/h²
+        T = np.array([
+            [1.0, 0.0, -6.0 / h**2, 12.0 / h**3],  # r_a
+            [0.0, 1.0 / h, -4.0 / h**2, 6.0 / h**3],  # h·ṙ_a
+            [0.0, 0.0, 6.0 / h**2, -12.0 / h**3],  # r_b
+            [0.0, 0.0, -2.0 / h**2, 6.0 / h**3],  # h·ṙ_b
+        ])
+        Hc = T @ WLm
+        H = np.empty((4, 2 * mu.size))
+        H[:, 0::2], H[:, 1::2] = Hc.real, Hc.imag
+        P = from_modes @ proj_z  # (modes, 3)
+        from_proj = np.empty((2 * mu.size, 3))
+        from_proj[0::2], from_proj[1::2] = P.real, -P.imag
+        hit = maps._remainder_modal = (mu, to_modes, from_modes, H, from_proj)
+    return hit
+
+
+class _Anderson:
+    """Anderson acceleration (type II, depth m) of a fixed point x = G(x) (Walker & Ni,
+    SIAM J. Numer. Anal. 49 (2011) 1715), on the iterate's flattened values."""
+
+    def __init__(self, depth):
+        self.depth = depth
+        self.dF: list[np.ndarray] = []
+        self.dG: list[np.ndarray] = []
+        self.prev = None
+
+    def cut(self, size):
+        """Keep the first ``size`` values of the history (a window cut short)."""
+        self.dF = [v[:size] for v in self.dF]
+        self.dG = [v[:size] for v in self.dG]
+        if self.prev is not None:
+            self.prev = (self.prev[0][:size], self.prev[1][:size])
+
+    def next(self, X, GX):
+        """The next iterate from x and G(x) (arrays of one shape)."""
+        g = GX.reshape(-1)
+        f = g - X.reshape(-1)
+        if self.prev is not None:
+            self.dF.append(f - self.prev[0])
+            self.dG.append(g - self.prev[1])
+            if len(self.dF) > self.depth:
+                del self.dF[0], self.dG[0]
+        self.prev = (f, g)
+        if not self.dF:
+            return GX
+        dF = np.column_stack(self.dF)
+        # least squares min |f − dF·γ| by its normal equations (at most `depth` unknowns;
+        # a relative ridge of 1e-13 keeps nearly dependent differences harmless)
+        gram = (dF.T @ np.column_stack([dF, f])).tolist()
+        gamma = _solve_small([row[:-1] for row in gram], [row[-1] for row in gram], 1e-13)
+        out = g.copy()
+        for c, v in zip(gamma, self.dG):
+            out -= c * v
+        return out.reshape(GX.shape)
+
+
+def _solve_small(G, b, ridge):
+    """Solve (G + ridge·tr(G)·I)·x = b for a small symmetric positive semi-definite G
+    (lists of floats; Cholesky, plain Python: a 3×3 system costs less than numpy's call)."""
+    n = len(b)
+    shift = ridge * sum(G[i][i] for i in range(n)) + 1e-300
+    Lc = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i + 1):
+            v = G[i][j] + (shift if i == j else 0.0) - sum(Lc[i][k] * Lc[j][k] for k in range(j))
+            Lc[i][j] = math.sqrt(max(v, shift)) if i == j else v / Lc[j][j]
+    y = [0.0] * n
+    for i in range(n):
+        y[i] = (b[i] - sum(Lc[i][k] * y[k] for k in range(i))) / Lc[i][i]
+    x = [0.0] * n
+    for i in reversed(range(n)):
+        x[i] = (y[i] - sum(Lc[k][i] * x[k] for k in range(i + 1, n))) / Lc[i][i]
+    return x
 
 
 def _step_affine(lin, maps, WL, L, full, tau, D_k, g_u_k):
@@ -647,6 +785,7 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper):
     """
 
     from camsim.dop853 import OneContactDOP853
+    from camsim.elements.base import LENGTH_TOL
     from camsim.integrate import Stretch
 
     v_imp = state.v_impacts
@@ -681,7 +820,8 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper):
 
     # the first step: what worked last time (see the docstring)
     memory = integ.__dict__.setdefault("_dop853_first_steps", {})
-    onset = bool(Mz[0] @ z0 + input_at(t0)[-2] <= 0.0)
+    # (δ within LENGTH_TOL of zero: an impact event leaves δ at zero only to rounding)
+    onset = bool(Mz[0] @ z0 + input_at(t0)[-2] <= LENGTH_TOL)
     structure = stepper.__dict__.get("dop853_structure")
     if structure is None:
         structure = stepper.dop853_structure = OneContactDOP853.structure(A, L, Mz)

@@ -161,14 +161,19 @@ def _blocked(mu: np.ndarray, r: np.ndarray, f: np.ndarray, w0: np.ndarray) -> np
         blocks = padded.reshape(nb, L, m)
     up, down, up1 = _powers_many(mu, L)
     local = np.cumsum(blocks * down, axis=1) * up  # each block's response to its own forcing
-    # chain the block ends: e[b] = μ^L·e[b−1] + local[b, L−1]
+    # chain the block ends, e[b] = μ^L·e[b−1] + local[b, L−1], by the same doubling scan
+    # over the blocks (a few passes instead of a Python loop over them)
     muL = mu**L
     starts = np.empty((nb, m), dtype=complex)
-    prev = w0
-    last = local[:, -1]
-    for b in range(nb):
-        starts[b] = prev
-        prev = muL * prev + last[b]
+    starts[0] = w0
+    if nb > 1:
+        ends = local[:-1, -1].copy()
+        power, span = muL, 1
+        while span < nb - 1:
+            ends[span:] += power * ends[:-span]
+            power = power * power
+            span *= 2
+        starts[1:] = ends + muL ** np.arange(1, nb, dtype=float)[:, None] * w0
     out = local + starts[:, None, :] * up1
     return out.reshape(nb * L, m)[:K]
 

@@ -129,12 +129,12 @@ class PowerContact(Contact):
     def nonlinear_tangent(self, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None):
         """(F, ∂F/∂δ, ∂F/∂δ̇) on samples [N, N/m, N·s/m] (zero where the force is clamped)."""
         chi = self.hysteresis(v_impact)
-        if np.all(delta > 0.0):
+        if delta.min() > 0.0:
             # the usual case inside a closed phase: the same arithmetic without the masks
             base = self.coefficient * delta**self.exponent
             factor = 1.0 + chi * delta_rate
             F = base * factor
-            if np.all(F > 0.0):
+            if F.min() > 0.0:
                 return F, self.exponent * base / delta * factor, base * chi
         pen = np.maximum(delta, 0.0)
         base = self.coefficient * pen**self.exponent
