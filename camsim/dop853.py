@@ -54,6 +54,7 @@ _D = DOP853.D  # (4, 16)
 _A_EXTRA = DOP853.A_EXTRA  # (3, 16)
 _C_EXTRA = DOP853.C_EXTRA  # (3,)
 _STAGES = _A.shape[0]
+assert _C[-1] == 1.0  # the last stage sits at t + h (see _attempt)
 _PP = np.arange(_STAGES, dtype=float)
 #: a^(p+1) for p = 0..11 (a^12 = 0) laid out [s, j, p], and a^p laid out [t, p, s] (so
 #: that the sums over p and j, or p and s, are one matrix product each).
@@ -181,7 +182,10 @@ class OneContactDOP853:
         K = self.K
         K[:_STAGES] = Kst
         y_new = y + h * (_B @ Kst)
-        f_new, F_new = self._rhs(t + h, y_new)
+        # ż at t + h: the last stage's node is t + h (c = 1), whose inputs are at hand
+        delta, rate = (self.M @ y_new + m[-1]).tolist()
+        F_new = self.force(delta, rate)
+        f_new = self.A @ y_new + G[-1] + self.L * F_new
         K[_STAGES] = f_new
         return y_new, f_new, F_new
 
@@ -192,6 +196,7 @@ class OneContactDOP853:
         t, y = self.t, self.y
         min_step = 10 * abs(np.nextafter(t, np.inf) - t)
         h_abs = min(max(self.h_abs, min_step), self.max_step)
+        proposed = h_abs
         rejected = None  # (h, error) of the last rejected try from t
         step_rejected = False
         while True:
@@ -225,6 +230,10 @@ class OneContactDOP853:
         self.t_old, self.y_old, self.f_old = t, y, self.f
         self.t, self.y, self.f, self.F = t_new, y_new, f_new, F_new
         self.h_abs = h_abs * factor
+        if not step_rejected and t_new == self.t_bound:
+            # a step cut short by t_bound: a caller that moves t_bound on (a span going
+            # on, dop853_span) continues with the step the control had proposed
+            self.h_abs = max(self.h_abs, proposed)
         self._dense = None
         if self.t >= self.t_bound:
             self.status = "finished"

@@ -256,12 +256,16 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         return collocation_steps(integ, stepper, config, coll, t_from, z_from, n_steps, t_stop, guards,
                                  just_started, chi)
 
-    def fallback(t_from, z_from, n_steps, just_started):
-        """DOP853 over n grid steps from (t_from, z_from); returns (t, z, fired, end)."""
+    def fallback(t_from, z_from, n_steps, just_started, releasing_steps=0):
+        """DOP853 over n grid steps from (t_from, z_from); returns (t, z, fired, end).
+        With ``releasing_steps``, the same span goes on for up to that many more grid
+        steps if the contact is releasing at the n-th (see dop853_span)."""
         k_end = math.floor((t_from - integ.t_ref) / h + 1e-7) + n_steps
         t_lim = min(t_stop, integ.t_ref + k_end * h)
+        t_more = min(t_stop, t_lim + releasing_steps * h) if releasing_steps else None
         gs = guards if just_started else _fresh(guards)
-        t_end, z_end, stretch, fired = dop853_span(integ, t_from, cur, config, z_from, gs, t_lim, record, stepper)
+        t_end, z_end, stretch, fired = dop853_span(integ, t_from, cur, config, z_from, gs, t_lim, record, stepper,
+                                                   releasing_to=t_more)
         if stretch is not None:
             pieces.append((stretch.t, stretch.z, stretch.u))
         # the full state only where an event needs it (elsewhere a placeholder, as below)
@@ -338,7 +342,10 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             # deep: F ∝ δ^a is not smooth there, and no window of the iteration converges
             # across it): DOP853, then on by collocation
             onset_colloc = can_collocate and ONSET_COLLOC
-            t, z, fired, cur = fallback(t, z, ONSET_STEPS if onset_colloc else FALLBACK_STEPS, first)
+            # (a contact releasing at the span's end goes on in the same span: the step
+            # the collocation would hand back to DOP853 at once, without a restart)
+            t, z, fired, cur = fallback(t, z, ONSET_STEPS if onset_colloc else FALLBACK_STEPS, first,
+                                        0 if onset_colloc else COLLOC_RETRY)
             first = False
             if fired is not None:
                 return finish(cur, fired)
@@ -770,10 +777,14 @@ class _FastInput:
         return self.C[k] @ ((t - self.starts[k]) ** self.powers)
 
 
-def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper):
+def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, releasing_to=None):
     """DOP853 (rtol of the integrator) from (t0, z0) to ``t_stop`` or the first event;
     returns (t_end, z_end, the recorded stretch or None, the guard that fired or None).
-    ``state`` gives the branches and approach speeds of the stretch.
+    ``state`` gives the branches and approach speeds of the stretch. With
+    ``releasing_to``: if at ``t_stop`` the contact is releasing (unloading so fast that
+    δ + δ̇·COLLOC_STEPS·h < 0, the test advance_power applies before the collocation),
+    the same solver goes on to ``releasing_to`` (its step history kept; a new span would
+    start with a guessed step).
 
     The same method, tolerances, events and output as
     :meth:`camsim.integrate.Integrator._advance_nonlinear`, with the cam input from
@@ -789,7 +800,7 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper):
     from camsim.integrate import Stretch
 
     v_imp = state.v_impacts
-    cam_input = _FastInput(integ, t0, t_stop)
+    cam_input = _FastInput(integ, t0, t_stop if releasing_to is None else max(t_stop, releasing_to))
     A, B, b, L = config.A, config.B, config.b, stepper.L
     Mz = np.vstack([stepper.dz, stepper.rz])
     Mu = np.vstack([stepper.du, stepper.ru])
@@ -828,6 +839,14 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper):
     solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
                               integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure)
     grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver)
+    if fired is None and releasing_to is not None and releasing_to > t_end:
+        n = z0.size
+        delta, rate = (Mz @ z_end + input_at(t_end)[n:]).tolist()
+        if rate < 0.0 and delta + rate * COLLOC_STEPS * integ.h < 0.0:
+            solver.t_bound, solver.status = float(releasing_to), "running"
+            grid2, Zs2, z_end, fired, t_end = integ.dop853_span(None, z_end, t_end, releasing_to, guards, cam_input,
+                                                                solver)
+            grid, Zs = np.concatenate([grid, grid2]), np.concatenate([Zs, Zs2])
     if onset and solver.first_accepted is not None:
         memory[True] = solver.first_accepted
     elif not onset and solver.largest > 0.0:
