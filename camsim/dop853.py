@@ -255,8 +255,12 @@ class OneContactDOP853:
         (→ (n,)) or an array of times (→ (n, k))."""
         if self._dense is None:
             K, h = self.K, self.h_previous
-            for s, (a, c) in enumerate(zip(_A_EXTRA, _C_EXTRA), start=_STAGES + 1):
-                K[s] = self._rhs(self.t_old + c * h, self.y_old + h * (a[:s] @ K[:s]))[0]
+            n = self.y.size
+            gm = self.inputs(self.t_old + _C_EXTRA * h, self.t_old, self.t_old + h)  # the extra stages' inputs at once
+            for i, (s, a) in enumerate(zip(range(_STAGES + 1, _STAGES + 4), _A_EXTRA)):
+                y_s = self.y_old + h * (a[:s] @ K[:s])
+                delta, rate = (self.M @ y_s + gm[i, n:]).tolist()
+                K[s] = self.A @ y_s + gm[i, :n] + self.L * self.force(delta, rate)
             dy = self.y - self.y_old
             Fc = np.empty((7, dy.size))
             Fc[0] = dy
@@ -286,3 +290,19 @@ class _Dense:
             y = y * x if i % 2 == 0 else y * (1 - x)
         y = y + self.y_old
         return y if t.ndim == 0 else y.T
+
+    def project(self, g):
+        """g·z(t) as a function of a float t, in plain floats (the same recurrence as
+        :meth:`__call__` on the projected coefficients)."""
+        coeffs = (self.F[::-1] @ g).tolist()
+        base = float(self.y_old @ g)
+        t_old, h = self.t_old, self.h
+
+        def at(t):
+            x = (t - t_old) / h
+            y = 0.0
+            for i, f in enumerate(coeffs):
+                y = (y + f) * (x if i % 2 == 0 else 1.0 - x)
+            return y + base
+
+        return at

@@ -88,6 +88,17 @@ def _cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:
     return x
 
 
+def _guard_on_step(dense, cam_input, gz, gu, ge):
+    """g(t) = gz·z(t) + gu·u(t) + ge on one DOP853 step, z from its dense output: in plain
+    floats where the dense output and the cam input can be projected on gz and gu (the
+    root finder calls it a dozen times per event), else by their vector calls."""
+    dense_g = dense.project(gz) if hasattr(dense, "project") else None
+    input_g = cam_input.project(gu) if hasattr(cam_input, "project") else None
+    if dense_g is None or input_g is None:
+        return lambda t: float(gz @ dense(t) + gu @ cam_input(t)) + ge
+    return lambda t: dense_g(t) + input_g(t) + ge
+
+
 class _StepInput:
     """The cam input u(t) = [s, ṡ, s̈, s⃛] inside [t0, t1] from per-step Hermite polynomials.
 
@@ -723,8 +734,7 @@ class Integrator:
                 for k in np.flatnonzero((g_old >= 0.0) & (g_new <= 0.0)).tolist():
                     if dense is None:
                         dense = solver.dense_output()
-                    gz, gu, gk = Gz[k], Gu[k], float(ge[k])
-                    root = brentq(lambda t: float(gz @ dense(t) + gu @ cam_input(t)) + gk, t_old, t_new,
+                    root = brentq(_guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k])), t_old, t_new,
                                   xtol=4 * eps, rtol=4 * eps)
                     if root > t0 + TIME_EPS and (fired is None or root < t_end):
                         fired, t_end = guards[k], root

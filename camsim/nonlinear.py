@@ -776,6 +776,22 @@ class _FastInput:
         k = self.index(t)
         return self.C[k] @ ((t - self.starts[k]) ** self.powers)
 
+    def project(self, g):
+        """g·u(t) as a function of a float t, in plain floats (Horner on the projected
+        polynomial of the step holding t)."""
+        coeffs = [row[::-1] for row in np.einsum("c,kcj->kj", g, self.C).tolist()]
+        starts, index = self.starts.tolist(), self.index
+
+        def at(t):
+            k = index(t)
+            x = t - starts[k]
+            y = 0.0
+            for c in coeffs[k]:
+                y = y * x + c
+            return y
+
+        return at
+
 
 def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, releasing_to=None):
     """DOP853 (rtol of the integrator) from (t0, z0) to ``t_stop`` or the first event;
