@@ -176,12 +176,19 @@ def _block_steps(coll, stepper, K, z, F0, pre, end_in, lengths, rtol):
     element, v_impact = stepper.element, stepper.v_impact
     X = np.full(K * m, F0)
     eye = np.eye(K * m)
+    last = math.inf
     for _ in range(BLOCK_NEWTON_MAX):
         F, kt, ct = element.nonlinear_tangent(YD + MD @ X, YR + MR @ X, v_impact)
         dX = np.linalg.solve(eye - kt[:, None] * MD - ct[:, None] * MR, X - F)
         X = X - dX
-        if np.max(np.abs(dX)) <= NEWTON_TOL * max(F0, np.max(np.abs(X))):
+        size, tol = float(np.max(np.abs(dX))), NEWTON_TOL * max(F0, float(np.max(np.abs(X))))
+        # converged: this correction was below the tolerance, or — converging
+        # quadratically (the correction below 1e-6 of the force) — the next one would be,
+        # |dX_k|·(|dX_k| / |dX_k−1|)² (Deuflhard, Newton Methods for Nonlinear Problems,
+        # §2.1: the contraction estimate of the simplified Newton correction)
+        if size <= tol or (size <= 1e-6 * tol / NEWTON_TOL and size * (size / last) ** 2 <= tol):
             break
+        last = size
     else:
         return None
     U = np.concatenate([[F0], X])
