@@ -519,11 +519,12 @@ class _RemainderResponse:
         return np.array([ra, rda, 2.0 * c2, 6.0 * c3])
 
     def project(self, X):
-        """(K + 1, 3): the remainder's part of [δ, δ̇, δ̈'s linear part] at the nodes."""
+        """(K + 1, 3): the remainder's part of [δ, δ̇, δ̈'s linear part] (the columns of
+        ``proj_z``) at the nodes."""
         K = self.K
         ends = X[[0, 1, K - 1, K]].tolist()
         z1 = self._hermite(ends[0], ends[1], self.tau_first) @ self.first_map[2]
-        Yr = np.zeros((K + 1, 3))
+        Yr = np.zeros((K + 1, self.proj_z.shape[1]))
         Yr[1] = z1 @ self.proj_z
         if K > 2:
             if self.modal is not None:
@@ -586,8 +587,8 @@ def _modal_remainder(maps, WL, proj_z, h):
         Hc = T @ WLm
         H = np.empty((4, 2 * mu.size))
         H[:, 0::2], H[:, 1::2] = Hc.real, Hc.imag
-        P = from_modes @ proj_z  # (modes, 3)
-        from_proj = np.empty((2 * mu.size, 3))
+        P = from_modes @ proj_z  # (modes, columns of proj_z)
+        from_proj = np.empty((2 * mu.size, P.shape[1]))
         from_proj[0::2], from_proj[1::2] = P.real, -P.imag
         hit = maps._remainder_modal = (mu, to_modes, from_modes, H, from_proj)
     return hit

@@ -226,3 +226,40 @@ def test_structure_is_the_matrix_powers():
         np.testing.assert_allclose(MAp[2 * p:2 * p + 2], M_TRAIN @ power, rtol=1e-12, atol=0, err_msg=str(p))
         np.testing.assert_allclose(MApL[p], M_TRAIN @ power @ L_TRAIN, rtol=1e-12, atol=0, err_msg=str(p))
         np.testing.assert_allclose(ApT[p], np.linalg.matrix_power(A_TRAIN.T, p), rtol=1e-12, atol=0, err_msg=str(p))
+
+
+# --------------------------------------------------------------------------- span going on
+def test_moved_bound_continues_as_one_run():
+    """A solver stopped at t1 (its last step cut short by t_bound) whose bound is moved on
+    to t2 goes on with the step its control had proposed, not with the cut one, and ends
+    as close to solve_ivp (DOP853, rtol 1e-13) as scipy's DOP853 run straight to t2 at the
+    same tolerance (within twice its error)."""
+    from scipy.integrate import solve_ivp
+
+    ours, ref = train_pair(None)
+    ours.t_bound = 0.0051234  # inside a step
+    while ours.status == "running":
+        ours.step()
+    assert ours.t == 0.0051234
+    assert ours.h_abs >= ours.h_previous  # the proposal kept (the cut step was shorter)
+    ours.t_bound, ours.status = 0.02, "running"
+    while ours.status == "running":
+        assert ours.step() is None
+    while ref.status == "running":
+        ref.step()
+    z0 = np.array([*static_state(), 1e-3, -1e-3])
+    tight = solve_ivp(train_rhs, (0.0, 0.02), z0, method="DOP853", rtol=1e-13, atol=1e-18).y[:, -1]
+    straight = float(np.max(np.abs(ref.y - tight) / SCALE))
+    assert float(np.max(np.abs(ours.y - tight) / SCALE)) <= 2.0 * straight
+
+
+def test_projected_dense_output_is_the_dense_output():
+    """Dense.project(g)(t) — plain floats, used by the event root finder — equals
+    g·dense(t) (to rounding)."""
+    ours, _ = train_pair(4e-6)
+    ours.step()
+    dense = ours.dense_output()
+    g = np.array([0.3, -1.0, 2e-3, 5e-4])
+    at = dense.project(g)
+    for t in np.linspace(ours.t_old, ours.t, 9):
+        assert at(float(t)) == pytest.approx(float(g @ dense(t)), rel=1e-14, abs=1e-20)
