@@ -134,7 +134,10 @@ class OneContactDOP853:
     # ------------------------------------------------------------------ evaluation
     def _rhs(self, t, z):
         """ż and F at one instant."""
-        gm = self.input_at(t)
+        return self._derivative(z, self.input_at(t))
+
+    def _derivative(self, z, gm):
+        """ż and F at a state z whose inputs [g; m] are ``gm`` (n + 2,)."""
         n = z.size
         delta, rate = (self.M @ z + gm[n:]).tolist()
         F = self.force(delta, rate)
@@ -183,9 +186,7 @@ class OneContactDOP853:
         K[:_STAGES] = Kst
         y_new = y + h * (_B @ Kst)
         # ż at t + h: the last stage's node is t + h (c = 1), whose inputs are at hand
-        delta, rate = (self.M @ y_new + m[-1]).tolist()
-        F_new = self.force(delta, rate)
-        f_new = self.A @ y_new + G[-1] + self.L * F_new
+        f_new, F_new = self._derivative(y_new, gm[-1])
         K[_STAGES] = f_new
         return y_new, f_new, F_new
 
@@ -255,12 +256,9 @@ class OneContactDOP853:
         (→ (n,)) or an array of times (→ (n, k))."""
         if self._dense is None:
             K, h = self.K, self.h_previous
-            n = self.y.size
             gm = self.inputs(self.t_old + _C_EXTRA * h, self.t_old, self.t_old + h)  # the extra stages' inputs at once
             for i, (s, a) in enumerate(zip(range(_STAGES + 1, _STAGES + 4), _A_EXTRA)):
-                y_s = self.y_old + h * (a[:s] @ K[:s])
-                delta, rate = (self.M @ y_s + gm[i, n:]).tolist()
-                K[s] = self.A @ y_s + gm[i, :n] + self.L * self.force(delta, rate)
+                K[s] = self._derivative(self.y_old + h * (a[:s] @ K[:s]), gm[i])[0]
             dy = self.y - self.y_old
             Fc = np.empty((7, dy.size))
             Fc[0] = dy

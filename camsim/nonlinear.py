@@ -175,18 +175,28 @@ class PowerContactStepper:
         return d, dd, F, kt, ct
 
 
+def _kept_modes(maps):
+    """(μ, to_modes, from_modes) of a modal StepMaps' kept modes: their multipliers, the
+    projection z → w and the reconstruction w → z (weights folded in), cached on the maps."""
+    modes = maps.__dict__.get("_kept_modes")
+    if modes is None:
+        keep = maps.keep
+        modes = maps._kept_modes = (maps.mu[keep], maps.Vinv[keep].T.copy(),
+                                    (maps.V[:, keep] * maps.weights[keep]).T.copy())
+    return modes
+
+
+def _releasing(delta, rate, h):
+    """A contact unloading so fast that it releases within one collocation call at its
+    present rate (the collocation would refuse the step; DOP853 goes on)."""
+    return rate < 0.0 and delta + rate * COLLOC_STEPS * h < 0.0
+
+
 def _propagate(maps, z0, g):
     """z_{k+1} = Φ·z_k + g_k for all k (modal recurrence when available)."""
-    from camsim.recurrence import linear_recurrences
-
     K = g.shape[0]
     if maps.modal:
-        modes = maps.__dict__.get("_kept_modes")
-        if modes is None:
-            # the kept modes' multipliers, projection and reconstruction, once per map
-            keep = maps.keep
-            modes = maps._kept_modes = (maps.mu[keep], maps.Vinv[keep].T.copy(), (maps.V[:, keep] * maps.weights[keep]).T.copy())
-        mu, to_modes, from_modes = modes
+        mu, to_modes, from_modes = _kept_modes(maps)
         W = linear_recurrences(mu, g @ to_modes, z0 @ to_modes)
         return (W @ from_modes).real
     out = np.empty((K, z0.size))
@@ -286,7 +296,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             d_now, dd_now = stepper.force(z[None, :], integ._node_input(t)[None, :], chi)[:2]
             # a contact unloading fast enough to release within a collocation call: the
             # collocation would refuse its singular end, so DOP853 goes on at once
-            releasing = dd_now[0] < 0.0 and d_now[0] + dd_now[0] * COLLOC_STEPS * h < 0.0
+            releasing = _releasing(d_now[0], dd_now[0], h)
             while not releasing:
                 t_c, z_c, taken, hit, calm = collocate(t, z, COLLOC_STEPS * 2 ** min(fails, 3), first)
                 if taken is None:
@@ -571,10 +581,7 @@ def _modal_remainder(maps, WL, proj_z, h):
     ``proj_z`` for the interleaved real view of the modal states (2·modes, 3)."""
     hit = maps.__dict__.get("_remainder_modal")
     if hit is None:
-        keep = maps.keep
-        mu = maps.mu[keep]
-        to_modes = maps.Vinv[keep].T.copy()
-        from_modes = (maps.V[:, keep] * maps.weights[keep]).T.copy()
+        mu, to_modes, from_modes = _kept_modes(maps)
         WLm = WL @ to_modes  # (4, modes): r, ṙ, r̈, r⃛ at a step's start → modal forcing
         # the cubic Hermite's Taylor terms at a step's start in the end values (r, h·ṙ):
         # r̈ = (6·Δr/h − 4·ṙ_a − 2·ṙ_b)/h, r⃛ = (12·(−Δr)/h + 6·(ṙ_a + ṙ_b))/h²
@@ -859,7 +866,7 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, r
     if fired is None and releasing_to is not None and releasing_to > t_end:
         n = z0.size
         delta, rate = (Mz @ z_end + input_at(t_end)[n:]).tolist()
-        if rate < 0.0 and delta + rate * COLLOC_STEPS * integ.h < 0.0:
+        if _releasing(delta, rate, integ.h):
             solver.t_bound, solver.status = float(releasing_to), "running"
             grid2, Zs2, z_end, fired, t_end = integ.dop853_span(None, z_end, t_end, releasing_to, guards, cam_input,
                                                                 solver)

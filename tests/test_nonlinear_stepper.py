@@ -49,6 +49,16 @@ def test_stepper_against_independent_solver():
     assert np.max(np.abs(result.elements["contact"] - f_ref)) < 1e-9 * M * G
 
 
+def stiff_train():
+    """(A, L) of a stiff, lightly damped two-mass train (frequencies ~1e3 and ~2.4e4 rad/s;
+    state x1, x2, v1, v2), the contact force acting on the second mass (0.175 kg)."""
+    A = np.zeros((4, 4))
+    A[:2, 2:] = np.eye(2)
+    A[2:, :2] = [[-1.2e6, 2.0e5], [1.1e6, -5.8e8]]
+    A[2:, 2:] = [[-40.0, 4.0], [5.0, -900.0]]
+    return A, np.array([0.0, 0.0, 0.0, -1.0 / 0.175])
+
+
 def test_partial_step_maps_against_quadrature(monkeypatch):
     """A window's partial first/last step as an affine map of the state and the remainder's
     Taylor terms (camsim.nonlinear._step_affine), by the φ-series and by the augmented
@@ -67,15 +77,10 @@ def test_partial_step_maps_against_quadrature(monkeypatch):
     from camsim.stepping import StepMaps
 
     rng = np.random.default_rng(12)
-    n = 4
-    # a stiff, lightly damped two-mass train (frequencies ~1e3 and ~2.4e4 rad/s)
-    A = np.zeros((n, n))
-    A[:2, 2:] = np.eye(2)
-    A[2:, :2] = [[-1.2e6, 2.0e5], [1.1e6, -5.8e8]]
-    A[2:, 2:] = [[-40.0, 4.0], [5.0, -900.0]]
+    A, L = stiff_train()
+    n = A.shape[0]
     B = np.vstack([np.zeros((2, 4)), rng.normal(size=(2, 4)) * 1e5])  # the cam input acts on the accelerations
     b = np.array([0.0, 0.0, -9.81, 3.0])
-    L = np.array([0.0, 0.0, 0.0, -1.0 / 0.175])
     lin = nonlinear._LinearLaw(A, B, b)
     h = 2e-5
     maps = StepMaps(lin, h, series=True)
@@ -146,14 +151,10 @@ def test_remainder_response_against_a_plain_loop():
     from camsim.stepping import StepMaps
 
     rng = np.random.default_rng(5)
-    n = 4
-    A = np.zeros((n, n))
-    A[:2, 2:] = np.eye(2)
-    A[2:, :2] = [[-1.2e6, 2.0e5], [1.1e6, -5.8e8]]
-    A[2:, 2:] = [[-40.0, 4.0], [5.0, -900.0]]
+    A, L = stiff_train()
+    n = A.shape[0]
     B = np.zeros((n, 4))
     b = np.zeros(n)
-    L = np.array([0.0, 0.0, 0.0, -1.0 / 0.175])
     lin = nonlinear._LinearLaw(A, B, b)
     h = 2e-5
     maps = StepMaps(lin, h, series=True)
