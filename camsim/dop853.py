@@ -23,6 +23,22 @@ structure, which scipy cannot see:
   from them (scipy's −1/8 exponent shrinks by at most 5× per try, and needed eight tries
   at each onset of the CDTM seat); a span may start from a given first step (the
   caller's memory of the last one).
+* **Steps shaped by the contact's singular ends** (when the caller names the law's
+  exponent a; without it the control is scipy's, step for step). After an accepted step:
+
+  - *onset ramp*: from an onset the local error of a step h at a distance d from it
+    behaves like h⁹·d^(a−8) (the force's eighth derivative there), so the step may grow
+    faster than the h⁸ law assumes, by (SAFETY/err)^(1/9)·(1 + h/d)^((8−a)/9), while
+    h/d ≥ :data:`RAMP_MIN_RATIO`;
+  - *release approach*: an unloading contact's release is predicted from δ, δ̇ and the
+    last step's change of δ̇; a step takes at most :data:`RELEASE_APPROACH` of the
+    distance left, and once that distance is within a step known to cross a singular end
+    (the first step after an onset) the next step lands just past the release. (A step
+    that crosses the release from farther away is rejected: its error grows with its
+    length, and scipy's control shrinks it by halves, one rejection after another.)
+
+  On one revolution of the CDTM seat these cut the tries from 250 to 221 and the
+  rejected ones from 61 to 37 (docs/performance.md).
 
 The results agree with scipy's DOP853 taking the same steps to rounding
 (tests/test_dop853.py); only the initial step's choice and the shrink after repeated
@@ -44,6 +60,14 @@ MAX_FACTOR = 10.0
 ERROR_EXPONENT = -1.0 / 8.0
 #: Smallest shrink factor when the order is measured from two rejections.
 SMALLEST_FACTOR = 1e-3
+#: Onset ramp: the first step after an onset is taken as if h/d were this ratio, and the
+#: ramp applies while h/d is at least RAMP_MIN_RATIO (beyond, the error is smooth again).
+FIRST_RATIO = 1.0
+RAMP_MIN_RATIO = 0.5
+#: Largest fraction of the predicted distance to the release per step, and how far past
+#: the predicted release the landing step reaches (as a multiple of the distance).
+RELEASE_APPROACH = 0.6
+LANDING = 1.05
 
 _A = DOP853.A  # (12, 12)
 _B = DOP853.B  # (12,)
@@ -92,6 +116,17 @@ class OneContactDOP853:
         Largest step [s].
     first_step : float or None
         First step to try [s] (None: Hairer's starting-step algorithm, as scipy).
+    structure : tuple or None
+        :meth:`structure` of (A, L, M), when the caller keeps it.
+    exponent : float or None
+        a of F ∝ δ^a near δ = 0: turns on the steps shaped by the contact (module
+        docstring). None: scipy's control.
+    onset : bool
+        The span starts at a contact's onset (δ = 0, closing): the onset ramp.
+    crossing_step : float or None
+        A step known to cross a singular end [s] (the caller's memory of the first step
+        after an onset); for the release approach (None: this span's first step when it
+        starts at an onset, else no release approach).
 
     The interface is the part of :class:`scipy.integrate.OdeSolver` the caller uses:
     :meth:`step`, ``status``, ``t``, ``t_old``, ``y``, :meth:`dense_output`; besides,
@@ -99,7 +134,7 @@ class OneContactDOP853:
     """
 
     def __init__(self, A, L, M, inputs, input_at, force, t0, z0, t_bound, rtol, atol, max_step, first_step=None,
-                 structure=None):
+                 structure=None, exponent=None, onset=False, crossing_step=None):
         self.A, self.L, self.M = A, L, M
         self.inputs, self.input_at, self.force = inputs, input_at, force
         self.t = float(t0)
@@ -111,10 +146,17 @@ class OneContactDOP853:
         self.status = "running" if self.t_bound > self.t else "finished"
         self.MAp, self.MApT, self.MApL, self.ApT = structure if structure is not None else self.structure(A, L, M)
         self.K = np.empty((16, self.y.size))
-        self.f, self.F = self._rhs(self.t, self.y)
+        self.f, self.F, self.nu = self._derivative(self.y, self.input_at(self.t))
+        self.exponent = exponent
+        self.t_onset = self.t if onset else None
+        self.crossing_step = crossing_step
         self.first_accepted = None
         self.largest = 0.0
         self.h_abs = min(first_step, max_step) if first_step else self._initial_step()
+        if exponent is not None:
+            # a span that starts inside an unloading contact: the release approach applies
+            # to its first step too (δ̈ unknown: the release predicted from δ, δ̇)
+            self.h_abs = self._release_limit(self.h_abs, self.nu, 0.0)
         self.h_previous = None
         self.y_old = None
         self._dense = None
@@ -132,16 +174,12 @@ class OneContactDOP853:
         return MAp, MAp.T.copy(), MApL, np.array([P.T for P in Ap])  # ApT: (12, n, n)
 
     # ------------------------------------------------------------------ evaluation
-    def _rhs(self, t, z):
-        """ż and F at one instant."""
-        return self._derivative(z, self.input_at(t))
-
     def _derivative(self, z, gm):
-        """ż and F at a state z whose inputs [g; m] are ``gm`` (n + 2,)."""
+        """ż, F and [δ, δ̇] at a state z whose inputs [g; m] are ``gm`` (n + 2,)."""
         n = z.size
-        delta, rate = (self.M @ z + gm[n:]).tolist()
+        delta, rate = nu = (self.M @ z + gm[n:]).tolist()
         F = self.force(delta, rate)
-        return self.A @ z + gm[:n] + self.L * F, F
+        return self.A @ z + gm[:n] + self.L * F, F, nu
 
     def _initial_step(self):
         """Hairer's starting step (Solving ODE I, II.4), as scipy's select_initial_step."""
@@ -151,7 +189,7 @@ class OneContactDOP853:
         d1 = float(np.sqrt(np.mean((f0 / scale) ** 2)))
         h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         h0 = min(h0, self.t_bound - self.t)
-        f1, _ = self._rhs(self.t + h0, y0 + h0 * f0)
+        f1 = self._derivative(y0 + h0 * f0, self.input_at(self.t + h0))[0]
         d2 = float(np.sqrt(np.mean(((f1 - f0) / scale) ** 2))) / h0
         if d1 <= 1e-15 and d2 <= 1e-15:
             h1 = max(1e-6, h0 * 1e-3)
@@ -160,7 +198,7 @@ class OneContactDOP853:
         return min(100 * h0, h1, self.max_step)
 
     def _attempt(self, t, y, h):
-        """One DOP853 step of length h: (y_new, f_new, F_new); fills self.K[:13]."""
+        """One DOP853 step of length h: (y_new, f_new, F_new, [δ, δ̇]_new); fills self.K[:13]."""
         n = y.size
         gm = self.inputs(t + _C * h, t, t + h)  # (12, n + 2)
         G, m = gm[:, :n], gm[:, n:]
@@ -186,14 +224,15 @@ class OneContactDOP853:
         K[:_STAGES] = Kst
         y_new = y + h * (_B @ Kst)
         # ż at t + h: the last stage's node is t + h (c = 1), whose inputs are at hand
-        f_new, F_new = self._derivative(y_new, gm[-1])
+        f_new, F_new, nu_new = self._derivative(y_new, gm[-1])
         K[_STAGES] = f_new
-        return y_new, f_new, F_new
+        return y_new, f_new, F_new, nu_new
 
     # ------------------------------------------------------------------ stepping
     def step(self):
         """One accepted step (scipy's control; shrink by the measured order after two
-        rejections from the same point). Sets ``status``; returns a message or None."""
+        rejections from the same point; with ``exponent``, the steps shaped by the
+        contact). Sets ``status``; returns a message or None."""
         t, y = self.t, self.y
         min_step = 10 * abs(np.nextafter(t, np.inf) - t)
         h_abs = min(max(self.h_abs, min_step), self.max_step)
@@ -207,13 +246,15 @@ class OneContactDOP853:
             t_new = min(t + h_abs, self.t_bound)
             h = t_new - t
             h_abs = abs(h)
-            y_new, f_new, F_new = self._attempt(t, y, h)
+            y_new, f_new, F_new, nu_new = self._attempt(t, y, h)
             scale = self.atol + np.maximum(np.abs(y), np.abs(y_new)) * self.rtol
             error = self._error_norm(h, scale)
             if error < 1:
                 factor = MAX_FACTOR if error == 0 else min(MAX_FACTOR, SAFETY * error**ERROR_EXPONENT)
                 if step_rejected:
                     factor = min(1.0, factor)
+                elif self.t_onset is not None and self.exponent is not None:
+                    factor = max(factor, self._ramp(t, h_abs, error))
                 break
             factor = max(MIN_FACTOR, SAFETY * error**ERROR_EXPONENT)
             if rejected is not None and rejected[1] > error and rejected[0] > h_abs:
@@ -231,6 +272,9 @@ class OneContactDOP853:
         self.t_old, self.y_old, self.f_old = t, y, self.f
         self.t, self.y, self.f, self.F = t_new, y_new, f_new, F_new
         self.h_abs = h_abs * factor
+        if self.exponent is not None:
+            self.h_abs = self._release_limit(self.h_abs, nu_new, 0.5 * (nu_new[1] - self.nu[1]) / h)
+        self.nu = nu_new
         if not step_rejected and t_new == self.t_bound:
             # a step cut short by t_bound: a caller that moves t_bound on (a span going
             # on, dop853_span) continues with the step the control had proposed
@@ -239,6 +283,26 @@ class OneContactDOP853:
         if self.t >= self.t_bound:
             self.status = "finished"
         return None
+
+    def _ramp(self, t, h, error):
+        """The onset ramp's growth factor after an accepted step (t, h) with ``error``
+        (1.0 once the step is no longer small against its distance from the onset)."""
+        ratio = h / (t - self.t_onset) if t > self.t_onset else FIRST_RATIO
+        if ratio < RAMP_MIN_RATIO:
+            return 1.0
+        grow = (SAFETY / max(error, 1e-300)) ** (1.0 / 9.0) * (1.0 + ratio) ** ((8.0 - self.exponent) / 9.0)
+        return min(MAX_FACTOR, grow)
+
+    def _release_limit(self, h, nu, half_accel):
+        """h limited by the release approach at a point with [δ, δ̇] = ``nu`` and
+        ½·δ̈ ≈ ``half_accel``."""
+        delta, rate = nu
+        crossing = self.crossing_step or (self.first_accepted if self.t_onset is not None else None)
+        if delta > 0.0 and rate < 0.0 and crossing:
+            to_release = _first_root(delta, rate, half_accel)
+            if h > RELEASE_APPROACH * to_release:
+                h = LANDING * to_release if to_release <= crossing else max(RELEASE_APPROACH * to_release, crossing)
+        return h
 
     def _error_norm(self, h, scale):
         """scipy's DOP853 error norm (the 5th- and 3rd-order estimates combined)."""
@@ -267,6 +331,18 @@ class OneContactDOP853:
             Fc[3:] = h * (_D @ K)
             self._dense = _Dense(self.t_old, h, self.y_old, Fc)
         return self._dense
+
+
+def _first_root(c0, c1, c2):
+    """The smallest positive root of c0 + c1·τ + c2·τ² (c0 > 0 > c1), inf if none."""
+    if c2 == 0.0:
+        return -c0 / c1
+    disc = c1 * c1 - 4.0 * c2 * c0
+    if disc < 0.0:
+        return math.inf
+    q = -0.5 * (c1 - math.sqrt(disc))  # c1 < 0: the sum without cancellation (q > 0)
+    roots = [r for r in (q / c2, c0 / q) if r > 0.0]
+    return min(roots) if roots else math.inf
 
 
 class _Dense:

@@ -861,7 +861,9 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, r
     if structure is None:
         structure = stepper.dop853_structure = OneContactDOP853.structure(A, L, Mz)
     solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
-                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure)
+                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure,
+                              exponent=getattr(stepper.element, "exponent", 1.0), onset=onset,
+                              crossing_step=memory.get(True))
     grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver)
     if fired is None and releasing_to is not None and releasing_to > t_end:
         n = z0.size

@@ -153,12 +153,20 @@ def input_at(D: np.ndarray, tau: float) -> np.ndarray:
     return out
 
 
-#: Largest 1-norm of the balanced A·h for which :func:`phi_series` is used.
+#: Largest 1-norm of the balanced A·h on which the Taylor series of :func:`phi_series`
+#: runs (a larger A·h is halved that many times first, then doubled back).
 PHI_SERIES_NORM = 1.0
+#: Most halvings :func:`phi_series` takes (beyond, it declines: ``expm`` instead).
+PHI_SERIES_SQUARINGS = 6
 #: Terms of the Taylor series of φ_{P+1} (the last term is below 1/20! ≈ 4e-19 of the first
 #: when the norm is at most PHI_SERIES_NORM).
 PHI_SERIES_TERMS = 12
 _INV_FACT = [1.0 / math.factorial(j) for j in range(PHI_SERIES_TERMS + _P + 2)]
+#: The doubling of φ_0 … φ_{P+1}: φ_k(2X) = 2^−k·(φ_0(X)·φ_k(X) + Σ_{j=1..k} φ_j(X)/(k−j)!)
+#: (Skaflestad & Wright, Appl. Numer. Math. 59 (2009) 783, eq. 3.3), the sum as one
+#: matrix [k, j] and the weights 2^−k.
+_DOUBLING_SUM = np.array([[_INV_FACT[k - j] if 1 <= j <= k else 0.0 for j in range(_P + 2)] for k in range(_P + 2)])
+_DOUBLING_WEIGHT = 2.0 ** -np.arange(_P + 2)
 
 
 def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -166,17 +174,29 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
     the Taylor series of φ_{P+1}(X) = Σ_i X^i/(i+P+1)! on the balanced X = A·h and the
     recurrence φ_{k−1}(X) = X·φ_k(X) + I/(k−1)!, which loses nothing while ‖X‖ ≤ 1.
 
-    About 20 small matrix products instead of ``expm`` of the (P+2)·n augmented matrix:
-    half the time, and accurate to rounding on every Γ_j (the augmented ``expm`` carries the
-    high Γ_j, many orders below its largest block, to 1e-12 … 1e-6 of themselves for a stiff
-    seat at h = 20 µs; tests/test_stepping.py). Returns None when the balanced norm exceeds
-    :data:`PHI_SERIES_NORM` (then use the augmented ``expm``).
+    A larger X is halved s times until its norm is at most :data:`PHI_SERIES_NORM`, and
+    the series' φ_0 … φ_{P+1} of X/2^s are doubled back s times (scaling and squaring of
+    the φ-functions, as ``expm`` does for e^X alone).
+
+    About 20 small matrix products (and three batched products per doubling) instead of
+    ``expm`` of the (P+2)·n augmented matrix: a third to half of the time, and accurate to
+    rounding on every Γ_j (the augmented ``expm`` carries the high Γ_j, many orders below
+    its largest block, to 1e-12 … 1e-6 of themselves for a stiff seat at h = 20 µs;
+    tests/test_stepping.py). Returns None when the balancing fails or more than
+    :data:`PHI_SERIES_SQUARINGS` halvings would be needed (then use the augmented
+    ``expm``).
     """
     m = A.shape[0]
     balanced = balance(A * h)
-    if balanced is None or np.linalg.norm(balanced[0], 1) > PHI_SERIES_NORM:
+    if balanced is None:
         return None
     X, scale = balanced
+    norm = float(np.linalg.norm(X, 1))
+    squarings = math.ceil(math.log2(norm / PHI_SERIES_NORM)) if norm > PHI_SERIES_NORM else 0
+    if not math.isfinite(norm) or squarings > PHI_SERIES_SQUARINGS:
+        return None
+    if squarings:
+        X = X * 0.5**squarings  # exact: a power of two
     p = _P + 1
     diag = slice(None, None, m + 1)  # the diagonal of an m×m matrix, flattened
     S = np.zeros((m, m))
@@ -189,10 +209,12 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
         S = X @ S
         S.flat[diag] += _INV_FACT[k - 1]
         phis.append(S)
-    phis.reverse()  # φ_0 … φ_p
+    phis = np.array(phis[::-1])  # φ_0 … φ_p
+    for _ in range(squarings):
+        phis = (phis[0] @ phis + np.tensordot(_DOUBLING_SUM, phis, axes=1)) * _DOUBLING_WEIGHT[:, None, None]
     back = scale[:, None] / scale[None, :]  # T·φ·T⁻¹ with T = diag(scale)
     Phi = phis[0] * back
-    Gamma = np.stack([phis[j + 1] * back * h ** (j + 1) for j in range(_P + 1)])
+    Gamma = phis[1:] * back * (h ** np.arange(1, _P + 2))[:, None, None]
     return Phi, Gamma
 
 

@@ -4,7 +4,8 @@ Reference: the defining integrals Γ_j(h) = ∫₀ʰ e^{A(h−s)}·s^j/j! ds eva
 quadrature (``scipy.integrate.quad_vec``, Gauss–Kronrod, epsrel 1e-14) of
 ``scipy.linalg.expm`` at each node, and Φ = ``expm(A·h)`` — independent of both ways
 camsim builds them. The test system is a two-mass chain with a stiff seat (ω·h from 0.05
-to 0.6, lightly damped), as in the power-law stepper's linear laws. Tolerance: 1e-12 of
+to 0.6, lightly damped, as in the power-law stepper's linear laws; up to 40 for the
+scaling and squaring). Tolerance: 1e-12 of
 each matrix's largest entry (the quadrature's own error is ~1e-15).
 """
 
@@ -64,10 +65,24 @@ def test_step_maps_from_the_series():
         assert np.max(np.abs(series.Gamma[j] - augmented.Gamma[j])) <= 1e-10 * np.max(np.abs(series.Gamma[j])), j
 
 
-def test_phi_series_declines_large_steps():
-    """Beyond its norm bound the series is not used (StepMaps falls back to expm)."""
+@pytest.mark.parametrize("omega_h", [2.0, 10.0, 40.0])
+def test_phi_series_scaling_and_squaring_against_quadrature(omega_h):
+    """Beyond the series' norm bound (ω·h = 2 … 40: 2 to 6 halvings) the halved series
+    doubled back matches the quadrature to the same 1e-12 of each matrix."""
+    A = chain(1e8)  # ω ≈ 1e4 rad/s
+    h = omega_h / 1e4
+    Phi, Gamma = phi_series(A, h)
+    assert np.max(np.abs(Phi - expm(A * h))) <= 1e-12 * np.max(np.abs(Phi))
+    for j in range(8):
+        ref = gamma_reference(A, h, j)
+        assert np.max(np.abs(Gamma[j] - ref)) <= 1e-12 * np.max(np.abs(ref)), j
+
+
+def test_phi_series_declines_very_large_steps():
+    """Beyond PHI_SERIES_SQUARINGS halvings the series is not used (StepMaps falls back
+    to expm)."""
     A = chain(1e8)
-    h = 40 * PHI_SERIES_NORM / 1e4  # ω·h ≈ 40
+    h = 400 * PHI_SERIES_NORM / 1e4  # ω·h ≈ 400: more than 2^6 times the norm bound
     assert phi_series(A, h) is None
 
     class Config:
