@@ -163,7 +163,7 @@ PHI_SERIES_SQUARINGS = 6
 PHI_SERIES_TERMS = 12
 _INV_FACT = [1.0 / math.factorial(j) for j in range(PHI_SERIES_TERMS + _P + 2)]
 #: The doubling of φ_0 … φ_{P+1}: φ_k(2X) = 2^−k·(φ_0(X)·φ_k(X) + Σ_{j=1..k} φ_j(X)/(k−j)!)
-#: (Skaflestad & Wright, Appl. Numer. Math. 59 (2009) 783, eq. 3.3), the sum as one
+#: (Skaflestad & Wright, Appl. Numer. Math. 59 (2009) 783), the sum as one
 #: matrix [k, j] and the weights 2^−k.
 _DOUBLING_SUM = np.array([[_INV_FACT[k - j] if 1 <= j <= k else 0.0 for j in range(_P + 2)] for k in range(_P + 2)])
 _DOUBLING_WEIGHT = 2.0 ** -np.arange(_P + 2)
@@ -192,8 +192,10 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     X, scale = balanced
     norm = float(np.linalg.norm(X, 1))
+    if not math.isfinite(norm):
+        return None
     squarings = math.ceil(math.log2(norm / PHI_SERIES_NORM)) if norm > PHI_SERIES_NORM else 0
-    if not math.isfinite(norm) or squarings > PHI_SERIES_SQUARINGS:
+    if squarings > PHI_SERIES_SQUARINGS:
         return None
     if squarings:
         X = X * 0.5**squarings  # exact: a power of two

@@ -91,3 +91,4 @@ def test_phi_series_declines_very_large_steps():
     Config.A, Config.B, Config.b = A, np.zeros((4, 4)), np.zeros(4)
     maps = StepMaps(Config, h, series=True)
     assert np.max(np.abs(maps.Phi - expm(A * h))) <= 1e-10 * np.max(np.abs(maps.Phi))
+
