@@ -151,16 +151,19 @@ def hertz_closed_form():
     return d_max, t_max
 
 
-def test_hertz_onset_closed_form_and_fewer_rejections():
-    d_max, t_max = hertz_closed_form()
+def _hertz_run(t_end, **control):
+    """The Hertz impact stepped from its onset (δ = 0 at v0) to t_end, with the solver's
+    ``control`` keywords: (the solver at t_end, its tries, its rejected tries)."""
+    _, t_max = hertz_closed_form()
     A, L, M, zero, force = hertz_solver()
-    ours = OneContactDOP853(A, L, M, zero, lambda t: np.zeros(4), force, 0.0, np.array([0.0, V0]), t_max,
-                            RTOL, np.array([1e-13, 1e-10]), t_max / 4, None)
-    tries = []
+    ours = OneContactDOP853(A, L, M, zero, lambda t: np.zeros(4), force, 0.0, np.array([0.0, V0]), t_end,
+                            RTOL, np.array([1e-13, 1e-10]), t_max / 4, None, **control)
+    tries = 0
     original = ours._attempt
 
     def counting(t, y, h):
-        tries.append(t)
+        nonlocal tries
+        tries += 1
         return original(t, y, h)
 
     ours._attempt = counting
@@ -168,9 +171,15 @@ def test_hertz_onset_closed_form_and_fewer_rejections():
     while ours.status == "running":
         assert ours.step() is None
         steps += 1
+    return ours, tries, tries - steps
+
+
+def test_hertz_onset_closed_form_and_fewer_rejections():
+    d_max, t_max = hertz_closed_form()
+    _, _, _, _, force = hertz_solver()
+    ours, _, ours_rejected = _hertz_run(t_max)
     assert ours.y[0] == pytest.approx(d_max, rel=1e-9)
     assert abs(ours.y[1]) <= 1e-8 * V0
-    ours_rejected = len(tries) - steps
 
     def rhs(t, z):
         return np.array([z[1], -force(z[0], z[1]) / MASS])
@@ -191,25 +200,11 @@ def _bounce(exponent):
     2.2·t_max: (tries, rejected tries, final state's error against the closed form
     scaled by [δ_max, v0])."""
     d_max, t_max = hertz_closed_form()
-    A, L, M, zero, force = hertz_solver()
     t_end = 2.2 * t_max
-    ours = OneContactDOP853(A, L, M, zero, lambda t: np.zeros(4), force, 0.0, np.array([0.0, V0]), t_end,
-                            RTOL, np.array([1e-13, 1e-10]), t_max / 4, None, exponent=exponent, onset=True)
-    tries = []
-    original = ours._attempt
-
-    def counting(t, y, h):
-        tries.append(h)
-        return original(t, y, h)
-
-    ours._attempt = counting
-    steps = 0
-    while ours.status == "running":
-        assert ours.step() is None
-        steps += 1
+    ours, tries, rejected = _hertz_run(t_end, exponent=exponent, onset=True)
     # elastic: the mass leaves at −v0 at 2·t_max and flies on
     exact = np.array([-V0 * (t_end - 2.0 * t_max), -V0])
-    return len(tries), len(tries) - steps, (ours.y - exact) / np.array([d_max, V0])
+    return tries, rejected, (ours.y - exact) / np.array([d_max, V0])
 
 
 def test_contact_shaped_steps_hertz_bounce():
