@@ -78,9 +78,19 @@ MIN_CUT = 8
 SWEEP = 0.5
 #: Most iterations per window.
 MAX_ITER = 16
-#: Window lengths in grid steps (the first, the largest).
+#: Window lengths in grid steps: the shortest (after a contact's onset, and what a window
+#: that does not converge is quartered down to) and the largest (a converged window doubles).
 FIRST_WINDOW = 16
 MAX_WINDOW = 1024
+#: The first window of a stretch with no history (a run's start, a configuration entered
+#: with the contact closed) and of one after the collocation found the contact calm.
+#: Long: the window is cut where the contact's tangent stiffness leaves its linear law
+#: (DRIFT), so its length only bounds the cut, and the cost of a window is mostly per
+#: window and per iteration, not per step (measured on cdtm-power: about 0.11 ms a
+#: window and 0.08 ms an iteration). Starting at FIRST_WINDOW and doubling took six
+#: windows and 28 iterations where one window takes 6 (bench/bench_contacts.py, 3.8 ms
+#: of 80 per revolution).
+CALM_WINDOW = MAX_WINDOW
 #: Where the iteration does not converge, take exponential-collocation steps
 #: (:mod:`camsim.collocation`) before handing a step to DOP853.
 COLLOCATION = True
@@ -238,7 +248,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     # a stretch that continues the previous one of this configuration (it stopped at a
     # cam segment join or an output stop, not at an event) starts with its window length
     hint = stepper.__dict__.get("resume")
-    window = hint[1] if hint is not None and hint[0] == state.t else FIRST_WINDOW
+    window = hint[1] if hint is not None and hint[0] == state.t else CALM_WINDOW
     stepper.resume = None
     first = True
     cur = state
@@ -311,7 +321,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 if hit or calm or t >= t_stop - TIME_EPS:
                     break
             if any_taken and not hit:
-                window = FIRST_WINDOW
+                window = CALM_WINDOW
                 r_prev = None
                 continue
             t, z, fired, cur = fallback(t, z, 2 if any_taken else COLLOC_RETRY, first)
