@@ -229,6 +229,7 @@ class Integrator:
         self.t_ref = t_ref
         self.events: list[Event] = []
         self._maps: dict[tuple[Branch, ...], StepMaps] = {}
+        self._deltas: dict[tuple[tuple[Branch, ...], int], tuple[Affine, Affine]] = {}
         self._instant_count = 0
         self._instant_time = -math.inf
         self.rtol_nonlinear = 1e-11
@@ -344,12 +345,20 @@ class Integrator:
         return d, rate
 
     def _delta(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
-        """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps."""
-        d, rate = self._deflection(config, i)
-        sign, gap = self.model.elements[i].contact_side(self.model.branch_of(config.branches, i))
-        if sign < 0:  # the upper side of a two-sided element: δ = d − gap (issue 12 hook)
-            return Affine(d.Cz, d.Du, d.Fn, d.e - gap), rate
-        return Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
+        """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps (built once
+        per configuration and contact: every sample of a closed power-law contact's force
+        reads them)."""
+        key = (config.branches, i)
+        hit = self._deltas.get(key)
+        if hit is None:
+            d, rate = self._deflection(config, i)
+            sign, gap = self.model.elements[i].contact_side(self.model.branch_of(config.branches, i))
+            if sign < 0:  # the upper side of a two-sided element: δ = d − gap (issue 12 hook)
+                hit = Affine(d.Cz, d.Du, d.Fn, d.e - gap), rate
+            else:
+                hit = Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
+            self._deltas[key] = hit
+        return hit
 
     def guards(self, state: State, config: Configuration) -> list[Guard]:
         """Guards of the configuration at ``state``, as each element declares them."""

@@ -349,14 +349,9 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             if fired is not None:
                 return finish(cur, fired)
             continue
-        U = integ.chunk_inputs(nodes, k0, k1)
-        from camsim.integrate import step_input_derivatives
-
-        D = step_input_derivatives(U[:-1], U[1:], steps, h)
-        Udot = np.zeros_like(U)  # u̇ = [ṡ, s̈, s⃛, s⁗]; B and the guards take no s⁗
-        Udot[:, :3] = U[:, 1:]
-        # ---- linear law at the window's start (tangent values on the ladder)
-        d0, dd0, F0, kt0, ct0 = stepper.force(z[None, :], U[:1], chi)
+        # ---- the contact at the window's start (the window's inputs only once it is tried)
+        u0 = integ._node_input(t)
+        d0, dd0, F0, kt0, ct0 = stepper.force(z[None, :], u0[None, :], chi)
         if F0[0] <= 0.0 or 0.0 <= d0[0] < dd0[0] * h:
             # the contact's onset (δ = 0, or closing and less than one grid step's approach
             # deep: F ∝ δ^a is not smooth there, and no window of the iteration converges
@@ -376,11 +371,18 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             # the penetration's Taylor polynomial over the first window (δ̈ from the true
             # ż): where it changes by more than SWEEP of itself (a bounce under way, or a
             # contact unloading fast), no window converges; the collocation, or DOP853
-            ddd0 = float((z @ proj_z + U[0] @ proj_u + proj_e)[2] + Udot[0] @ stepper.ru + F0[0] * rate_L)
+            ddd0 = float((z @ proj_z + u0 @ proj_u + proj_e)[2] + u0[1:] @ stepper.ru[:3] + F0[0] * rate_L)
             tw = FIRST_WINDOW * h
             if abs(dd0[0] * tw + 0.5 * ddd0 * tw * tw) > SWEEP * d0[0] or abs(dd0[0]) * MIN_CUT * h > d0[0]:
                 colloc_next = True
                 continue
+        U = integ.chunk_inputs(nodes, k0, k1)
+        from camsim.integrate import step_input_derivatives
+
+        D = step_input_derivatives(U[:-1], U[1:], steps, h)
+        Udot = np.zeros_like(U)  # u̇ = [ṡ, s̈, s⃛, s⁗]; B and the guards take no s⁗
+        Udot[:, :3] = U[:, 1:]
+        # ---- linear law at the window's start (tangent values on the ladder)
         k_now, c_now = float(kt0[0]), float(ct0[0])
         if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
             (c_now == 0.0 and last_law[4] == 0.0) or (last_law[4] > 0 and abs(c_now / last_law[4] - 1.0) < HYSTERESIS)
