@@ -153,6 +153,25 @@ def input_at(D: np.ndarray, tau: float) -> np.ndarray:
     return out
 
 
+#: Smallest condition s_i = |y_i·x_i|/(‖y_i‖‖x_i‖) of an eigenvalue of the balanced Φ for
+#: the modal recurrence. An eigenvalue comes out of ``eig`` with an error near ε/s_i, and
+#: the recurrence raises it to the K-th power: K·ε/s_i relative after K steps. A Jordan
+#: block (two free bodies in contact: the rigid-body mode; a critically damped mode) has
+#: s_i ~ 1e-5 after rounding, which loses 1e-7 over 3·10⁴ steps; the machines' own modes
+#: have s_i ≥ 1e-2. Below this, the plain recurrence z ← Φ·z + g (rounding ε per step).
+EIGEN_CONDITION_MIN = 1e-3
+
+
+def eigenvalues_well_conditioned(Phi: np.ndarray, V: np.ndarray, Vinv: np.ndarray) -> bool:
+    """Whether every eigenvalue of Φ = V·diag(μ)·V⁻¹ has condition ≥ :data:`EIGEN_CONDITION_MIN`
+    once Φ is balanced (as LAPACK's ``geev`` balances it before computing μ)."""
+    balanced = balance(Phi)
+    scale = np.ones(Phi.shape[0]) if balanced is None else balanced[1]
+    right = np.linalg.norm(V / scale[:, None], axis=0)  # eigenvectors of T⁻¹ΦT: T⁻¹V
+    left = np.linalg.norm(Vinv * scale[None, :], axis=1)  # its left ones: V⁻¹T (y_i·x_i = 1)
+    return bool(np.all(right * left <= 1.0 / EIGEN_CONDITION_MIN))
+
+
 #: Largest 1-norm of the balanced A·h on which the Taylor series of :func:`phi_series`
 #: runs (a larger A·h is halved that many times first, then doubled back).
 PHI_SERIES_NORM = 1.0
@@ -260,11 +279,12 @@ class StepMaps:
         if m:
             lam, V = np.linalg.eig(self.Phi)
             cond = np.linalg.cond(V)
-            if np.isfinite(cond) and cond < 1e7:
+            Vinv = np.linalg.inv(V) if np.isfinite(cond) and cond < 1e7 else None
+            if Vinv is not None and eigenvalues_well_conditioned(self.Phi, V, Vinv):
                 self.modal = True
                 self.mu = lam
                 self.V = V
-                self.Vinv = np.linalg.inv(V)
+                self.Vinv = Vinv
                 self.weights = np.ones(m)
                 keep = []
                 used = np.zeros(m, dtype=bool)

@@ -14,7 +14,9 @@ attributes that name the camsim version are left out: they change with every rel
 
 The cases are ``machines/*.toml`` (all but the ``lump`` parts file) and the small
 machines the engine tests define (tests/test_engine_analytic.py, tests/cli/test_run_cli.py).
-A refactor that must not change the numbers is checked by running this before (``--write
+Digests are bit-level, and BLAS kernels round differently on different CPUs (AVX2 against
+AVX-512): record them on the machine that compares. A refactor that must not change the
+numbers is checked by running this before (``--write
 --save /tmp/golden``) and after (``--against /tmp/golden``): exit 0 when every digest
 holds, 1 otherwise, listing each dataset that moved and by how much.
 """
