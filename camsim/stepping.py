@@ -162,11 +162,20 @@ def input_at(D: np.ndarray, tau: float) -> np.ndarray:
 EIGEN_CONDITION_MIN = 1e-3
 
 
-def eigenvalues_well_conditioned(Phi: np.ndarray, V: np.ndarray, Vinv: np.ndarray) -> bool:
+def state_scale(config) -> np.ndarray:
+    """The diagonal balancing T of the configuration's A by powers of two (cached in
+    ``config.cache``): the state's natural units, positions against velocities."""
+    scale = config.cache.get("balance")
+    if scale is None:
+        balanced = balance(config.A)
+        scale = config.cache["balance"] = np.ones(config.dim) if balanced is None else balanced[1]
+    return scale
+
+
+def eigenvalues_well_conditioned(V: np.ndarray, Vinv: np.ndarray, scale: np.ndarray) -> bool:
     """Whether every eigenvalue of Φ = V·diag(μ)·V⁻¹ has condition ≥ :data:`EIGEN_CONDITION_MIN`
-    once Φ is balanced (as LAPACK's ``geev`` balances it before computing μ)."""
-    balanced = balance(Phi)
-    scale = np.ones(Phi.shape[0]) if balanced is None else balanced[1]
+    in the balanced state T⁻¹z (T = diag(``scale``), the balancing of A, which balances
+    Φ = e^{Ah} as well as LAPACK's ``geev`` does before computing μ)."""
     right = np.linalg.norm(V / scale[:, None], axis=0)  # eigenvectors of T⁻¹ΦT: T⁻¹V
     left = np.linalg.norm(Vinv * scale[None, :], axis=1)  # its left ones: V⁻¹T (y_i·x_i = 1)
     return bool(np.all(right * left <= 1.0 / EIGEN_CONDITION_MIN))
@@ -189,6 +198,12 @@ _DOUBLING_WEIGHT = 2.0 ** -np.arange(_P + 2)
 
 
 def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """(Φ, Γ) of :func:`_phi_series_balanced`, or None where it declines."""
+    out = _phi_series_balanced(A, h)
+    return None if out is None else out[:2]
+
+
+def _phi_series_balanced(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """(Φ, Γ) as :class:`StepMaps` holds them — Φ = e^{Ah}, Γ_j = h^{j+1}·φ_{j+1}(Ah) — from
     the Taylor series of φ_{P+1}(X) = Σ_i X^i/(i+P+1)! on the balanced X = A·h and the
     recurrence φ_{k−1}(X) = X·φ_k(X) + I/(k−1)!, which loses nothing while ‖X‖ ≤ 1.
@@ -201,8 +216,9 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
     ``expm`` of the (P+2)·n augmented matrix: a third to half of the time, and accurate to
     rounding on every Γ_j (the augmented ``expm`` carries the high Γ_j, many orders below
     its largest block, to 1e-12 … 1e-6 of themselves for a stiff seat at h = 20 µs;
-    tests/test_stepping.py). Returns None when the balancing fails or more than
-    :data:`PHI_SERIES_SQUARINGS` halvings would be needed (then use the augmented
+    tests/test_stepping.py). Returns (Φ, Γ, T) with T the diagonal balancing of A·h (that
+    of A: balancing is blind to a scalar factor), or None when the balancing fails or more
+    than :data:`PHI_SERIES_SQUARINGS` halvings would be needed (then use the augmented
     ``expm``).
     """
     m = A.shape[0]
@@ -236,7 +252,7 @@ def phi_series(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray] | None:
     back = scale[:, None] / scale[None, :]  # T·φ·T⁻¹ with T = diag(scale)
     Phi = phis[0] * back
     Gamma = phis[1:] * back * (h ** np.arange(1, _P + 2))[:, None, None]
-    return Phi, Gamma
+    return Phi, Gamma, scale
 
 
 class StepMaps:
@@ -250,9 +266,10 @@ class StepMaps:
     def __init__(self, config: Configuration, h: float, series: bool = False):
         m = config.dim
         self.h = h
-        fast = phi_series(config.A, h) if (series and m) else None
+        fast = _phi_series_balanced(config.A, h) if (series and m) else None
         if fast is not None:
-            self.Phi, self.Gamma = fast
+            self.Phi, self.Gamma, scale = fast
+            config.cache.setdefault("balance", scale)
         else:
             nb = _P + 2
             big = np.zeros((m * nb, m * nb))
@@ -280,7 +297,7 @@ class StepMaps:
             lam, V = np.linalg.eig(self.Phi)
             cond = np.linalg.cond(V)
             Vinv = np.linalg.inv(V) if np.isfinite(cond) and cond < 1e7 else None
-            if Vinv is not None and eigenvalues_well_conditioned(self.Phi, V, Vinv):
+            if Vinv is not None and eigenvalues_well_conditioned(V, Vinv, state_scale(config)):
                 self.modal = True
                 self.mu = lam
                 self.V = V
@@ -337,10 +354,7 @@ def exact_partial(config: Configuration, z0: np.ndarray, E: np.ndarray, tau: flo
     m = config.dim
     if m == 0:
         return np.zeros(0)
-    scale = config.cache.get("balance")
-    if scale is None:
-        balanced = balance(config.A)
-        scale = config.cache["balance"] = np.ones(m) if balanced is None else balanced[1]
+    scale = state_scale(config)
     n_aug = m + _P + 1
     M = np.zeros((n_aug, n_aug))
     # D⁻¹·M·D with D = diag(scale, 1, …, 1): exact similarity by powers of two.

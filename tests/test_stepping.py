@@ -54,7 +54,7 @@ def test_step_maps_from_the_series():
     class Config:  # the attributes StepMaps reads
         dim = 4
 
-    Config.A, Config.B, Config.b = A, np.zeros((4, 4)), np.zeros(4)
+    Config.A, Config.B, Config.b, Config.cache = A, np.zeros((4, 4)), np.zeros(4), {}
     series, augmented = StepMaps(Config, h, series=True), StepMaps(Config, h)
     assert np.array_equal(series.Phi, Phi) and np.array_equal(series.Gamma, Gamma)
     # the augmented-matrix expm (the linear path's maps) agrees to its own accuracy, which
@@ -88,7 +88,7 @@ def test_phi_series_declines_very_large_steps():
     class Config:
         dim = 4
 
-    Config.A, Config.B, Config.b = A, np.zeros((4, 4)), np.zeros(4)
+    Config.A, Config.B, Config.b, Config.cache = A, np.zeros((4, 4)), np.zeros(4), {}
     maps = StepMaps(Config, h, series=True)
     assert np.max(np.abs(maps.Phi - expm(A * h))) <= 1e-10 * np.max(np.abs(maps.Phi))
 
@@ -110,7 +110,7 @@ def test_free_pair_in_contact_propagates_without_drift():
     class Config:  # the attributes StepMaps reads
         dim = 4
 
-    Config.A, Config.B, Config.b = A, np.zeros((4, 4)), np.zeros(4)
+    Config.A, Config.B, Config.b, Config.cache = A, np.zeros((4, 4)), np.zeros(4), {}
     maps = StepMaps(Config, h)
     assert not maps.modal
     z0 = np.array([0.0, 0.0, 3.0, -1.0])  # together, closing at 4 m/s
@@ -122,5 +122,5 @@ def test_free_pair_in_contact_propagates_without_drift():
     scale = np.array([t, t, 4.0, 4.0])
     assert np.max(np.abs(z - expected) / scale) <= 1e-12
 
-    Config.A = chain(1e8)
+    Config.A, Config.cache = chain(1e8), {}
     assert StepMaps(Config, 2e-5).modal
