@@ -125,7 +125,7 @@ def accuracy(power) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="timings only (about 5 s)")
+    parser.add_argument("--quick", action="store_true", help="timings only (about 8 s)")
     parser.add_argument("--repeats", type=int, default=15, help="calls per machine, alternated, best kept (default 15)")
     args = parser.parse_args(argv)
     machine_info()

@@ -50,6 +50,7 @@ import numpy as np
 from camsim.collocation import Collocation, collocation_steps
 from camsim.model import N_INPUT
 from camsim.recurrence import linear_recurrences
+from camsim.stepping import step_input_derivatives
 
 #: Ratio of the stiffness / damping ladder of the reference linear laws.
 LADDER = 1.05
@@ -377,8 +378,6 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                 colloc_next = True
                 continue
         U = integ.chunk_inputs(nodes, k0, k1)
-        from camsim.integrate import step_input_derivatives
-
         D = step_input_derivatives(U[:-1], U[1:], steps, h)
         Udot = np.zeros_like(U)  # u̇ = [ṡ, s̈, s⃛, s⁗]; B and the guards take no s⁗
         Udot[:, :3] = U[:, 1:]

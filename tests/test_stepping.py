@@ -12,6 +12,7 @@ each matrix's largest entry (the quadrature's own error is ~1e-15).
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -26,6 +27,12 @@ def chain(k_seat: float) -> np.ndarray:
     K = np.array([[k_seat + 1e5, -1e5], [-1e5, 1e5]])
     C = 1e-3 * K / math.sqrt(k_seat)
     return np.block([[np.zeros((2, 2)), np.eye(2)], [-K, -C]])
+
+
+def linear_system(A: np.ndarray) -> SimpleNamespace:
+    """A configuration-like system with state matrix A and no input (what StepMaps reads)."""
+    n = A.shape[0]
+    return SimpleNamespace(A=A, B=np.zeros((n, 4)), b=np.zeros(n), dim=n, cache={})
 
 
 def gamma_reference(A: np.ndarray, h: float, j: int) -> np.ndarray:
@@ -51,11 +58,7 @@ def test_step_maps_from_the_series():
     A, h = chain(1e8), 2e-5
     Phi, Gamma = phi_series(A, h)
 
-    class Config:  # the attributes StepMaps reads
-        dim = 4
-
-    Config.A, Config.B, Config.b, Config.cache = A, np.zeros((4, 4)), np.zeros(4), {}
-    series, augmented = StepMaps(Config, h, series=True), StepMaps(Config, h)
+    series, augmented = StepMaps(linear_system(A), h, series=True), StepMaps(linear_system(A), h)
     assert np.array_equal(series.Phi, Phi) and np.array_equal(series.Gamma, Gamma)
     # the augmented-matrix expm (the linear path's maps) agrees to its own accuracy, which
     # falls with j (here 7e-13 at j = 3, 5e-12 at j = 4, 1e-6 at j = 7, relative to each
@@ -85,13 +88,8 @@ def test_phi_series_declines_very_large_steps():
     h = 400 * PHI_SERIES_NORM / 1e4  # ω·h ≈ 400: more than 2^6 times the norm bound
     assert phi_series(A, h) is None
 
-    class Config:
-        dim = 4
-
-    Config.A, Config.B, Config.b, Config.cache = A, np.zeros((4, 4)), np.zeros(4), {}
-    maps = StepMaps(Config, h, series=True)
+    maps = StepMaps(linear_system(A), h, series=True)
     assert np.max(np.abs(maps.Phi - expm(A * h))) <= 1e-10 * np.max(np.abs(maps.Phi))
-
 
 
 def test_free_pair_in_contact_propagates_without_drift():
@@ -107,11 +105,7 @@ def test_free_pair_in_contact_propagates_without_drift():
     A[:2, 2:] = np.eye(2)
     A[2:, :2] = [[-k, k], [k, -k]]
 
-    class Config:  # the attributes StepMaps reads
-        dim = 4
-
-    Config.A, Config.B, Config.b, Config.cache = A, np.zeros((4, 4)), np.zeros(4), {}
-    maps = StepMaps(Config, h)
+    maps = StepMaps(linear_system(A), h)
     assert not maps.modal
     z0 = np.array([0.0, 0.0, 3.0, -1.0])  # together, closing at 4 m/s
     z = maps.propagate(z0, np.zeros((K, 8)))[-1]
@@ -122,5 +116,4 @@ def test_free_pair_in_contact_propagates_without_drift():
     scale = np.array([t, t, 4.0, 4.0])
     assert np.max(np.abs(z - expected) / scale) <= 1e-12
 
-    Config.A, Config.cache = chain(1e8), {}
-    assert StepMaps(Config, 2e-5).modal
+    assert StepMaps(linear_system(chain(1e8)), 2e-5).modal
