@@ -10,13 +10,13 @@ seat, exact restitution 0.8) from static equilibrium, sampled at 50 kHz, no warm
 against the same machine with a *linear* seat of similar stiffness: k = the power law's
 tangent stiffness a·C^(1/a)·F^((a−1)/a) at F = 150 lbf (the thesis's simulated seat
 force), damped with the ratio that gives the same restitution 0.8 for an isolated impact
-(:func:`camsim.restitution.linear_damping_ratio`). It prints:
+(:func:`camsim.physics.restitution.linear_damping_ratio`). It prints:
 
 1. the machine (CPU, cores, Python, numpy, scipy, load average);
 2. steady-state time per revolution of each (best of N calls in one process, alternated
    so that a change of load hits both) and their ratio (issue-12 target: ≤ 1.5);
 3. unless ``--quick``: the accuracy of the power-law run (the iterated-remainder stepper
-   of :mod:`camsim.nonlinear`) and of the former DOP853-only path (rtol 1e-11) against a
+   of :mod:`camsim.engine.nonlinear`) and of the former DOP853-only path (rtol 1e-11) against a
    DOP853 run at rtol 1e-13 — largest displacement error of M2 and M3 relative to their
    peak, largest seat-force error relative to its peak, largest event-time difference.
 """
@@ -37,9 +37,9 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 import scipy  # noqa: E402
 
-import camsim.integrate as integrate  # noqa: E402
-from camsim.loader import load_machine, load_machine_text  # noqa: E402
-from camsim.restitution import linear_damping_ratio  # noqa: E402
+import camsim.engine.integrator as integrate  # noqa: E402
+from camsim.machine.loader import load_machine, load_machine_text  # noqa: E402
+from camsim.physics.restitution import linear_damping_ratio  # noqa: E402
 from camsim import simulate  # noqa: E402
 
 POWER = ROOT / "machines" / "cdtm-power.toml"

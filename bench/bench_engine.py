@@ -70,9 +70,9 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 from camsim.cam import laws as _laws  # noqa: E402
 from camsim.cam.program import CamProgram  # noqa: E402
-from camsim.loader import load_machine  # noqa: E402
-from camsim.machine import PreloadedLink, Spring  # noqa: E402
-from camsim.simulation import simulate  # noqa: E402
+from camsim.machine.loader import load_machine  # noqa: E402
+from camsim.machine.description import PreloadedLink, Spring  # noqa: E402
+from camsim.run.simulation import simulate  # noqa: E402
 from reference_solver import ReferenceSolver  # noqa: E402
 
 CDTM = ROOT / "machines" / "cdtm.toml"
@@ -344,8 +344,8 @@ def wall(cmd: list[str], repeat: int, env=None) -> float:
 FRESH = """
 import time, json
 t0 = time.perf_counter()
-from camsim.loader import load_machine
-from camsim.simulation import simulate
+from camsim.machine.loader import load_machine
+from camsim.run.simulation import simulate
 t1 = time.perf_counter()
 m = load_machine({path!r})
 t2 = time.perf_counter()
@@ -448,7 +448,7 @@ def main(argv=None) -> int:
     print(f"  one revolution, steady state (best of {steady_n})         {fmt_t(steady):>9}")
     print(f"  one revolution, first call in a fresh process (best of {repeat}) {fmt_t(fresh['first']):>9}"
           f"   (imports deferred by camsim land here)")
-    print(f"    import camsim.loader+simulate, load machine, first call    "
+    print(f"    import camsim.machine.loader+simulate, load machine, first call    "
           f"{fmt_t(fresh['import'] + fresh['load'] + fresh['first']):>9}   (import {fmt_t(fresh['import'])}, "
           f"machine file {fmt_t(fresh['load'])})")
     print(f"  marginal revolution ((cycles=5 - cycles=1)/4)          {fmt_t(marginal):>9}   (cycles=5: {fmt_t(five)})")

@@ -8,7 +8,7 @@ Run from the repository root::
 It writes the synthetic rig trace of examples/make_rig_trace.py (the CDTM with
 K23 push stiffness 7600 lbf/in and seat damping ratio 0.10, one revolution of transducer
 force and M3 acceleration at 10 kHz with seeded noise) to a temporary directory, then
-times ``camsim.fit.fit`` of ``element.K23.push_stiffness`` (6000..10000 lbf/in) and
+times ``camsim.analyses.fit.fit`` of ``element.K23.push_stiffness`` (6000..10000 lbf/in) and
 ``element.seat.damping_ratio`` (0.01..0.3) from the machine file's values (8144 lbf/in,
 0.06), and prints the wall time, the number of simulations and the fitted values with
 their intervals. Target (issue 13): under 60 s on 2 cores.
@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "examples"))
 
 import make_rig_trace  # noqa: E402
 
-from camsim.fit import fit  # noqa: E402
+from camsim.analyses.fit import fit  # noqa: E402
 from camsim.units import ureg  # noqa: E402
 
 PARAMS = ["element.K23.push_stiffness=6000:10000lbf/in", "element.seat.damping_ratio=0.01:0.3"]

@@ -36,9 +36,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from camsim.study import study  # noqa: E402
-from camsim.study.sensitivity import sobol_from_outputs  # noqa: E402
-from camsim.study.statistics import summarize  # noqa: E402
+from camsim.analyses.study import study  # noqa: E402
+from camsim.analyses.study.sensitivity import sobol_from_outputs  # noqa: E402
+from camsim.analyses.study.statistics import summarize  # noqa: E402
 
 CDTM = ROOT / "machines" / "cdtm.toml"
 DISTS = [

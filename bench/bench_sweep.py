@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from camsim.sweep import run_sweep  # noqa: E402
+from camsim.analyses.sweep.runner import run_sweep  # noqa: E402
 
 CDTM = ROOT / "machines" / "cdtm.toml"
 

@@ -14,27 +14,21 @@ See ``docs/python-api.md``. Errors a user can cause derive from :class:`InputErr
 raises :class:`SimulationError`.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
+from camsim._version import __version__
 from camsim.errors import CamsimError, InputError, MachineError, MachineFileError, ResultFileError, SimulationError
-
-try:
-    __version__ = version("camsim")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0.0.0+unknown"
 
 #: Public names imported on first use, so that ``import camsim`` (and the CLI) stays light.
 _LAZY = {
-    "load_machine": "camsim.loader",
-    "Machine": "camsim.machine",
-    "simulate": "camsim.simulation",
-    "simulate_to_file": "camsim.stream",
-    "RunResult": "camsim.result",
-    "open_result": "camsim.result",
-    "EventKind": "camsim.events",
+    "load_machine": "camsim.machine.loader",
+    "Machine": "camsim.machine.description",
+    "simulate": "camsim.run.simulation",
+    "simulate_to_file": "camsim.run.stream",
+    "RunResult": "camsim.run.result",
+    "open_result": "camsim.run.result",
+    "EventKind": "camsim.elements.events",
 }
-#: Subpackages that are also callables: ``camsim.fit(...)``.
-_LAZY_PACKAGES = {"fit": "camsim.fit", "study": "camsim.study"}
+#: Subpackages that are also callables: ``camsim.analyses.fit(...)``.
+_LAZY_PACKAGES = {"fit": "camsim.analyses.fit", "study": "camsim.analyses.study"}
 
 __all__ = [
     "__version__",

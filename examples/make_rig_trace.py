@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from camsim.fit.measured import write_measured
-from camsim.loader import load_machine
-from camsim.simulation import simulate
+from camsim.analyses.fit.measured import write_measured
+from camsim.machine.loader import load_machine
+from camsim.run.simulation import simulate
 from camsim.units import ureg
 
 HERE = Path(__file__).resolve().parent

@@ -27,9 +27,9 @@ sys.path.insert(0, str(ROOT))
 
 from camsim.cam import CamProgram  # noqa: E402
 from camsim.cam import geometry as G  # noqa: E402
-from camsim.cam.figures import plot_cam_design  # noqa: E402
+from camsim.figures.cam import plot_cam_design  # noqa: E402
 from camsim.cam.profile import profile_points  # noqa: E402
-from camsim.loader import load_machine, load_machine_text  # noqa: E402
+from camsim.machine.loader import load_machine, load_machine_text  # noqa: E402
 
 OUT = ROOT / "docs" / "figures"
 INCH = 0.0254

@@ -115,9 +115,9 @@ def digest_file(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray]]:
 
 
 def run_case(text: str, source: str, base_dir: Path, no_impact: bool, workdir: Path):
-    from camsim.io.runfile import write_run
-    from camsim.loader import load_machine_text
-    from camsim.simulation import simulate
+    from camsim.run.runfile import write_run
+    from camsim.machine.loader import load_machine_text
+    from camsim.run.simulation import simulate
 
     machine = load_machine_text(text, source=source, base_dir=base_dir)
     result = simulate(machine, no_impact=no_impact)

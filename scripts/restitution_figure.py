@@ -5,7 +5,7 @@ Run from the repository root::
     python scripts/restitution_figure.py            # writes docs/figures/restitution.png
 
 For each Hunt–Crossley ``damping_model`` the achieved restitution is the exact rebound of
-an isolated impact with α = χ·v from that model (:func:`camsim.restitution.hc_rebound`,
+an isolated impact with α = χ·v from that model (:func:`camsim.physics.restitution.hc_rebound`,
 the inverse of the rebound equation, checked against simulated impacts in
 tests/test_restitution.py). Markers: camsim runs of a Hertz impact (m = 0.01 kg,
 C = 1e10 N/m^1.5, v = 1 m/s) with the exact mapping, and of a clamped linear contact with
@@ -24,8 +24,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from camsim.loader import load_machine_text  # noqa: E402
-from camsim.restitution import DAMPING_MODELS, hc_rebound, linear_damping_ratio, linear_restitution  # noqa: E402
+from camsim.machine.loader import load_machine_text  # noqa: E402
+from camsim.physics.restitution import DAMPING_MODELS, hc_rebound, linear_damping_ratio, linear_restitution  # noqa: E402
 from camsim import simulate  # noqa: E402
 
 LABELS = {

@@ -73,16 +73,16 @@ THESIS_GRAVITY = "386.4 in/s^2"
 # ---------------------------------------------------------------- helpers
 def run(path: Path, overrides=(), **options):
     """Simulate a machine file with ``--set``-style overrides."""
-    from camsim.loader import load_machine
-    from camsim.simulation import simulate
+    from camsim.machine.loader import load_machine
+    from camsim.run.simulation import simulate
 
     return simulate(load_machine(path, overrides=list(overrides)), **options)
 
 
 def compare(path: Path, overrides=()):
     """Impact vs no-impact comparison of a machine file (what `camsim compare` computes)."""
-    from camsim.compare import compare_machine
-    from camsim.loader import load_machine
+    from camsim.analyses.compare import compare_machine
+    from camsim.machine.loader import load_machine
 
     return compare_machine(load_machine(path, overrides=list(overrides)))
 
@@ -180,7 +180,7 @@ def thesis_force_recipe(result) -> float:
     F = C^(1/(a+1))·((a+1)/2·m3·v²)^(a/(a+1)), added to the force rather than integrated
     (the over-travel term starts at zero at the impact) [N].
     """
-    from camsim.impact import johnson_power_upper
+    from camsim.physics.impact import johnson_power_upper
 
     seat = next(e for e in main_impacts(result) if e.kind == "impact")
     m3 = result.machine.mass_of("M3")
@@ -414,7 +414,7 @@ def ball_drop_runs() -> dict:
 
 
 def ball_drop_block(runs: dict | None = None) -> str:
-    from camsim.impact import burr_impact_force, drop_velocity, hertz_sphere_coefficient, johnson_power_upper
+    from camsim.physics.impact import burr_impact_force, drop_velocity, hertz_sphere_coefficient, johnson_power_upper
 
     header = [
         "h [in]", "experiment (table 5) [lbf]", "common velocity (table 6) [lbf]", "D&C factor (table 6) [lbf]",

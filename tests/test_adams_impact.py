@@ -17,7 +17,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from camsim import simulate
-from camsim.loader import load_machine_text
+from camsim.machine.loader import load_machine_text
 
 M, G, K, N, CMAX, D, H = 0.5, 9.80665, 1.0e8, 1.5, 200.0, 5.0e-5, 5.0e-3
 

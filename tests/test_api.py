@@ -22,9 +22,9 @@ from typer.testing import CliRunner
 import camsim
 from camsim import MachineError, RunResult, load_machine, open_result, simulate
 from camsim.cli import app
-from camsim.events import EventKind, EventTable
-from camsim.io.runfile import write_run
-from camsim.loader import machine_to_dict
+from camsim.elements.events import EventKind, EventTable
+from camsim.run.runfile import write_run
+from camsim.machine.loader import machine_to_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHINES = sorted(p for p in (ROOT / "machines").glob("*.toml") if "[lever" not in p.read_text())  # not the lump parts file
@@ -119,7 +119,7 @@ def test_to_pandas_and_xarray_keep_units(cdtm_run):
 
 def test_plot_gives_the_file_figures(cdtm_run, tmp_path):
     """RunResult.plot draws what ``camsim plot`` draws from the written file."""
-    from camsim.plot import make_plots
+    from camsim.figures.plots import make_plots
 
     figures = cdtm_run.plot(what=["forces"])
     path = tmp_path / "run.h5"

@@ -1,4 +1,4 @@
-"""Tests of camsim.check and ``camsim check``.
+"""Tests of camsim.analyses.check and ``camsim check``.
 
 The files are the synthetic ones of conftest.py. The expected outcomes follow from the
 tolerance rule of docs/regression.md, |r - g| <= atol + rtol * max|g|, evaluated by hand
@@ -18,7 +18,7 @@ import pytest
 from rich.console import Console
 from typer.testing import CliRunner
 
-from camsim.check import DEFAULT_ATOL, DEFAULT_RTOL, check_files, compare_arrays, render_report
+from camsim.analyses.check import DEFAULT_ATOL, DEFAULT_RTOL, check_files, compare_arrays, render_report
 from camsim.cli import app
 from camsim.errors import ResultFileError
 

@@ -7,7 +7,7 @@ spring-damper k = 1e4 N/m, c = 20 N·s/m to a harmonic cam), started from its st
 velocity of 4 mm/s: the contact then rings at about 285 Hz with ±45 % of its static
 penetration and stays closed, its tangent stiffness sweeping by a factor of ~2.5 every
 period — the case where the iterated remainder does not converge and
-:mod:`camsim.collocation` carries the phase. Tolerances: displacement 1e-9 of the static
+:mod:`camsim.engine.collocation` carries the phase. Tolerances: displacement 1e-9 of the static
 penetration, contact force 1e-9 of its peak.
 """
 
@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import camsim.collocation as collocation
-import camsim.nonlinear as nonlinear
-from camsim.loader import load_machine_text
+import camsim.engine.collocation as collocation
+import camsim.engine.nonlinear as nonlinear
+from camsim.machine.loader import load_machine_text
 from camsim import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))

@@ -1,4 +1,4 @@
-"""Tests of impact vs no-impact comparisons (`camsim.compare`, `camsim compare`; issue 4 item 4).
+"""Tests of impact vs no-impact comparisons (`camsim.analyses.compare`, `camsim compare`; issue 4 item 4).
 
 Expected behaviour and where it comes from:
 
@@ -25,8 +25,8 @@ import pytest
 from typer.testing import CliRunner
 
 from camsim.cli import app
-from camsim.compare import compare_machine
-from camsim.loader import load_machine
+from camsim.analyses.compare import compare_machine
+from camsim.machine.loader import load_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 CDTM = ROOT / "machines" / "cdtm.toml"

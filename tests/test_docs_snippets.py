@@ -32,8 +32,8 @@ def test_page_snippets_run(page):
 
 def test_machine_file_reference_is_current():
     """docs/machine-file.md's generated tables equal what the schema renders today."""
-    from camsim.schema import render_reference
+    from camsim.machine.schema import render_reference
 
     text = (ROOT / "docs" / "machine-file.md").read_text(encoding="utf-8")
     assert "<!-- schema:element -->" in text
-    assert render_reference(text) == text, "run: python -m camsim.schema docs/machine-file.md"
+    assert render_reference(text) == text, "run: python -m camsim.machine.schema docs/machine-file.md"

@@ -1,4 +1,4 @@
-"""camsim.dop853.OneContactDOP853: DOP853 built on the linear structure around one contact.
+"""camsim.engine.dop853.OneContactDOP853: DOP853 built on the linear structure around one contact.
 
 References:
 
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 from scipy.integrate import DOP853
 
-from camsim.dop853 import OneContactDOP853
+from camsim.engine.dop853 import OneContactDOP853
 
 # --------------------------------------------------------------------------- the pressed train
 M1, M2 = 0.5, 0.8  # [kg]
@@ -239,7 +239,7 @@ def test_contact_shaped_steps_leave_a_closed_contact_alone():
 def test_first_root_of_the_release_quadratic(c0, c1, c2):
     """The smallest positive root of c0 + c1·τ + c2·τ² against numpy.roots (1e-12
     relative), inf when there is none."""
-    from camsim.dop853 import _first_root
+    from camsim.engine.dop853 import _first_root
 
     roots = np.roots([c2, c1, c0]) if c2 else np.array([-c0 / c1])
     real = [r.real for r in np.atleast_1d(roots) if abs(r.imag) <= 1e-12 * abs(r) and r.real > 0.0]

@@ -14,7 +14,7 @@ import pytest
 
 from camsim import elements
 from camsim.elements import Branch, GuardKind, element_class
-from camsim.events import EventKind
+from camsim.elements.events import EventKind
 
 
 def test_registered_kinds_are_the_spec_s():
@@ -147,8 +147,8 @@ def _adams_law(clamp):
 
 def _nonlinear_elements():
     """(label, element, v_impact, documented law (δ, δ̇) → (F, scale of its terms))."""
-    from camsim.loader import load_machine_text
-    from camsim.restitution import hc_alpha
+    from camsim.machine.loader import load_machine_text
+    from camsim.physics.restitution import hc_alpha
 
     chi_e = hc_alpha(E_P, "exact") / V_P
     lashes = {e.name: e for e in load_machine_text(LASH_TOML).elements}
@@ -200,7 +200,7 @@ def test_scalar_force_is_the_scalar_and_vector_law(case):
 
 def test_power_scalar_force_by_hand():
     """One value by hand: F = C·δ^a·(1 + χ·δ̇), χ = α_exact(0.8)/0.3 m/s, to 1e-14."""
-    from camsim.restitution import hc_alpha
+    from camsim.physics.restitution import hc_alpha
 
     contact = elements.PowerContact("p", "ground", "M", coefficient=4.0e9, exponent=1.425, restitution=0.8)
     chi = hc_alpha(0.8, "exact") / 0.3

@@ -1,6 +1,6 @@
 """The dynamics engine against closed-form solutions.
 
-Each test builds a small machine from TOML text, runs :func:`camsim.simulation.simulate`
+Each test builds a small machine from TOML text, runs :func:`camsim.run.simulation.simulate`
 and compares with a solution derived by hand (derivations in the docstrings). None of
 the expected values comes from camsim's model or integrator.
 """
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from numpy.polynomial import Polynomial
 
-from camsim.loader import load_machine_text
-from camsim.simulation import simulate
+from camsim.machine.loader import load_machine_text
+from camsim.run.simulation import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))
 from scenarios import ContactRelease  # noqa: E402

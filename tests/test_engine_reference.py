@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from camsim.loader import load_machine, load_machine_text
-from camsim.simulation import simulate
+from camsim.machine.loader import load_machine, load_machine_text
+from camsim.run.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "reference"

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from camsim.loader import load_machine
+from camsim.machine.loader import load_machine
 from camsim import simulate
 
 MACHINE = Path(__file__).resolve().parents[1] / "machines" / "barkan-follower.toml"

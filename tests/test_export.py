@@ -1,4 +1,4 @@
-"""Tests of camsim.export and ``camsim export``.
+"""Tests of camsim.analyses.export and ``camsim export``.
 
 Reference: the HDF5 datasets of the synthetic files of conftest.py. A CSV round trip must
 reproduce them bit for bit (the CSV holds repr() of each double); units must equal the
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from camsim.cli import app
-from camsim.export import export_csv, read_csv, write_csv
+from camsim.analyses.export import export_csv, read_csv, write_csv
 
 runner = CliRunner()
 

@@ -16,7 +16,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent / "data"))
 from make_goldens import GOLDENS, ROOT  # noqa: E402
 
-from camsim.check import check_files  # noqa: E402
+from camsim.analyses.check import check_files  # noqa: E402
 from camsim.cli import app  # noqa: E402
 from typer.testing import CliRunner  # noqa: E402
 

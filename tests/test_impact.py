@@ -1,4 +1,4 @@
-"""Tests of camsim.impact: the closed-form impact-force estimates (spec §5).
+"""Tests of camsim.physics.impact: the closed-form impact-force estimates (spec §5).
 
 References: thesis appendix C (table 6 and the constants printed next to it), closed-form
 and numerically integrated peaks of undamped contacts (scipy's solve_ivp, independent of
@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from camsim import impact
+from camsim.physics import impact
 from camsim.errors import InputError
 
 # Unit factors written out (exact definitions), so the tests do not lean on camsim.units.

@@ -38,7 +38,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from camsim.loader import load_machine_text
+from camsim.machine.loader import load_machine_text
 from camsim import simulate
 
 M, V, C, O, K = 0.5, 0.5, 2e-3, 0.3e-3, 1e6

@@ -1,4 +1,4 @@
-"""Tests of camsim.loader: shipped machines, SI values, and every bad-input message.
+"""Tests of camsim.machine.loader: shipped machines, SI values, and every bad-input message.
 
 Expected SI values are converted by hand from the thesis's inch-pound figures with the
 exact definitions 1 lb = 0.45359237 kg, 1 lbf = 4.4482216152605 N, 1 in = 0.0254 m
@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from camsim.errors import MachineFileError
-from camsim.loader import (
+from camsim.machine.loader import (
     apply_override,
     damping_coefficients,
     load_machine,
@@ -22,7 +22,7 @@ from camsim.loader import (
     machine_to_dict,
     override_keys,
 )
-from camsim.machine import STANDARD_GRAVITY, Contact, PreloadedLink, Spring
+from camsim.machine.description import STANDARD_GRAVITY, Contact, PreloadedLink, Spring
 
 MACHINES = Path(__file__).resolve().parents[1] / "machines"
 SHIPPED = ("cdtm.toml", "cdtm-power.toml", "dynacam-2mass.toml", "barkan-follower.toml", "ball-drop.toml")

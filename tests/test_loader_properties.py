@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from camsim.cli import app
-from camsim.loader import (
+from camsim.machine.loader import (
     CAM_KEYS,
     ELEMENT_COMMON_KEYS,
     ELEMENT_TYPE_KEYS,
@@ -35,7 +35,7 @@ from camsim.loader import (
     TOP_KEYS,
     load_machine_text,
 )
-from camsim.machine import LAWS
+from camsim.machine.description import LAWS
 
 MACHINES = Path(__file__).resolve().parents[1] / "machines"
 CDTM = tomllib.loads((MACHINES / "cdtm.toml").read_text())

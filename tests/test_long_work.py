@@ -24,7 +24,7 @@ import pytest
 from camsim.errors import InputError
 from camsim.io.hdf5 import read_table
 from camsim.io.rowstore import journal_path_for, read_rows
-from camsim.sweep import run_sweep, write_sweep
+from camsim.analyses.sweep.runner import run_sweep, write_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHINES = ROOT / "machines"
@@ -137,7 +137,7 @@ def test_finished_sweep_removes_its_journal(tmp_path):
     out = tmp_path / "sw.h5"
     result = run_sweep(BARKAN, SPEEDS[:1], workers=1, output=out, **FAST)
     assert journal_path_for(out).exists()
-    from camsim.sweep import finish_sweep
+    from camsim.analyses.sweep.runner import finish_sweep
 
     write_sweep(result, out)
     finish_sweep(result)
@@ -300,7 +300,7 @@ def test_size_guard_refuses_before_integrating(tmp_path, machine, override, samp
     if samples is not None:
         assert f"{samples:.3g} samples x {traces} traces" in message
     else:
-        from camsim.loader import load_machine
+        from camsim.machine.loader import load_machine
 
         rate = load_machine(MACHINES / machine).simulation.sample_rate
         assert f"{1e6 * rate + 1:.3g} samples x {traces} traces" in message
@@ -310,8 +310,8 @@ def test_size_guard_refuses_before_integrating(tmp_path, machine, override, samp
 
 
 def test_size_guard_threshold_and_yes(tmp_path):
-    from camsim.budget import estimate_run, parse_size
-    from camsim.loader import load_machine
+    from camsim.run.budget import estimate_run, parse_size
+    from camsim.machine.loader import load_machine
 
     assert parse_size("2GB") == 2_000_000_000 and parse_size("1.5 GiB") == int(1.5 * 2**30) and parse_size("1e3") == 1000
     est = estimate_run(load_machine(BARKAN), cycles=1, warmup_cycles=0, sample_rate=2000.0)
@@ -349,7 +349,7 @@ def test_killed_run_leaves_previous_result_and_next_run_removes_its_temp(tmp_pat
 
 def test_sigterm_and_sigint_remove_the_temporary_file(tmp_path, monkeypatch):
     """The temporary file is removed when the write is interrupted (Ctrl-C, or SIGTERM -> KeyboardInterrupt)."""
-    from camsim.io.streamfile import TraceStreamWriter
+    from camsim.run.streamfile import TraceStreamWriter
 
     out = tmp_path / "r.h5"
     original = TraceStreamWriter.finish

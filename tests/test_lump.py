@@ -1,4 +1,4 @@
-"""Tests of camsim.lump: the lumped-parameter reduction of a parts file.
+"""Tests of camsim.analyses.lump.lumping: the lumped-parameter reduction of a parts file.
 
 References: Paradorn (2007) thesis, figures 6.2-6.7 and appendices D, E, F (printed
 numbers, compared to half a unit of the last digit the thesis prints), spec §2 (cam
@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from camsim.errors import MachineFileError
-from camsim.lump import load_parts, lump_text, write_machine
+from camsim.analyses.lump.lumping import load_parts, lump_text, write_machine
 from camsim.units import to_si, ureg
 
 CDTM_PARTS = Path(__file__).resolve().parents[1] / "machines" / "cdtm-parts.toml"
@@ -249,9 +249,9 @@ def test_written_file_si_units(tmp_path):
 
 
 def test_written_file_loads_with_machine_loader(cdtm, tmp_path):
-    """The written file is a valid machine: camsim.loader.load_machine reads it back with the
+    """The written file is a valid machine: camsim.machine.loader.load_machine reads it back with the
     thesis values (fig 6.7) in SI."""
-    loader = pytest.importorskip("camsim.loader", reason="camsim.loader (load_machine) not available yet")
+    loader = pytest.importorskip("camsim.machine.loader", reason="camsim.machine.loader (load_machine) not available yet")
     out = write_machine(cdtm, tmp_path / "m.toml")  # validates with the loader too
     machine = loader.load_machine(out)
     assert _lb(machine.mass_of("M1")) == pytest.approx(16.351, abs=0.0005)
@@ -314,7 +314,7 @@ def test_written_names_are_thesis_units_by_default(cdtm):
 
 def test_pass_through_sections_are_validated_by_the_loader():
     """A misspelt key in a passed-through section is an error naming the parts file and key."""
-    pytest.importorskip("camsim.loader", reason="camsim.loader (load_machine) not available yet")
+    pytest.importorskip("camsim.machine.loader", reason="camsim.machine.loader (load_machine) not available yet")
     text = CDTM_PARTS.read_text().replace("warmup_cycles = 1", "warmup_cycle = 1")
     with pytest.raises(MachineFileError) as info:
         lump_text(text, file="p.toml")

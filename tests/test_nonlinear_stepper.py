@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-import camsim.integrate as integrate
-import camsim.nonlinear as nonlinear
-from camsim.loader import load_machine_text
+import camsim.engine.integrator as integrate
+import camsim.engine.nonlinear as nonlinear
+from camsim.machine.loader import load_machine_text
 from camsim import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))
@@ -61,7 +61,7 @@ def stiff_train():
 
 def test_partial_step_maps_against_quadrature(monkeypatch):
     """A window's partial first/last step as an affine map of the state and the remainder's
-    Taylor terms (camsim.nonlinear._step_affine), by the φ-series and by the augmented
+    Taylor terms (camsim.engine.nonlinear._step_affine), by the φ-series and by the augmented
     matrix exponential (the fall-back beyond the series' norm bound).
 
     Reference: solve_ivp DOP853 (rtol 1e-13) of the same linear ODE
@@ -73,8 +73,8 @@ def test_partial_step_maps_against_quadrature(monkeypatch):
 
     from scipy.integrate import solve_ivp
 
-    import camsim.stepping as stepping
-    from camsim.stepping import StepMaps
+    import camsim.engine.stepping as stepping
+    from camsim.engine.stepping import StepMaps
 
     rng = np.random.default_rng(12)
     A, L = stiff_train()
@@ -118,7 +118,7 @@ def test_cdtm_power_against_tight_dop853(monkeypatch):
     errors at its rtol 1e-11 (displacement 4.1e-9 of the peak, seat force 4.7e-6 of the
     peak, events 2.1e-10 s) — the stepper must be at least as accurate (measured: 2.9e-10,
     1.4e-6, 5e-11 s)."""
-    from camsim.loader import load_machine
+    from camsim.machine.loader import load_machine
 
     machine = load_machine(Path(__file__).resolve().parents[1] / "machines" / "cdtm-power.toml")
     run = simulate(machine, cycles=1, warmup_cycles=0)
@@ -148,7 +148,7 @@ def test_remainder_response_against_a_plain_loop():
     maps from _step_affine); the projections on two rows to 1e-12 and the states to 1e-11
     of their largest value (rounding of the modal recurrence over 300 steps). The train
     is the stiff two-mass one of the test above."""
-    from camsim.stepping import StepMaps
+    from camsim.engine.stepping import StepMaps
 
     rng = np.random.default_rng(5)
     A, L = stiff_train()
@@ -203,7 +203,7 @@ def test_anderson_solves_a_linear_fixed_point():
     iterations, 100 times closer to the solution of (I − M)·x = b (numpy's solve) than the
     plain iteration; _solve_small against numpy's solve on a ridge-shifted 3×3 Gram
     matrix (1e-12)."""
-    from camsim.nonlinear import _Anderson, _solve_small
+    from camsim.engine.nonlinear import _Anderson, _solve_small
 
     rng = np.random.default_rng(3)
     n = 30
@@ -229,7 +229,7 @@ def test_fast_input_projection_is_the_input():
     """_FastInput.project(g)(t) — Horner in plain floats, used by the event root finder —
     equals g·u(t) from the same per-step polynomials (to rounding), across grid steps."""
     from camsim.cam.program import CamProgram
-    from camsim.model import Model
+    from camsim.model.assembly import Model
 
     machine = load_machine_text(TEXT, source="pressed")
     integ = integrate.Integrator(Model(machine), CamProgram(machine.cam), 2e-5, t_ref=0.0)

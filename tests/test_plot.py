@@ -1,4 +1,4 @@
-"""Tests of camsim.plot and ``camsim plot``.
+"""Tests of camsim.figures.plots and ``camsim plot``.
 
 Expected counts come from the synthetic files of conftest.py: masses M1, M2, M3; elements
 K12, K23, seat; segment joins at 0, 90, 180, 270 deg with the cam angle running from 30
@@ -24,7 +24,7 @@ from typer.testing import CliRunner
 from camsim.cli import app
 from camsim.errors import InputError, ResultFileError
 from camsim.io.results import open_h5
-from camsim.plot import make_plots, plot_compare, plot_force, plot_mass, plot_svaj, plot_sweep_mass, save_figures
+from camsim.figures.plots import make_plots, plot_compare, plot_force, plot_mass, plot_svaj, plot_sweep_mass, save_figures
 
 runner = CliRunner()
 BASELINE = Path(__file__).parent / "baseline"

@@ -1,4 +1,4 @@
-"""camsim.recurrence.linear_recurrences: several first-order recurrences w[k] = μ·w[k−1] + f[k].
+"""camsim.engine.recurrence.linear_recurrences: several first-order recurrences w[k] = μ·w[k−1] + f[k].
 
 References:
 
@@ -8,7 +8,7 @@ References:
 * For a constant forcing f, the geometric sum w_k = μ^(k+1)·w0 + f·(1 − μ^(k+1))/(1 − μ)
   (w_k = w0 + (k + 1)·f at μ = 1), with μ^(k+1) from Python's complex power (exp/log,
   a different route from any running product): to 1e-12 relative, element by element.
-* The single-mode :func:`camsim.recurrence.linear_recurrence` (a separate code path:
+* The single-mode :func:`camsim.engine.recurrence.linear_recurrence` (a separate code path:
   its own block length per mode, a truncated convolution for |μ| < 0.5), column by
   column: to 1e-13 of the column's max|w|.
 
@@ -24,8 +24,8 @@ import cmath
 import numpy as np
 import pytest
 
-from camsim import recurrence
-from camsim.recurrence import linear_recurrence, linear_recurrences
+from camsim.engine import recurrence
+from camsim.engine.recurrence import linear_recurrence, linear_recurrences
 
 #: Lightly damped modes only (|μ| ≥ 0.5: long sequences take the blocked path), one of
 #: them undamped (exactly 1), one close to 1 in modulus and angle.

@@ -1,7 +1,7 @@
 """Exact restitution of compliant contacts (issue 12, spec §3).
 
 References:
-- equation (1) of :mod:`camsim.restitution` (the Hunt–Crossley rebound condition), checked
+- equation (1) of :mod:`camsim.physics.restitution` (the Hunt–Crossley rebound condition), checked
   by substitution; the Lankarani–Nikravesh and Flores factors by their published formulas;
 - the closed-form release of a clamped damped oscillator (tests/reference/scenarios.py
   ``ContactRelease``);
@@ -22,8 +22,8 @@ import pytest
 from scipy.special import gamma
 
 from camsim import simulate
-from camsim.loader import load_machine_text
-from camsim.restitution import (
+from camsim.machine.loader import load_machine_text
+from camsim.physics.restitution import (
     hc_alpha,
     hc_alpha_exact,
     hc_alpha_flores,
@@ -236,7 +236,7 @@ warmup_cycles = 0
 sample_rate = "200 kHz"
 """
     # (with two free masses the closed configuration has a rigid-body Jordan block, which
-    # the modal recurrence cannot carry: camsim.stepping.EIGEN_CONDITION_MIN; it lost
+    # the modal recurrence cannot carry: camsim.engine.stepping.EIGEN_CONDITION_MIN; it lost
     # 1e-7 here before that guard)
     r = simulate(load_machine_text(text))
     vA, vB = r.masses["A"]["velocity"][-1], r.masses["B"]["velocity"][-1]

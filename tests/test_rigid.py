@@ -19,8 +19,8 @@ import math
 import numpy as np
 import pytest
 
-from camsim.loader import load_machine_text
-from camsim.rigid import solve_lcp
+from camsim.machine.loader import load_machine_text
+from camsim.engine.rigid import solve_lcp
 from camsim import simulate
 
 G = 9.80665

@@ -1,4 +1,4 @@
-"""The static equilibrium a run starts from (camsim.simulation), with a power-law contact.
+"""The static equilibrium a run starts from (camsim.run.simulation), with a power-law contact.
 
 Reference: the pressed Hertz contact of tests/reference/pressed_hertz.py (a 1 kg mass under
 gravity on F = C·(−x)^1.5, C = 1e9 N/m^1.5, and a 1e4 N/m spring to the cam at s = 0), whose
@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import camsim.simulation as simulation
-from camsim.loader import load_machine_text
+import camsim.run.simulation as simulation
+from camsim.machine.loader import load_machine_text
 from camsim import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))

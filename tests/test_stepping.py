@@ -1,4 +1,4 @@
-"""Step maps of a linear configuration (camsim.stepping): the φ-function series.
+"""Step maps of a linear configuration (camsim.engine.stepping): the φ-function series.
 
 Reference: the defining integrals Γ_j(h) = ∫₀ʰ e^{A(h−s)}·s^j/j! ds evaluated by adaptive
 quadrature (``scipy.integrate.quad_vec``, Gauss–Kronrod, epsrel 1e-14) of
@@ -19,7 +19,7 @@ import pytest
 from scipy.integrate import quad_vec
 from scipy.linalg import expm
 
-from camsim.stepping import PHI_SERIES_NORM, StepMaps, phi_series
+from camsim.engine.stepping import PHI_SERIES_NORM, StepMaps, phi_series
 
 
 def chain(k_seat: float) -> np.ndarray:

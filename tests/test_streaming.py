@@ -2,7 +2,7 @@
 recording options, a summary over every revolution.
 
 References:
-* the in-memory run (:func:`camsim.simulation.simulate` + :func:`camsim.io.runfile.write_run`),
+* the in-memory run (:func:`camsim.run.simulation.simulate` + :func:`camsim.run.runfile.write_run`),
   whose numbers the analytic and reference-solver tests check: a streamed file must hold
   the same values bit for bit (tolerance 0: ``array_equal`` of the raw bytes), and the
   streamed summary must equal the in-memory one exactly (NaN equal to NaN);
@@ -26,11 +26,11 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import camsim.stream as stream
+import camsim.run.stream as stream
 from camsim.cli import app
-from camsim.io.runfile import write_run
-from camsim.loader import load_machine, load_machine_text
-from camsim.simulation import simulate
+from camsim.run.runfile import write_run
+from camsim.machine.loader import load_machine, load_machine_text
+from camsim.run.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHINES = ROOT / "machines"
@@ -94,7 +94,7 @@ def test_streamed_file_and_summary_equal_the_in_memory_run(tmp_path, monkeypatch
     summary (scalars, peaks with their times, events with their annotation) is equal,
     whatever the piece size (1 sample: every impact window and jump spans pieces), written
     in HDF5 chunks of 1000 samples (whole chunks, then the rest at the end)."""
-    from camsim.io import streamfile
+    from camsim.run import streamfile
 
     monkeypatch.setattr(stream, "FLUSH", flush)
     monkeypatch.setattr(streamfile, "CHUNK", 1000)
@@ -242,7 +242,7 @@ def test_size_guard_counts_what_is_stored(tmp_path):
     res = runner.invoke(app, base + ["--record", "transducer/*"])
     assert res.exit_code == 2 and f"{samples:.3g} samples x 2 traces" in res.output
     # the last 10 of 100000 revolutions: 10 x 0.5 s x 50 kHz + 1 samples x 21 traces = 42 MB, under 2 GB
-    from camsim.budget import estimate_run, record_fraction
+    from camsim.run.budget import estimate_run, record_fraction
 
     machine = load_machine(CDTM, overrides=["simulation.cycles=100000"])
     est = estimate_run(machine, traces=21, record_fraction=record_fraction(machine, 10))
@@ -256,7 +256,7 @@ def test_interrupt_while_streaming_leaves_previous_result_and_no_temp(tmp_path, 
     import signal
     import time
 
-    from camsim.io.streamfile import TraceStreamWriter
+    from camsim.run.streamfile import TraceStreamWriter
 
     monkeypatch.setattr(stream, "FLUSH", 500)
     res, out = _cli(tmp_path)
@@ -325,10 +325,10 @@ def test_grid_steps_stay_on_the_cached_map_late_in_a_long_run(monkeypatch, t0):
     the cached step map, never the exact map of an odd-length step, whatever t0. Beyond
     t ≈ 500 s the rounding of t made every few steps 'odd' (44 of 400 at t0 = 1000 s,
     and the CDTM run 7x slower after 1000 revolutions). Reference: the count is 0 at t0 = 0."""
-    import camsim.integrate as integrate
+    import camsim.engine.integrator as integrate
     from camsim.cam.program import CamProgram
-    from camsim.model import Model
-    from camsim.simulation import initial_state
+    from camsim.model.assembly import Model
+    from camsim.run.simulation import initial_state
 
     machine = load_machine(CDTM)
     model = Model(machine)
@@ -363,7 +363,7 @@ def test_streamed_cam_design_summary_equals_the_in_memory_one(tmp_path, monkeypa
     their times exactly, RMS torque and the energy fluctuation to 1e-12 relative; and the
     (N, 2) shape traces stream like the others."""
     from camsim import load_machine, open_result, simulate
-    from camsim.stream import simulate_to_file
+    from camsim.run.stream import simulate_to_file
 
     machine = load_machine(ROOT / "machines" / "cdtm-geometry.toml")
     memory = simulate(machine, sample_rate=5000.0, cycles=2)

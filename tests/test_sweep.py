@@ -1,4 +1,4 @@
-"""Sweeps (camsim.sweep): grid parsing, rows against individual runs, executors, jump onset, files.
+"""Sweeps (camsim.analyses.sweep.runner): grid parsing, rows against individual runs, executors, jump onset, files.
 
 Expected values and their sources:
 
@@ -25,9 +25,9 @@ import scipy.optimize
 
 from camsim.errors import InputError, MachineFileError
 from camsim.io.hdf5 import read_table
-from camsim.loader import load_machine
-from camsim.simulation import simulate
-from camsim.sweep import (
+from camsim.machine.loader import load_machine
+from camsim.run.simulation import simulate
+from camsim.analyses.sweep.runner import (
     MachineSource,
     build_grid,
     csv_path_for,
@@ -256,7 +256,7 @@ def test_failing_variant_is_recorded_and_the_sweep_goes_on():
 
 
 def test_ctrl_c_keeps_finished_rows(monkeypatch):
-    import camsim.sweep as sweep
+    import camsim.analyses.sweep.runner as sweep
 
     calls = []
     real = sweep.run_variant

@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from camsim.impact import johnson_power_lower, johnson_power_upper
-from camsim.loader import load_machine_text
-from camsim.simulation import simulate
+from camsim.physics.impact import johnson_power_lower, johnson_power_upper
+from camsim.machine.loader import load_machine_text
+from camsim.run.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "validation.md"

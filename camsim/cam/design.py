@@ -333,7 +333,7 @@ def design_summary(result, cs: float | None = None) -> dict | None:
 class DesignAccumulator:
     """The dynamic design scalars folded over a run's samples, piece by piece.
 
-    An in-memory run feeds its whole result once; a streamed run (:mod:`camsim.stream`)
+    An in-memory run feeds its whole result once; a streamed run (:mod:`camsim.run.stream`)
     feeds each piece as it is written, so the summary covers every revolution in bounded
     memory: peaks and their times (first occurrence wins, as ``argmax``), the RMS torque
     from the running sum of squares, and the torque of the first recorded revolution

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from camsim.machine import LAWS
+from camsim.cam.description import LAWS
 
 __all__ = ["LAWS", "NORTON_PEAKS", "evaluate_law", "rise", "fall"]
 
@@ -208,7 +208,7 @@ def rise(name: str, u) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     Parameters
     ----------
     name : str
-        One of :data:`camsim.machine.LAWS`.
+        One of :data:`camsim.machine.description.LAWS`.
     u : array_like
         Normalised angle [-], expected in [0, 1] (values outside are clipped).
 

@@ -1,6 +1,6 @@
 """The cam program: follower displacement, velocity, acceleration and jerk against time.
 
-:class:`CamProgram` turns a :class:`camsim.machine.Cam` into the prescribed motion s(t)
+:class:`CamProgram` turns a :class:`camsim.machine.description.Cam` into the prescribed motion s(t)
 of the ``cam`` node on the model axis, with its exact time derivatives v, a, j:
 
 * the camshaft turns at constant speed ω: cam angle θ(t) = θ0 + ω·t, one cycle being one
@@ -28,7 +28,7 @@ from functools import lru_cache
 import numpy as np
 
 from camsim.cam.laws import rise
-from camsim.machine import Cam
+from camsim.cam.description import Cam
 
 __all__ = ["CamProgram", "law_peaks", "sample_revolution"]
 

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from scipy.interpolate import BSpline, make_interp_spline
 
-from camsim.machine import CamTable
+from camsim.cam.description import CamTable
 
 __all__ = ["TableSpline", "CHECK_TOLERANCE"]
 

@@ -20,7 +20,7 @@ from typing import Any
 import typer
 from rich.console import Console
 
-from camsim import __version__
+from camsim._version import __version__
 from camsim.errors import InputError, SimulationError
 from camsim.units import QuantityError, to_si
 

@@ -20,7 +20,7 @@ from camsim.cam import CamProgram
 from camsim.cli.app import app, err_console, print_json, user_errors
 from camsim.errors import InputError, MachineFileError
 from camsim.io.atomic import check_writable
-from camsim.io.camfile import write_cam_csv, write_cam_hdf5
+from camsim.cam.files import write_cam_csv, write_cam_hdf5
 
 #: The traces written by ``camsim cam -o``: name, units, long name.
 def _num(value: float | None, fmt: str = ".4g") -> str:
@@ -152,7 +152,7 @@ def cam_command(
         for option, path in (("--profile", profile), ("--dxf", dxf)):
             if path is not None:
                 check_writable(path)
-        from camsim.loader import load_machine
+        from camsim.machine.loader import load_machine
 
         machine = load_machine(machine_file, overrides=overrides)
         if machine.cam is None:
@@ -188,7 +188,7 @@ def cam_command(
         else:
             _print_table(machine, program, peaks)
             if checks is not None:
-                from camsim.report import render_geometry_checks
+                from camsim.reports.summary import render_geometry_checks
 
                 console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
                 render_geometry_checks(checks, console, title=(
@@ -218,7 +218,7 @@ def cam_command(
                 write_profile_dxf(dxf, pts, geometry, unit)
                 written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {tol * 1e6:.4g} um, {unit})")
         if plot is not None:
-            from camsim.cam.figures import plot_cam_design
+            from camsim.figures.cam import plot_cam_design
             from camsim.io.atomic import atomic_path
 
             fig = plot_cam_design(geometry, program, title=f"{machine.name}: cam design")

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, print_json, user_errors
-from camsim.check import DEFAULT_ATOL, DEFAULT_RTOL
+from camsim.analyses.check import DEFAULT_ATOL, DEFAULT_RTOL
 
 
 @app.command("check")
@@ -29,7 +29,7 @@ def check_command(
     2 when the files cannot be compared (missing datasets, other time grid, not camsim files).
     """
     with user_errors():
-        from camsim.check import check_files, render_report, summary_line
+        from camsim.analyses.check import check_files, render_report, summary_line
 
         report = check_files(result, against, rtol=rtol, atol=atol)
     if json_:

@@ -16,7 +16,7 @@ _SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 def render_comparison(comparison, console, system: str = "si") -> None:
     from rich.markup import escape
 
-    from camsim.display import shown
+    from camsim.reports.display import shown
 
     a, b = comparison.labels
     table = Table(title=escape(f"{a} vs {b}: difference = 100·(A − B)/max|A|"), title_justify="left")
@@ -71,9 +71,9 @@ def compare_command(
     """
     from camsim.cli.app import parse_sample_rate
     from camsim.cli.progress import FractionBar
-    from camsim.display import check_unit_system
-    from camsim.lifecycle import sigterm_as_interrupt
-    from camsim.compare import compare_files, compare_machine, write_file_comparison
+    from camsim.reports.display import check_unit_system
+    from camsim.run.lifecycle import sigterm_as_interrupt
+    from camsim.analyses.compare import compare_files, compare_machine, write_file_comparison
 
     with user_errors(), sigterm_as_interrupt():
         check_unit_system(units)
@@ -86,8 +86,8 @@ def compare_command(
                 write_file_comparison(comparison, a, b, output)
         elif len(inputs) == 1:
             from camsim.io.atomic import check_writable
-            from camsim.io.runfile import write_comparison
-            from camsim.loader import load_machine
+            from camsim.run.runfile import write_comparison
+            from camsim.machine.loader import load_machine
 
             machine_path = inputs[0]
             rate = parse_sample_rate(sample_rate)

@@ -33,7 +33,7 @@ def export_command(
 ) -> None:
     """Export traces as CSV: header 'path [unit]' (SI units), full float precision (exact round trip)."""
     with user_errors():
-        from camsim.export import export_csv
+        from camsim.analyses.export import export_csv
 
         picked = [p.strip() for c in columns or () for p in c.split(",") if p.strip()]
         result = export_csv(file, out, picked or None, events_csv, events=not no_events, group=group)

@@ -1,4 +1,4 @@
-"""``camsim fit``: calibrate a machine file to measured traces (a thin layer over camsim.fit)."""
+"""``camsim fit``: calibrate a machine file to measured traces (a thin layer over camsim.analyses.fit)."""
 
 from __future__ import annotations
 
@@ -107,7 +107,7 @@ def fit_command(
     identifiability warnings, and writes FITTED.toml (-o). Exit 0 on a converged fit,
     1 when the fit does not converge or a run fails (nothing written), 2 on bad input.
     """
-    from camsim.fit import fit, write_fitted
+    from camsim.analyses.fit import fit, write_fitted
     from camsim.io.atomic import check_writable
 
     rate = parse_sample_rate(sample_rate)
@@ -116,7 +116,7 @@ def fit_command(
         target_path = output if output is not None else _default_output(machine)
         check_writable(target_path)
         if report is not None:
-            from camsim.fit.report import REPORT_FORMATS
+            from camsim.figures.fit import REPORT_FORMATS
 
             if report.suffix.lstrip(".").lower() not in REPORT_FORMATS:
                 raise fail(f"--report {report}: unknown figure format '{report.suffix}' (use .png, .svg or .pdf)")
@@ -150,13 +150,13 @@ def fit_command(
             _render(result, err_console)
         if not result.converged:
             raise fail("the fit did not converge (above: what it reached); nothing was written", 1)
-        from camsim.fit import fitted_text
-        from camsim.loader import read_machine_text
+        from camsim.analyses.fit import fitted_text
+        from camsim.machine.loader import read_machine_text
 
         text = read_machine_text(machine)
         fitted_text(text, result, source=str(machine))  # any problem shows before a file is written
         if report is not None:
-            from camsim.fit.report import write_report
+            from camsim.figures.fit import write_report
 
             write_report(report, result, title=str(machine))
         written = write_fitted(target_path, text, result, source=str(machine))

@@ -1,7 +1,7 @@
 """``camsim impact``: closed-form impact-force estimates, and ``camsim impact fit``.
 
-A thin layer over :func:`camsim.impact.estimate_impact` and
-:func:`camsim.impact.fit_power_law`; every value is a string with its unit, parsed by
+A thin layer over :func:`camsim.physics.impact.estimate_impact` and
+:func:`camsim.physics.impact.fit_power_law`; every value is a string with its unit, parsed by
 :func:`camsim.units.to_si`.
 """
 
@@ -15,7 +15,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim import impact
+from camsim.physics import impact
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.errors import InputError
 from camsim.io.forcedeflection import read_force_deflection_csv
@@ -211,7 +211,7 @@ def impact_command(
 
 
 def _calculate(**given: str | None) -> tuple[dict[str, Any], impact.ImpactEstimates]:
-    """Parse and check the options, then call :func:`camsim.impact.estimate_impact`."""
+    """Parse and check the options, then call :func:`camsim.physics.impact.estimate_impact`."""
     if given["mass"] is None:
         raise InputError("--mass is required (the striking mass, e.g. --mass \"0.0079 lb\")")
     if (given["velocity"] is None) == (given["drop_height"] is None):

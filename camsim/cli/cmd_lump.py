@@ -40,7 +40,7 @@ def lump_command(
     """Lump components (masses, inertias about pivots, helical springs, rods, series and
     parallel springs, lever ratios) into the masses and elements of a machine file."""
     from camsim.io.atomic import check_writable
-    from camsim.lump import UNIT_SYSTEMS, load_parts, write_machine
+    from camsim.analyses.lump.lumping import UNIT_SYSTEMS, load_parts, write_machine
 
     with user_errors():
         if units not in UNIT_SYSTEMS:

@@ -24,8 +24,8 @@ def modes_command(
     frequency (thesis §7.2.1: above ~200 the system is stiff). Configurations with a
     closed power-law contact list only their linear part (marked nonlinear).
     """
-    from camsim.loader import load_machine
-    from camsim.modes import machine_modes, modes_to_dict
+    from camsim.machine.loader import load_machine
+    from camsim.analyses.modes import machine_modes, modes_to_dict
 
     with user_errors():
         loaded = load_machine(machine, overrides=set_)

@@ -43,7 +43,7 @@ def plot_command(
 ) -> None:
     """Plot a result file: one image per figure, named <stem>_<what>.<format>; prints the paths."""
     with user_errors():
-        from camsim import plot  # matplotlib is imported only by this command
+        from camsim.figures import plots as plot  # matplotlib is imported only by this command
 
         figures = plot.make_plots(
             file,

@@ -50,15 +50,15 @@ def run_command(
     fails (diverges, unresolved chatter) or --check-against finds a regression, 2 on bad
     input.
     """
-    from camsim.budget import check_budget, estimate_run, parse_size, record_fraction
+    from camsim.run.budget import check_budget, estimate_run, parse_size, record_fraction
     from camsim.cli.progress import FractionBar
-    from camsim.display import check_unit_system
+    from camsim.reports.display import check_unit_system
     from camsim.errors import InputError
     from camsim.io.atomic import check_writable, remove_stale_temps
-    from camsim.lifecycle import sigterm_as_interrupt
-    from camsim.loader import load_machine
-    from camsim.report import render_run_summary
-    from camsim.stream import limit_heap_growth, machine_trace_layout, select_traces, simulate_to_file
+    from camsim.run.lifecycle import sigterm_as_interrupt
+    from camsim.machine.loader import load_machine
+    from camsim.reports.summary import render_run_summary
+    from camsim.run.stream import limit_heap_growth, machine_trace_layout, select_traces, simulate_to_file
 
     rate = parse_sample_rate(sample_rate)
     patterns = [p.strip() for item in record for p in item.split(",") if p.strip()]
@@ -87,7 +87,7 @@ def run_command(
             from camsim.io.results import open_h5
 
             open_h5(check_against).close()
-        limit_heap_growth()  # memory must not grow with revolutions (camsim.stream)
+        limit_heap_growth()  # memory must not grow with revolutions (camsim.run.stream)
         revs = estimate.revolutions  # seconds for a machine without a cam
         progress = FractionBar("run", "rev" if revs else "s", revs or estimate.recorded_s, quiet=quiet)
         try:
@@ -108,7 +108,7 @@ def run_command(
             render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
         if check_against is not None:
-            from camsim.check import check_files, render_report
+            from camsim.analyses.check import check_files, render_report
 
             kwargs = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
             report = check_files(target, check_against, **kwargs)

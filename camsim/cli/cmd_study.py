@@ -35,7 +35,7 @@ def _render(result, err, system: str = "si") -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from camsim.display import shown
+    from camsim.reports.display import shown
 
     units = dict(result.columns)
     table = Table(show_edge=False, pad_edge=False, title=f"{result.n_runs} runs ({result.method}, seed {result.seed}), 95 % bootstrap intervals of the mean")
@@ -132,15 +132,15 @@ def study_command(
     from camsim.cli.progress import Bar
     from camsim.errors import InputError
     from camsim.io.atomic import check_writable
-    from camsim.lifecycle import sigterm_as_interrupt
-    from camsim.study import StudyInterrupted, study
-    from camsim.study.config import merge_dists, read_config
-    from camsim.study.files import csv_path_for
+    from camsim.run.lifecycle import sigterm_as_interrupt
+    from camsim.analyses.study import StudyInterrupted, study
+    from camsim.analyses.study.config import merge_dists, read_config
+    from camsim.analyses.study.files import csv_path_for
 
     bar = Bar("study", "runs", quiet=quiet)
     start = _Start(bar)
     with user_errors(), sigterm_as_interrupt():
-        from camsim.display import check_unit_system
+        from camsim.reports.display import check_unit_system
 
         check_unit_system(units)
         cfg = read_config(config) if config is not None else {}
@@ -169,7 +169,7 @@ def study_command(
             raise InputError(f"--samples {samples}: needs at least 1")
         sens = sensitivity if sensitivity is not None else cfg.get("sensitivity", False)
         if sens:
-            from camsim.study.sampling import n_runs
+            from camsim.analyses.study.sampling import n_runs
 
             d = len(merge_dists(cfg.get("dist", []), dist))
             start.message = f"sensitivity: Saltelli's design needs N (d + 2) = {n} x {d + 2} = {n_runs(n, d, True)} runs"
@@ -215,7 +215,7 @@ def study_command(
         for w in result.warnings:
             err_console.print(f"warning: {w}", markup=False)
         if plot is not None:
-            from camsim.study.plot import save_study_plot
+            from camsim.figures.study import save_study_plot
 
             save_study_plot(result, plot)
         if json_:

@@ -19,7 +19,7 @@ def _render(result, err, system: str = "si") -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from camsim.display import shown
+    from camsim.reports.display import shown
 
     rows = result.rows
     params = [name for name, _ in result.columns if name.startswith("param:")]
@@ -128,9 +128,9 @@ def sweep_command(
     from camsim.cli.app import parse_sample_rate
     from camsim.io.atomic import check_writable
     from camsim.cli.progress import Bar
-    from camsim.lifecycle import sigterm_as_interrupt
-    from camsim.sweep import csv_path_for, finish_sweep, jsonable_rows, run_sweep, write_sweep
-    from camsim.display import check_unit_system
+    from camsim.run.lifecycle import sigterm_as_interrupt
+    from camsim.analyses.sweep.runner import csv_path_for, finish_sweep, jsonable_rows, run_sweep, write_sweep
+    from camsim.reports.display import check_unit_system
 
     rate = parse_sample_rate(sample_rate)
     bar = Bar("sweep", "variants", quiet=quiet)

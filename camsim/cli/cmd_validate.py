@@ -1,7 +1,7 @@
 """``camsim validate``: load a machine file and show it in SI, or say what is wrong.
 
-A thin layer over :func:`camsim.loader.load_machine` and
-:func:`camsim.loader.machine_to_dict`.
+A thin layer over :func:`camsim.machine.loader.load_machine` and
+:func:`camsim.machine.loader.machine_to_dict`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
 from camsim.elements import Param
-from camsim.machine import Machine
+from camsim.machine.description import Machine
 
 
 @app.command("validate")
@@ -42,7 +42,7 @@ def validate(
     Exit 0 if the file is valid; exit 2 with one line naming the file and the key
     (e.g. element[3].stiffness: expected [force]/[length], got "25 lbf") if not.
     """
-    from camsim.loader import load_machine, machine_to_dict
+    from camsim.machine.loader import load_machine, machine_to_dict
 
     with user_errors():
         machine = load_machine(machine_file, overrides=overrides)
@@ -77,7 +77,7 @@ def _param_text(p: Param, value) -> str:
 
 def _print_machine(machine: Machine) -> None:
     """Human summary on stderr: cam, masses, elements (with damping coefficients), settings."""
-    from camsim.loader import damping_coefficients, reference_mass_of
+    from camsim.machine.loader import damping_coefficients, reference_mass_of
 
     err_console.print(f"[bold]{escape(machine.name)}[/bold]  ({escape(machine.source)}): valid")
     cam = machine.cam

@@ -7,7 +7,7 @@ d and c_max beyond (spec §3). Parameters: ``stiffness`` k [N/m^n], ``exponent``
 ``max_damping`` c_max [N·s/m], ``penetration_depth`` d > 0 [m]; ``clamp = false`` drops
 the max(0, ·) (the contact may then pull while δ > 0, as Adams's IMPACT does).
 
-While closed the force is nonlinear (integrated by :mod:`camsim.nonlinear`). The contact
+While closed the force is nonlinear (integrated by :mod:`camsim.engine.nonlinear`). The contact
 closes when δ crosses 0 upward (an ``impact``) and opens when δ returns to 0 (``release``);
 with ``clamp`` the force is zero, not negative, in between when the damping term would
 pull (the motion is the same as an opening at F = 0, which a non-affine force cannot mark
@@ -108,6 +108,6 @@ class AdamsImpactContact(Contact):
         return [(GuardKind.RELEASE, delta, LENGTH_TOL)]
 
     def johnson_bounds(self, m1, m2, v):
-        from camsim.impact import johnson_power
+        from camsim.physics.impact import johnson_power
 
         return johnson_power(m1, m2, v, 0.0, self.stiffness, self.exponent)

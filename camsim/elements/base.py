@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from camsim.events import EventKind
+from camsim.elements.events import EventKind
 
 #: Node names that are not masses.
 GROUND = "ground"

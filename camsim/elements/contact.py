@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from camsim.elements.base import CAM, FIXED_NODES, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param
-from camsim.events import EventKind
+from camsim.elements.events import EventKind
 
 #: Keys every contact takes, whatever its law.
 CONTACT_PARAMS: tuple[Param, ...] = (
@@ -91,7 +91,7 @@ class Contact(Element):
 
     @staticmethod
     def _approach_guard(delta):
-        from camsim.affine import Affine
+        from camsim.elements.affine import Affine
 
         return (GuardKind.CLOSE, Affine(-delta.Cz, -delta.Du, -delta.Fn, -delta.e), LENGTH_TOL)
 

@@ -17,7 +17,7 @@ any law of ``type = "contact"`` with one set of parameters for both sides:
 - ``"adams-impact"``: MSC Adams's IMPACT function;
 - ``"restitution"``: a rigid stop on each side, Newton's law at each impact, resting
   (``stick``) and ``release`` as a rigid contact, solved with the other rigid contacts
-  as one LCP (:mod:`camsim.rigid`).
+  as one LCP (:mod:`camsim.engine.rigid`).
 
 Each law is one class here, registered under ``type = "lash"`` and the law's name; it
 delegates the law to an instance of that law's contact class (built from the same
@@ -39,14 +39,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from camsim.affine import Affine
+from camsim.elements.affine import Affine
 from camsim.elements.adams_impact import AdamsImpactContact
 from camsim.elements.base import CAM, DEFAULT_LAW, FORCE_TOL, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
 from camsim.elements.linear_contact import LinearContact
 from camsim.elements.power_contact import PowerContact
 from camsim.elements.rigid_contact import RigidContact
-from camsim.events import EventKind
+from camsim.elements.events import EventKind
 
 #: Keys every lash takes, whatever its law.
 LASH_PARAMS: tuple[Param, ...] = (

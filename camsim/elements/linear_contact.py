@@ -6,7 +6,7 @@ not when δ does (see docs/model.md), and while it penetrates with a pulling law
 
 Its damping is a coefficient, a ratio ζ of critical, or a ``restitution`` e: the viscous
 c = 2ζ(e)·√(k·m) for which an isolated impact of the contact's reduced mass m, with the
-force clamped at zero, rebounds with exactly e (:func:`camsim.restitution.linear_damping_ratio`,
+force clamped at zero, rebounds with exactly e (:func:`camsim.physics.restitution.linear_damping_ratio`,
 solved once at load).
 """
 
@@ -17,10 +17,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from camsim.affine import N_INPUT, Affine
+from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements.base import DAMPING_PARAMS, DEFAULT_LAW, FORCE_TOL, Branch, GuardKind, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
-from camsim.restitution import linear_damping_ratio
+from camsim.physics.restitution import linear_damping_ratio
 
 
 @register
@@ -86,7 +86,7 @@ class LinearContact(Contact):
         return [(GuardKind.CLOSE, self._law_affine(ctx, -1.0), FORCE_TOL)]
 
     def johnson_bounds(self, m1, m2, v):
-        from camsim.impact import johnson_linear
+        from camsim.physics.impact import johnson_linear
 
         return johnson_linear(m1, m2, v, 0.0, self.stiffness)
 

@@ -1,10 +1,10 @@
 """``law = "power"``: F = C·δ^a, optionally Hunt–Crossley damped, F = C·δ^a·(1 + χ·δ̇) (spec §3).
 
 The thesis's common-velocity contact (eq. 3.30; C and a from a log-log fit). While closed
-its force is nonlinear: the integrator carries it as F_nl (:mod:`camsim.nonlinear`).
+its force is nonlinear: the integrator carries it as F_nl (:mod:`camsim.engine.nonlinear`).
 
 Damping: with ``restitution`` e, χ = α(e)/v with v the approach speed of the impact that
-closed the contact and α from ``damping_model`` (:mod:`camsim.restitution`): ``"exact"``
+closed the contact and α from ``damping_model`` (:mod:`camsim.physics.restitution`): ``"exact"``
 (default; an isolated impact then rebounds with exactly e), ``"lankarani-nikravesh"``
 (α = 3(1 − e²)/4) or ``"flores"`` (α = 8(1 − e)/(5e)). A contact closed from the start has
 no damping until its first impact. Or ``hysteresis_damping`` χ [s/m] directly (no
@@ -18,11 +18,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from camsim.affine import Affine
+from camsim.elements.affine import Affine
 from camsim.elements.base import FACTOR_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
-from camsim.events import EventKind
-from camsim.restitution import DAMPING_MODELS, hc_alpha
+from camsim.elements.events import EventKind
+from camsim.physics.restitution import DAMPING_MODELS, hc_alpha
 
 
 @register
@@ -38,7 +38,7 @@ class PowerContact(Contact):
     law_name: ClassVar[str] = "power"
     summary: ClassVar[str] = "compliant contact F = C·δ^a, Hunt–Crossley damped with restitution"
     #: The closed force is analytic in (δ, δ̇) for δ > 0 (no kink inside a closed phase):
-    #: camsim.collocation may carry it with polynomial node values.
+    #: camsim.engine.collocation may carry it with polynomial node values.
     analytic_closed: ClassVar[bool] = True
     params: ClassVar[tuple[Param, ...]] = (
         *CONTACT_PARAMS,
@@ -180,6 +180,6 @@ class PowerContact(Contact):
         return Outcome(Branch.CLOSED, EventKind.IMPACT, rate, v_impact=v_impact)
 
     def johnson_bounds(self, m1, m2, v):
-        from camsim.impact import johnson_power
+        from camsim.physics.impact import johnson_power
 
         return johnson_power(m1, m2, v, 0.0, self.coefficient, self.exponent)

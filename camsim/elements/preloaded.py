@@ -10,9 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from camsim.affine import Affine
+from camsim.elements.affine import Affine
 from camsim.elements.base import DAMPING_PARAMS, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, register
-from camsim.events import EventKind
+from camsim.elements.events import EventKind
 
 
 @register
@@ -78,7 +78,7 @@ class PreloadedLink(Element):
         return Branch.SEPARATED if d > self.separation_deflection and not no_impact else Branch.JOINED
 
     def johnson_bounds(self, m1, m2, v):
-        from camsim.impact import johnson_linear
+        from camsim.physics.impact import johnson_linear
 
         return johnson_linear(m1, m2, v, 0.0, self.push_stiffness)
 

@@ -12,10 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from camsim.affine import Affine
+from camsim.elements.affine import Affine
 from camsim.elements.base import FORCE_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
-from camsim.events import EventKind
+from camsim.elements.events import EventKind
 
 
 @register

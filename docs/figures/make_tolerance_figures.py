@@ -31,8 +31,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from camsim.study import study  # noqa: E402
-from camsim.study.plot import save_study_plot  # noqa: E402
+from camsim.analyses.study import study  # noqa: E402
+from camsim.figures.study import save_study_plot  # noqa: E402
 
 DISTS = [
     "element.K23.pull_stiffness=tol:219:22lbf/in",

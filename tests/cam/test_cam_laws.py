@@ -7,7 +7,7 @@ import pytest
 
 from camsim.cam.laws import NORTON_PEAKS, evaluate_law, fall, rise
 from camsim.cam.program import law_peaks
-from camsim.machine import LAWS
+from camsim.machine.description import LAWS
 
 # Norton's published factors: R. L. Norton, "Design of Machinery", table 8-2 (Cv, Ca), and
 # "Cam Design and Manufacturing Handbook", ch. 3 (Cj). They are written out here, not

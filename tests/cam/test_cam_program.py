@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from camsim.cam.program import CamProgram, sample_revolution
-from camsim.machine import LAWS, Cam, Segment
+from camsim.machine.description import LAWS, Cam, Segment
 
 INCH = 0.0254
 RATIO = 0.63648  # spec §2: (13.5/6.5)·(2.375/7.75)

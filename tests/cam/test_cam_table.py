@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from camsim.cam.program import CamProgram
-from camsim.machine import Cam, CamTable
+from camsim.machine.description import Cam, CamTable
 
 SPEED = 4 * math.pi  # 120 rpm [rad/s]
 RATIO = 0.7

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-pytest.importorskip("camsim.loader")
+pytest.importorskip("camsim.machine.loader")
 
 from camsim.cli import app  # noqa: E402
 

@@ -224,7 +224,7 @@ def test_compare_stress_and_torque_with_and_without_impact(tmp_path):
 
 
 def test_sweep_base_radius_design_chart(tmp_path):
-    from camsim.sweep import run_sweep
+    from camsim.analyses.sweep.runner import run_sweep
 
     machine = write(tmp_path, GOOD)
     result = run_sweep(machine, vary=["cam.geometry.base_radius=40:60:10mm"], workers=1)

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from camsim.cam.design import design_summary, design_traces, flywheel_inertia
-from camsim.loader import load_machine_text
+from camsim.machine.loader import load_machine_text
 from camsim import simulate  # the public API (not the submodule: see tests/test_api.py)
 
 H, RATIO, M, K, P = 0.020, 0.5, 2.0, 3000.0, 40.0
@@ -187,7 +187,7 @@ def _datasets(path):
 
 def test_geometry_changes_no_existing_trace(tmp_path):
     """Adding [cam.geometry] adds datasets and changes none of the others (bit for bit)."""
-    from camsim.io.runfile import write_run
+    from camsim.run.runfile import write_run
 
     with_geometry = MACHINE.format(ratio=RATIO, geometry=ROLLER, m=M, k=K, p=P)
     start = with_geometry.index("[cam.geometry]")
@@ -209,7 +209,7 @@ def test_cdtm_geometry_has_the_traces_of_cdtm():
     """machines/cdtm-geometry.toml runs exactly like machines/cdtm.toml (its numbers are unchanged)."""
     from pathlib import Path
 
-    from camsim.loader import load_machine
+    from camsim.machine.loader import load_machine
 
     root = Path(__file__).resolve().parents[2] / "machines"
     a = simulate(load_machine(root / "cdtm-geometry.toml"), cycles=1, warmup_cycles=0, sample_rate=10_000.0)

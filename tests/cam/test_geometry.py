@@ -21,7 +21,7 @@ import pytest
 
 from camsim.cam import CamProgram
 from camsim.cam import geometry as G
-from camsim.loader import load_machine_text
+from camsim.machine.loader import load_machine_text
 
 H = 0.020  # lift [m]
 BETA = math.pi / 2  # every segment 90 deg
@@ -291,7 +291,7 @@ def test_table_cam_through_its_spline(tmp_path):
     """A table cam: geometry from the periodic spline. Table of s = h(1 − cos θ)/2 at 1° steps;
     against the closed form of that s (spec §2 formulas), 1e-6 deg and 1e-6 of the peak ρ
     (the quintic spline's interpolation error at 1° is ~1e-10 of h)."""
-    from camsim.loader import load_machine
+    from camsim.machine.loader import load_machine
 
     h = 0.012
     deg = np.arange(360.0)

@@ -19,7 +19,7 @@ import pytest
 
 from camsim.cam import CamProgram
 from camsim.cam.profile import profile_points, write_profile_csv, write_profile_dxf
-from camsim.loader import load_machine_text
+from camsim.machine.loader import load_machine_text
 
 RB, RR, H, BETA = 0.040, 0.010, 0.015, math.radians(120)
 

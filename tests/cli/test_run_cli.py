@@ -140,12 +140,12 @@ def test_bad_input_one_line_exit_2_nothing_written(oscillator, tmp_path, args, n
 
 
 def test_interrupted_run_leaves_no_file(oscillator, tmp_path, monkeypatch):
-    import camsim.stream
+    import camsim.run.stream
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt  # while the run streams into its temporary file
 
-    monkeypatch.setattr(camsim.stream, "_simulate", interrupted)
+    monkeypatch.setattr(camsim.run.stream, "_simulate", interrupted)
     out = tmp_path / "o.h5"
     result = run(["run", str(oscillator), "-o", str(out)])
     assert result.exit_code == 130
@@ -153,12 +153,12 @@ def test_interrupted_run_leaves_no_file(oscillator, tmp_path, monkeypatch):
 
 
 def test_failed_run_exit_1(oscillator, tmp_path, monkeypatch):
-    import camsim.stream
+    import camsim.run.stream
 
     def diverges(*args, **kwargs):
         raise SimulationError("the run diverged before t = 0.1 s (non-finite state)")
 
-    monkeypatch.setattr(camsim.stream, "_simulate", diverges)
+    monkeypatch.setattr(camsim.run.stream, "_simulate", diverges)
     result = run(["run", str(oscillator), "-o", str(tmp_path / "o.h5")])
     assert result.exit_code == 1
     assert "diverged" in result.output

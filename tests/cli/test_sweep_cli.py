@@ -125,7 +125,7 @@ def test_yes_runs_more_than_max_variants(tmp_path):
 
 
 def test_ctrl_c_writes_finished_rows_exit_130(tmp_path, monkeypatch):
-    import camsim.sweep as sweep
+    import camsim.analyses.sweep.runner as sweep
 
     real = sweep.run_variant
     calls = []

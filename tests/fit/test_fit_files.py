@@ -19,12 +19,12 @@ from machines import H, K_TRUE, MASS, OMEGA, OSC_K, OSC_ZETA, OSCILLATOR, P_TRUE
 from typer.testing import CliRunner
 
 from camsim.cli import app
-from camsim.fit import fit, fitted_text
-from camsim.fit.measured import write_measured
-from camsim.fit.result import FitResult
-from camsim.loader import load_machine_text
-from camsim.simulation import simulate
-from camsim.sweep import machine_value
+from camsim.analyses.fit import fit, fitted_text
+from camsim.analyses.fit.measured import write_measured
+from camsim.analyses.fit.result import FitResult
+from camsim.machine.loader import load_machine_text
+from camsim.run.simulation import simulate
+from camsim.analyses.sweep.runner import machine_value
 
 runner = CliRunner()
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 from machines import H, K_TRUE, MASS, OMEGA, P_TRUE
 
-from camsim.fit import fit
-from camsim.fit.measured import write_measured
+from camsim.analyses.fit import fit
+from camsim.analyses.fit.measured import write_measured
 
 
 def test_product_parameters_are_not_identifiable(product, tmp_path):

@@ -13,12 +13,12 @@ import pytest
 from machines import OSC_ZETA, OSCILLATOR
 
 from camsim.errors import InputError
-from camsim.fit import fit
-from camsim.fit import solve as fit_solve
-from camsim.fit.measured import write_measured
+from camsim.analyses.fit import fit
+from camsim.analyses.fit import solve as fit_solve
+from camsim.analyses.fit.measured import write_measured
 from camsim.io.rowstore import journal_path_for
-from camsim.loader import load_machine_text
-from camsim.simulation import simulate
+from camsim.machine.loader import load_machine_text
+from camsim.run.simulation import simulate
 
 PARAMS = ["element.K.stiffness=10:40N/mm", "element.K.damping_ratio=0.01:0.2"]
 

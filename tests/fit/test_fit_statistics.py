@@ -1,4 +1,4 @@
-"""Numbers of ``camsim.fit`` against references.
+"""Numbers of ``camsim.analyses.fit`` against references.
 
 * Linear case: the cam contact force of a driven mass is linear in the spring's preload
   and stiffness (tests/fit/machines.py: Fc = m·s̈ + P + k·s with the cam's closed-form
@@ -23,11 +23,11 @@ import pytest
 from machines import H, K_TRUE, MASS, OMEGA, OSC_K, OSC_ZETA, OSCILLATOR, P_TRUE
 from scipy import stats
 
-from camsim.fit import fit
-from camsim.fit.measured import write_measured
-from camsim.fit.objective import estimate_sigma
-from camsim.loader import load_machine_text
-from camsim.simulation import simulate
+from camsim.analyses.fit import fit
+from camsim.analyses.fit.measured import write_measured
+from camsim.analyses.fit.objective import estimate_sigma
+from camsim.machine.loader import load_machine_text
+from camsim.run.simulation import simulate
 
 
 def _closed_form_force(t):

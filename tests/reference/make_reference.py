@@ -40,7 +40,7 @@ sys.path.insert(0, str(HERE))
 
 from reference_solver import ATOL_V, ATOL_X, ReferenceSolver  # noqa: E402
 
-from camsim.loader import load_machine, machine_to_dict  # noqa: E402
+from camsim.machine.loader import load_machine, machine_to_dict  # noqa: E402
 
 #: Machines and their reference settings.
 MACHINES = ("cdtm", "dynacam-2mass")

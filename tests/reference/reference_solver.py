@@ -2,7 +2,7 @@
 
 Written from the model contract (``shared/spec/model.md`` §3-§4) only: it does not import
 or copy camsim's model, integrator or simulation code. It uses camsim only for the
-input (:mod:`camsim.loader`, the :mod:`camsim.machine` dataclasses) and for the cam
+input (:mod:`camsim.machine.loader`, the :mod:`camsim.machine.description` dataclasses) and for the cam
 motion (:class:`camsim.cam.program.CamProgram`), which has its own tests.
 
 Method
@@ -53,7 +53,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from camsim.cam.program import CamProgram
-from camsim.machine import CAM, FIXED_NODES, GROUND, Contact, Machine, PreloadedLink, Spring
+from camsim.machine.description import CAM, FIXED_NODES, GROUND, Contact, Machine, PreloadedLink, Spring
 
 __all__ = ["ReferenceResult", "ReferenceSolver", "reference_run"]
 

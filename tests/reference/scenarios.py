@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from camsim.loader import load_machine_text
-from camsim.machine import Machine
+from camsim.machine.loader import load_machine_text
+from camsim.machine.description import Machine
 
 
 @dataclass(frozen=True)

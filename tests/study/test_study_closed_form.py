@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from camsim.study import study
-from camsim.study.distributions import parse_dist
-from camsim.study.sampling import saltelli_design, to_values
-from camsim.study.sensitivity import sobol_from_outputs
+from camsim.analyses.study import study
+from camsim.analyses.study.distributions import parse_dist
+from camsim.analyses.study.sampling import saltelli_design, to_values
+from camsim.analyses.study.sensitivity import sobol_from_outputs
 
 HERE = Path(__file__).parent
 MACHINE = HERE / "driven_follower.toml"

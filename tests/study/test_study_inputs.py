@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from camsim.errors import InputError
-from camsim.study.distributions import parse_dist
-from camsim.study.sampling import apply_copula, correlation_matrix, parse_correlate, to_values, unit_sample
+from camsim.analyses.study.distributions import parse_dist
+from camsim.analyses.study.sampling import apply_copula, correlation_matrix, parse_correlate, to_values, unit_sample
 
 LBF_PER_IN = 0.45359237 * 9.80665 / 0.0254  # [N/m]
 

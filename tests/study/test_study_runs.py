@@ -27,7 +27,7 @@ from typer.testing import CliRunner
 
 from camsim.cli import app
 from camsim.io.hdf5 import read_table
-from camsim.study import StudyInterrupted, study
+from camsim.analyses.study import StudyInterrupted, study
 from camsim.io.rowstore import journal_path_for
 
 HERE = Path(__file__).parent
@@ -207,7 +207,7 @@ def test_config_file_equals_the_options(tmp_path):
 
 def test_plot_is_deterministic(tmp_path):
     res = study(MACHINE, DISTS, 4, method="sobol", seed=1, workers=1, sensitivity=True, limits=["min_cam_contact_force<0N"])
-    from camsim.study.plot import plotted_outputs, save_study_plot
+    from camsim.figures.study import plotted_outputs, save_study_plot
 
     shown = plotted_outputs(res)
     assert shown[0] == "min_cam_contact_force"  # limited outputs first
@@ -229,9 +229,9 @@ def test_dask_local_cluster_gives_the_same_rows():
 
 def test_a_failed_worker_is_not_stored_so_resume_runs_it_again():
     """A run lost with its worker process (the executors' marked row) is not a stored row."""
-    from camsim.study.runner import _run_missing
-    from camsim.study.store import MemoryRowStore
-    from camsim.executors import EXECUTOR_ERROR as _EXECUTOR_ERROR
+    from camsim.analyses.study.runner import _run_missing
+    from camsim.analyses.study.store import MemoryRowStore
+    from camsim.analyses.executors import EXECUTOR_ERROR as _EXECUTOR_ERROR
 
     class Executor:
         name = "fake"

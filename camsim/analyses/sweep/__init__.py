@@ -1,0 +1,1 @@
+"""Parameter and speed sweeps: the grid, the runner, the sweep file."""

@@ -1,0 +1,97 @@
+"""Writing a sweep: the HDF5 table (``/sweep/summary``, units per column) and a CSV beside it."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from camsim.analyses.sweep.runner import SweepResult
+
+
+def csv_path_for(path: str | os.PathLike[str]) -> Path:
+    """The CSV written beside a sweep file: same stem, ``.csv``."""
+    return Path(path).with_suffix(".csv")
+
+
+def csv_cell(value: Any) -> str:
+    """One CSV cell of a result table: true/false, integers, floats that read back exactly."""
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))  # round-trips exactly; nan as "nan"
+    return str(value)
+
+
+def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: str | os.PathLike[str] | None = None) -> tuple[Path, Path]:
+    """Write a sweep as HDF5 (``/sweep/summary``) and the same table as CSV, atomically.
+
+    The HDF5 file carries the root attributes of every camsim file (``file_kind`` =
+    ``"sweep"``, the machine with its ``--set`` overrides); ``/sweep/summary`` is a
+    compound table with a ``units:<column>`` attribute per column and the attributes
+    ``jump_onset_rpm`` and ``first_jump_rpm`` (NaN when None). With kept traces, variant
+    ``k`` (the row index, from 0) is under ``/sweep/variants/<k>/`` in the run layout.
+    The CSV has one header line with the column names and the values in SI (floats
+    written so that they read back exactly; ``nan`` where absent; ``true``/``false``).
+
+    Returns
+    -------
+    (Path, Path)
+        The HDF5 and CSV paths.
+    """
+    from camsim.io.atomic import atomic_path, check_writable
+    from camsim.io.hdf5 import create_file, write_table
+    from camsim.run.runfile import write_root_attributes, write_run_group
+
+    h5_path = Path(path)
+    csv_target = csv_path_for(h5_path) if csv_path is None else Path(csv_path)
+    check_writable(h5_path)
+    check_writable(csv_target)
+    nan = float("nan")
+    with atomic_path(h5_path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, result.machine, "sweep")
+            group = f.create_group("sweep", track_order=True)
+            group.attrs["varied_keys"] = [name[6:] for name, _ in result.columns if name.startswith("param:")]
+            group.attrs["fixed_overrides"] = list(result.fixed_overrides) or [""]
+            s = result.settings
+            group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
+            group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
+            group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
+            group.attrs["interrupted"] = bool(result.interrupted)
+            cols = {name: (result.column(name), unit) for name, unit in result.columns}
+            table = write_table(group, "summary", cols)
+            table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
+            table.attrs["first_jump_rpm"] = nan if result.first_jump_rpm is None else float(result.first_jump_rpm)
+            if result.jump_bracket_rpm is not None:
+                table.attrs["jump_bracket_rpm"] = np.array(result.jump_bracket_rpm, dtype=float)
+            if result.runs:
+                variants = group.create_group("variants", track_order=True)
+                for k, run in enumerate(result.runs):
+                    if run is None:
+                        continue
+                    g = variants.create_group(str(k), track_order=True)
+                    g.attrs["overrides"] = list(result.overrides[k])
+                    write_run_group(g, run)
+    with atomic_path(csv_target) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh)
+            writer.writerow([name for name, _ in result.columns])
+            for row in result.rows:
+                writer.writerow([csv_cell(row[name]) for name, _ in result.columns])
+    return h5_path, csv_target
+
+
+def jsonable_rows(result: "SweepResult") -> list[dict[str, Any]]:
+    """Rows with NaN as None (for ``--json``)."""
+    out = []
+    for row in result.rows:
+        out.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()})
+    return out

@@ -1,0 +1,105 @@
+"""The cam's description in SI: the segment table or a table profile, the linkage, the speed.
+
+Plain frozen dataclasses that the machine loader builds (:mod:`camsim.machine.loader`) and the
+cam program (:mod:`camsim.cam.program`) evaluates; :class:`camsim.machine.description.Machine`
+holds one :class:`Cam`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # issue 14: [cam.geometry]
+    from camsim.cam.geometry import CamGeometry
+
+MOTIONS = ("rise", "fall", "dwell")
+LAWS = ("cycloidal", "harmonic", "modified-trapezoid", "modified-sine", "poly345", "poly4567")
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One row of the cam segment table.
+
+    Attributes
+    ----------
+    motion : str
+        ``"rise"``, ``"fall"`` or ``"dwell"``.
+    law : str or None
+        Motion law (one of :data:`LAWS`); None for a dwell.
+    duration : float
+        Cam angle the segment lasts, β [rad].
+    lift : float
+        Lift at the roller, h [m] (angular lifts already turned into arc length by the
+        follower ``arm``); 0 for a dwell. Always positive: a fall descends by ``lift``.
+    """
+
+    motion: str
+    law: str | None
+    duration: float
+    lift: float
+
+
+@dataclass(frozen=True)
+class CamTable:
+    """A measured or exported cam profile (the thesis imported DYNACAM tables).
+
+    Attributes
+    ----------
+    angle : tuple of float
+        Cam angles [rad], strictly increasing, spanning less than one revolution.
+    displacement : tuple of float
+        Roller lift at each angle [m].
+    velocity, acceleration : tuple of float or None
+        Optional roller velocity [m/s] and acceleration [m/s^2] at the cam's speed, used
+        only to check the spline.
+    source : str
+        The CSV path as written in the machine file.
+    """
+
+    angle: tuple[float, ...]
+    displacement: tuple[float, ...]
+    velocity: tuple[float, ...] | None = None
+    acceleration: tuple[float, ...] | None = None
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Cam:
+    """The cam: constant speed, a segment table or a table profile, the linkage.
+
+    Attributes
+    ----------
+    speed : float
+        Camshaft speed ω [rad/s], > 0.
+    segments : tuple of Segment
+        The segment table (empty when ``table`` is given).
+    table : CamTable or None
+        A table profile replacing the segments.
+    ratio : float
+        Roller motion → model axis (dimensionless), default 1.
+    arm : float or None
+        Follower arm [m] that turned angular lifts into arc length at the roller.
+    drives : str or None
+        Name of the mass whose motion the cam prescribes exactly.
+    start_angle : float
+        θ0 [rad], cam angle at t = 0.
+    geometry : CamGeometry or None
+        The cam's shape and follower arrangement (``[cam.geometry]``), None if not given.
+    """
+
+    speed: float
+    segments: tuple[Segment, ...] = ()
+    table: CamTable | None = None
+    ratio: float = 1.0
+    arm: float | None = None
+    drives: str | None = None
+    start_angle: float = 0.0
+    geometry: CamGeometry | None = None  # issue 14: [cam.geometry]
+
+    @property
+    def period(self) -> float:
+        """One revolution, T = 2π/ω [s]."""
+        import math
+
+        return 2.0 * math.pi / self.speed

@@ -1,0 +1,253 @@
+"""Rigid contacts that act together: Newton's impact law and resting forces as small LCPs.
+
+Every rigid (``law = "restitution"``) contact that touches at an instant — the one whose
+guard fired, those closing at the same instant and those already resting (stuck) — is
+resolved at once (spec §3):
+
+**Impulses.** With w the separation rate of each touching contact (w = Ġ·v + g_s·ṡ =
+−δ̇, positive opening), J its rows G and W = J·M⁻¹·Jᵀ (the contacts' mutual inverse
+inertia), the impulses P ≥ 0 change the rates to w⁺ = w⁻ + W·P. Newton's law per contact
+with momentum conservation is the linear complementarity problem
+
+    y = W·P + (w⁻ − e∘max(−w⁻, 0)) ≥ 0,   P ≥ 0,   Pᵀ·y = 0
+
+(a contact either takes no impulse and separates at least as fast as Newton's law asks, or
+takes an impulse and rebounds exactly at e times its approach). W is symmetric positive
+definite when the contacts are independent, so the LCP has exactly one solution.
+
+**Chatter.** A contact that rebounds with w⁺ > 0 while the rest of the machine presses it
+closed (relative acceleration a < 0 with it open) would bounce in flights of
+2w⁺/|a|, 2e·w⁺/|a|, … ending after 2w⁺/(|a|(1 − e)): when that is below
+:data:`ZENO_TIME`, or the first flight would rise less than the rounding of its own
+guard (:data:`APEX_RTOL`), it rests at once: the velocities are projected onto zero relative velocity
+(the plastic impulse, momentum conserved) and it sticks (spec §4).
+
+**Resting forces.** Contacts left at zero relative velocity carry forces λ ≥ 0 with
+relative accelerations a = a_open + W·λ ≥ 0, λᵀ·a = 0 (the same W), a_open being the
+accelerations with all of them open: the same LCP one derivative up. A contact with λ > 0,
+or with λ = a = 0 (a plastic pair moving on together, no force needed), becomes
+persistent (``stick``); one with a > 0 opens. A persistent contact opens (``release``)
+when its force reaches zero (its guard in :mod:`camsim.engine.integrator`); the LCP is then solved
+again for the others, the released one held open unless the machine still presses it
+closed.
+
+The LCPs are solved by enumeration of the active set (at most :data:`MAX_CONTACTS`
+contacts at one instant: 2^r small solves, exact to rounding; for a P-matrix the first
+consistent set is the solution).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from camsim.elements import Branch
+from camsim.errors import SimulationError
+from camsim.elements.events import EventKind
+
+#: A rigid contact whose remaining chatter time is below this sticks at once [s].
+ZENO_TIME = 1e-11
+#: Touching: penetration above −TOUCH [m] (contacts closing at the same instant).
+TOUCH = 1e-12
+#: A rebound whose first flight would rise less than this, relative to the magnitude of
+#: the positions that make up its penetration, sticks at once (the flight is below the
+#: rounding of its own guard and cannot be resolved).
+APEX_RTOL = 256 * 2.0**-52
+#: Largest number of rigid contacts resolved together at one instant.
+MAX_CONTACTS = 12
+
+
+def solve_lcp(W: np.ndarray, q: np.ndarray, tol: float = 0.0) -> np.ndarray:
+    """x ≥ 0 with y = W·x + q ≥ 0 and xᵀ·y = 0, W a small P-matrix.
+
+    Parameters
+    ----------
+    W : ndarray (r, r)
+        Symmetric positive definite [any consistent units].
+    q : ndarray (r,)
+    tol : float
+        Slack allowed on the signs (rounding).
+
+    Returns
+    -------
+    ndarray (r,)
+        The unique solution.
+    """
+    r = q.size
+    if r == 0:
+        return np.zeros(0)
+    if r > MAX_CONTACTS:
+        raise SimulationError(f"{r} rigid contacts at one instant (at most {MAX_CONTACTS} are supported)")
+    if np.all(q >= -tol):
+        return np.zeros(r)
+    best = None
+    for size in range(1, r + 1):
+        for active in itertools.combinations(range(r), size):
+            idx = list(active)
+            x = np.zeros(r)
+            try:
+                x[idx] = np.linalg.solve(W[np.ix_(idx, idx)], -q[idx])
+            except np.linalg.LinAlgError:
+                continue
+            y = W @ x + q
+            y[idx] = 0.0
+            violation = max(float(np.max(-x, initial=0.0)), float(np.max(-y, initial=0.0)))
+            if violation <= tol:
+                return x
+            if best is None or violation < best[0]:
+                best = (violation, x)
+    return np.maximum(best[1], 0.0)
+
+
+def _rows(model, indices, signs):
+    # A contact on side σ of a two-sided element (a lash) has rows σ·G, σ·g_s (issue 12).
+    J = np.array([sign * model.geometry[i].G for i, sign in zip(indices, signs)]).reshape(len(indices), model.n)
+    js = np.array([sign * model.geometry[i].g_s for i, sign in zip(indices, signs)])
+    return J, js
+
+
+def resolve(integrator, state, trigger: int, kind: str):
+    """The state after every rigid contact touching at ``state.t`` is resolved.
+
+    Parameters
+    ----------
+    integrator : camsim.engine.integrator.Integrator
+    state : camsim.engine.integrator.State
+        The state at the event (before it).
+    trigger : int
+        Element index whose guard fired.
+    kind : str
+        The guard's kind: ``"close"`` (an impact) or ``"release"`` (a persistent contact's
+        force reached zero).
+
+    Returns
+    -------
+    camsim.engine.integrator.State
+        Velocities after the impulses, rigid branches STUCK or OPEN; events recorded
+        (``impact`` per closing contact, ``stick``, ``release``).
+    """
+    from camsim.engine.integrator import State
+
+    model = integrator.model
+    t = state.t
+    u = integrator.inputs(np.array([t]))[0]
+    branches = list(state.branches)
+    rigid = [
+        (pos, i) for pos, i in enumerate(model.switching)
+        if Branch.STUCK in model.branch_options(i)
+    ]
+    touching = []
+    sides = []
+    for pos, i in rigid:
+        delta, _ = integrator.relative_rate(state, i)
+        if i == trigger or model.is_rigid(i, branches[pos]) or delta >= -TOUCH:
+            touching.append((pos, i))
+            d = float(model.deflection(i, state.x, u[0]))
+            sides.append(model.elements[i].contact_side(branches[pos], d))
+    idx = [i for _, i in touching]
+    J, js = _rows(model, idx, [sign for sign, _ in sides])
+    minv = 1.0 / model.mass
+    W = (J * minv[None, :]) @ J.T
+    if idx and np.linalg.matrix_rank(W) < len(idx):
+        raise SimulationError(
+            "rigid contacts " + ", ".join(model.elements[i].name for i in idx)
+            + f" over-constrain the masses at t = {t:.12g} s"
+        )
+    v = state.v.copy()
+    w_minus = J @ v + js * u[1]
+    e = np.array([model.elements[i].restitution or 0.0 for i in idx])
+    scale_v = 1.0 + float(np.max(np.abs(w_minus), initial=0.0))
+    vel_tol = 1e-12 * scale_v
+    closing = w_minus < -vel_tol
+
+    # Relative accelerations with every touching contact open (for chatter and forces).
+    open_branches = list(branches)
+    for pos, _ in touching:
+        open_branches[pos] = Branch.OPEN
+    open_branches = tuple(open_branches)
+
+    def open_accelerations(v_now):
+        config = model.configuration(open_branches)
+        z = config.state_from_full(state.x, v_now, u[0], u[1])
+        fn = integrator.nonlinear_forces(config, z[None, :], u[None, :], state.v_impacts)
+        acc = config.a(z[None, :], u[None, :], fn)[0]
+        return J @ acc + js * u[2], acc
+
+    # ---- impulses (Newton's law per contact, one LCP)
+    P = np.zeros(len(idx))
+    if np.any(closing):
+        q = w_minus - e * np.maximum(-w_minus, 0.0)
+        P = solve_lcp(W, q, tol=1e-14 * scale_v)
+        v = v + minv * (J.T @ P)
+    w_plus = w_minus + W @ P
+    for k, (pos, i) in enumerate(touching):
+        if closing[k]:
+            integrator._record(t, i, EventKind.IMPACT, -w_minus[k])
+
+    # ---- which contacts rest: zero relative velocity, or a chatter that ends at once
+    a_open, acc = open_accelerations(v)
+    scale_a = 1.0 + float(np.max(np.abs(acc), initial=0.0)) + abs(model.gravity)
+    acc_tol = 1e-10 * scale_a
+    resting = []
+    for k in range(len(idx)):
+        if abs(w_plus[k]) <= vel_tol:
+            resting.append(k)
+        elif w_plus[k] > 0.0 and a_open[k] < -acc_tol:
+            # Pressed closed while it rebounds: flights 2w/|a|, 2e·w/|a|, … ending after
+            # 2w/(|a|(1 − e)), and the first rising w²/(2|a|). Unresolvable (the flight
+            # below the length tolerance) or over within ZENO_TIME: it rests now.
+            remaining = 2.0 * w_plus[k] / (-a_open[k] * (1.0 - min(e[k], 1.0 - 1e-16)))
+            apex = w_plus[k] ** 2 / (-2.0 * a_open[k])
+            i = idx[k]
+            scale_x = abs(sides[k][1]) + abs(float(J[k] @ state.x)) + abs(js[k] * u[0])
+            if remaining < ZENO_TIME or apex < APEX_RTOL * scale_x:
+                resting.append(k)
+    stuck = set()
+    if resting:
+        candidates = list(resting)
+        if kind == "release":
+            # The trigger's force has just reached zero going down: it opens unless the
+            # machine presses it closed outright.
+            k_trig = idx.index(trigger)
+            if k_trig in candidates and a_open[k_trig] >= -acc_tol:
+                candidates.remove(k_trig)
+        if candidates:
+            Wc = W[np.ix_(candidates, candidates)]
+            lam = solve_lcp(Wc, a_open[candidates], tol=1e-14 * scale_a * max(1.0, float(np.max(np.abs(Wc)))))
+            a_after = a_open[candidates] + Wc @ lam
+            for k, lk, ak in zip(candidates, lam, a_after):
+                if lk > 0.0 or ak <= acc_tol:
+                    stuck.add(k)
+        # project the velocities of the persistent contacts onto zero relative velocity
+        if stuck:
+            S = sorted(stuck)
+            Js, jss = J[S], js[S]
+            residual = Js @ v + jss * u[1]
+            Ws = W[np.ix_(S, S)]
+            v = v - minv * (Js.T @ np.linalg.solve(Ws, residual))
+
+    # Penetrations left by a coarse grid (warm-up steps represent the cam input less
+    # exactly than the event check evaluates it) are removed by the smallest mass-weighted
+    # shift of positions (≤ nm), so that every guard holds after the event.
+    x = state.x.copy()
+    pen = []
+    for k, (pos, i) in enumerate(touching):
+        delta, _ = integrator.relative_rate(state, i)
+        if delta > 0.0:
+            pen.append((k, delta))
+    if pen:
+        K = [k for k, _ in pen]
+        d = np.array([dl for _, dl in pen])
+        # δ = gap − (G·x + g_s·s): raise G·x by δ with the least Σ m·Δx²
+        x = x + minv * (J[K].T @ np.linalg.solve(W[np.ix_(K, K)], d))
+    for k, (pos, i) in enumerate(touching):
+        was = branches[pos]
+        was_stuck = model.is_rigid(i, was)
+        now = model.elements[i].stuck_branch(sides[k][0]) if k in stuck else Branch.OPEN
+        if now != Branch.OPEN and not was_stuck:
+            integrator._record(t, i, EventKind.STICK, 0.0)
+        elif now == Branch.OPEN and was_stuck:
+            integrator._record(t, i, EventKind.RELEASE, -w_plus[k])
+        branches[pos] = now
+    return State(t, x, v, tuple(branches), dict(state.v_impacts))

@@ -1,0 +1,1 @@
+"""Figures from camsim results (matplotlib): runs, comparisons, sweeps, cam design, studies, fits."""

@@ -1,0 +1,694 @@
+"""Figures from camsim result files: cam SVAJ, mass motions, forces, comparisons, sweeps.
+
+Every ``plot_*`` function returns a :class:`matplotlib.figure.Figure` and draws nothing
+on a screen: figures are built with the object-oriented API (``Figure()``, never
+``pyplot``), so no display and no GUI backend is involved and a user's own pyplot backend
+is left alone. :func:`make_plots` builds every figure a file calls for, keyed by a stable
+name, and :func:`save_figures` writes them (each to a temporary name, then renamed).
+
+Figure names are ``<stem>_<what>``, where ``<stem>`` is the input file's stem and
+``<what>`` mirrors the HDF5 path, e.g. ``cdtm_masses_M2_acceleration``,
+``cdtm_elements_seat_force``, ``cdtm_cam_svaj``, ``cdtm_compare_M2_acceleration``,
+``sweep_sweep_M2``.
+
+Values are plotted in the SI units stored in the file; every axis label carries them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import h5py
+import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+
+from camsim.errors import InputError, ResultFileError
+from camsim.io.atomic import atomic_path
+from camsim.io.results import (
+    file_kind,
+    long_name_of,
+    names_with,
+    open_h5,
+    read_events,
+    require,
+    table_units,
+    units_of,
+)
+
+#: Plot families, in the order :func:`make_plots` builds them.
+PLOT_KINDS = ("svaj", "masses", "forces", "compare", "sweep", "design")  # design: issue 14
+#: Mass quantities that can be chosen with ``quantities``.
+QUANTITIES = ("displacement", "velocity", "acceleration")
+#: Output formats of :func:`save_figures`.
+FORMATS = ("png", "svg", "pdf")
+#: Event kinds marked as impacts on the traces.
+IMPACT_KINDS = ("impact", "rejoin")
+#: At most this many impacts are labelled with text on one axes (all are marked).
+MAX_LABELS = 12
+
+#: Which plot families each file kind offers, and which it draws by default.
+_OFFERS = {
+    "run": ("svaj", "masses", "forces", "design"),
+    "cam": ("svaj", "design"),
+    "compare": ("compare",),
+    "sweep": ("sweep",),
+}
+
+#: Style for figures readable at report size (≈ 16 cm wide).
+_STYLE = {
+    "font.size": 10.0,
+    "axes.titlesize": 10.0,
+    "axes.labelsize": 10.0,
+    "legend.fontsize": 9.0,
+    "xtick.labelsize": 9.0,
+    "ytick.labelsize": 9.0,
+    "axes.grid": True,
+    "grid.alpha": 0.35,
+    "lines.linewidth": 1.2,
+    "svg.hashsalt": "camsim",
+    "axes.formatter.useoffset": False,
+    "axes.formatter.limits": (-3, 4),
+}
+_WIDTH = 6.5  # [in]
+
+
+# --------------------------------------------------------------------------------------
+# Windows and small helpers
+
+
+def parse_window(text: str | None, what: str = "window") -> tuple[float | None, float | None] | None:
+    """Parse ``"a:b"`` (either end may be empty) into ``(a, b)``; ``None`` stays ``None``.
+
+    Raises
+    ------
+    InputError
+        For anything else, or ``a >= b``.
+    """
+    if text is None:
+        return None
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise InputError(f"{what}: expected START:END (e.g. 0.1:0.3), got {text!r}")
+    bounds: list[float | None] = []
+    for part in parts:
+        part = part.strip()
+        if not part:
+            bounds.append(None)
+            continue
+        try:
+            value = float(part)
+        except ValueError:
+            raise InputError(f"{what}: {part!r} is not a number (expected START:END)") from None
+        if not np.isfinite(value):
+            raise InputError(f"{what}: {part!r} is not a finite number")
+        bounds.append(value)
+    lo, hi = bounds
+    if lo is not None and hi is not None and lo >= hi:
+        raise InputError(f"{what}: start {lo:g} is not before end {hi:g}")
+    return lo, hi
+
+
+def _in(values: np.ndarray, window: tuple[float | None, float | None] | None) -> np.ndarray:
+    mask = np.ones(values.shape, dtype=bool)
+    if window is None:
+        return mask
+    lo, hi = window
+    if lo is not None:
+        mask &= values >= lo
+    if hi is not None:
+        mask &= values <= hi
+    return mask
+
+
+def _window_text(time_window, angle_window) -> str:
+    if time_window is not None:
+        lo, hi = time_window
+        return f"--time {'' if lo is None else f'{lo:g}'}:{'' if hi is None else f'{hi:g}'} s"
+    lo, hi = angle_window
+    return f"--angle {'' if lo is None else f'{lo:g}'}:{'' if hi is None else f'{hi:g}'} deg"
+
+
+def _sample_mask(group: h5py.Group, time_window, angle_window, angle_source: h5py.Group | None = None) -> np.ndarray:
+    """Which samples of ``group``'s time base lie in the window (all of them without one).
+
+    ``angle_source`` provides ``cam/angle`` when ``group`` has none (the difference group
+    of a comparison), interpolated onto ``group``'s time.
+    """
+    t = require(group, "time")[()]
+    if time_window is not None:
+        mask = _in(t, time_window)
+    elif angle_window is not None:
+        if "cam/angle" in group:
+            angle = group["cam/angle"][()]
+        elif angle_source is not None and "cam/angle" in angle_source:
+            angle = np.interp(t, angle_source["time"][()], angle_source["cam/angle"][()])
+        else:
+            raise ResultFileError(f"{group.file.filename}: {group.name.rstrip('/')}/cam/angle: not in the file (needed by --angle)")
+        mask = _in(angle, angle_window)
+    else:
+        return np.ones(t.shape, dtype=bool)
+    if not mask.any():
+        raise InputError(
+            f"{group.file.filename}: {_window_text(time_window, angle_window)}: no samples in the window "
+            f"(the file covers t = {t[0]:g} .. {t[-1]:g} s)"
+        )
+    return mask
+
+
+def pretty_units(units: str) -> str:
+    """Display form of a unit text: ``m/s^2`` -> ``m/s²``."""
+    return units.replace("^2", "²").replace("^3", "³").replace("^-1", "⁻¹")
+
+
+def axis_label(name: str, units: str) -> str:
+    """``name [units]`` (``name`` alone for dimensionless quantities)."""
+    return f"{name} [{pretty_units(units)}]" if units not in ("", "1") else name
+
+
+def _safe(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_") or "x"
+
+
+def _new_figure(height: float, nrows: int = 1, sharex: bool = True) -> tuple[Figure, list]:
+    fig = Figure(figsize=(_WIDTH, height), layout="constrained")
+    axes = fig.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
+    return fig, list(axes)
+
+
+def _impact_rows(events: dict[str, np.ndarray] | None, *, mass: str | None = None, element: str | None = None):
+    """Indices of impact/rejoin events that involve ``mass`` or ``element``."""
+    if not events or "kind" not in events or len(events["kind"]) == 0:
+        return []
+    rows = []
+    involved = events.get("masses")
+    for i, kind in enumerate(events["kind"]):
+        if kind not in IMPACT_KINDS:
+            continue
+        if mass is not None and (involved is None or mass not in str(involved[i]).split("/")):
+            continue
+        if element is not None and str(events["element"][i]) != element:
+            continue
+        rows.append(i)
+    return rows
+
+
+def _mark_impacts(ax, t: np.ndarray, y: np.ndarray, events, rows: Sequence[int]) -> None:
+    """Mark impacts at their times on the curve (t, y) and label them (element, |Δv|)."""
+    times = np.array([float(events["time"][i]) for i in rows])
+    keep = (times >= t[0]) & (times <= t[-1]) if t.size else np.zeros(times.shape, bool)
+    rows = [r for r, k in zip(rows, keep) if k]
+    if not rows:
+        return
+    times = times[keep]
+    values = np.interp(times, t, y)
+    ax.scatter(times, values, marker="v", s=36, color="tab:red", zorder=5, label="impact")
+    for n, (i, ti, yi) in enumerate(zip(rows, times, values)):
+        if n >= MAX_LABELS:
+            break
+        text = str(events["element"][i])
+        if "relative_velocity" in events and np.isfinite(events["relative_velocity"][i]):
+            text += f"\n{abs(float(events['relative_velocity'][i])):.3g} m/s"
+        ax.annotate(
+            text,
+            (ti, yi),
+            xytext=(4, 8),
+            textcoords="offset points",
+            fontsize=8,
+            color="tab:red",
+        )
+
+
+# --------------------------------------------------------------------------------------
+# Run files
+
+
+def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str = "") -> Figure:
+    """Cam displacement, velocity, acceleration and jerk against cam angle (four panels).
+
+    Segment joins (``cam/boundaries_deg``, in [0, 360)) are drawn as vertical lines at
+    every cycle the plotted angle range passes through.
+
+    Parameters
+    ----------
+    group : h5py.Group
+        A run layout (file root) or a cam file.
+    time_window : (float or None, float or None), optional
+        Only samples with time in this range [s].
+    angle_window : (float or None, float or None), optional
+        Only samples with cam angle in this range [deg] (the continuing angle).
+    title : str
+        Figure title.
+    """
+    angle_ds = require(group, "cam/angle", "cam angle for the SVAJ plot")
+    angle = angle_ds[()]
+    if time_window is not None or angle_window is not None:
+        if time_window is not None and "time" not in group:
+            raise InputError(f"{group.file.filename}: --time: this file has no time axis; use --angle")
+        mask = _sample_mask(group, time_window, angle_window) if "time" in group else _in(angle, angle_window)
+        if not mask.any():
+            raise InputError(f"{group.file.filename}: {_window_text(time_window, angle_window)}: no samples in the window")
+    else:
+        mask = np.ones(angle.shape, dtype=bool)
+    x = angle[mask]
+    names = ("displacement", "velocity", "acceleration", "jerk")
+    dsets = [require(group, f"cam/{q}", "cam SVAJ") for q in names]
+    boundaries = group["cam/boundaries_deg"][()] if "cam/boundaries_deg" in group else np.array([])
+    marks = np.array([])
+    if boundaries.size and x.size:
+        lo, hi = float(x.min()), float(x.max())
+        if angle_window is not None:  # joins at the window's edges are drawn too
+            lo = angle_window[0] if angle_window[0] is not None else lo
+            hi = angle_window[1] if angle_window[1] is not None else hi
+        cycles = np.arange(np.floor(lo / 360.0), np.floor(hi / 360.0) + 1)
+        marks = (boundaries[None, :] + 360.0 * cycles[:, None]).ravel()
+        marks = np.unique(marks[(marks >= lo) & (marks <= hi)])
+    with matplotlib.rc_context(_STYLE):
+        fig, axes = _new_figure(8.0, 4)
+        for ax, q, ds in zip(axes, names, dsets):
+            ax.plot(x, ds[()][mask], color="tab:blue")
+            ax.set_ylabel(axis_label(q, units_of(ds)))
+            if marks.size:
+                ax.vlines(marks, 0, 1, transform=ax.get_xaxis_transform(), colors="0.5", linestyles=":", linewidth=0.9)
+        axes[-1].set_xlabel(axis_label("cam angle", units_of(angle_ds)))
+        fig.suptitle(title or "cam displacement, velocity, acceleration, jerk")
+    return fig
+
+
+def plot_trace(
+    group: h5py.Group,
+    path: str,
+    time_window=None,
+    angle_window=None,
+    events: dict[str, np.ndarray] | None = None,
+    impacts_of_mass: str | None = None,
+    impacts_of_element: str | None = None,
+    shade_negative: bool = False,
+    title: str = "",
+) -> Figure:
+    """One trace of a run layout against time, impacts marked and labelled.
+
+    Parameters
+    ----------
+    group : h5py.Group
+        The run layout (file root or ``/impact`` etc.).
+    path : str
+        Trace path relative to ``group``, e.g. ``"masses/M2/acceleration"``.
+    events : dict, optional
+        The events table (:func:`camsim.io.results.read_events`).
+    impacts_of_mass, impacts_of_element : str, optional
+        Mark the impact/rejoin events whose ``masses`` include this mass or whose
+        ``element`` is this element.
+    shade_negative : bool
+        Shade where the trace is negative (a cam contact force below zero: jump).
+    """
+    ds = require(group, path)
+    mask = _sample_mask(group, time_window, angle_window)
+    time_ds = group["time"]
+    t = time_ds[()][mask]
+    y = ds[()][mask]
+    with matplotlib.rc_context(_STYLE):
+        fig, (ax,) = _new_figure(3.6)
+        ax.plot(t, y, color="tab:blue", label=long_name_of(ds))
+        if shade_negative and np.any(y < 0):
+            ax.fill_between(t, y, 0.0, where=y < 0, color="tab:red", alpha=0.3, linewidth=0, label="jump (force < 0)")
+            ax.legend(loc="best")
+        if events is not None and (impacts_of_mass or impacts_of_element):
+            rows = _impact_rows(events, mass=impacts_of_mass, element=impacts_of_element)
+            _mark_impacts(ax, t, y, events, rows)
+        ax.set_xlabel(axis_label("time", units_of(time_ds)))
+        ax.set_ylabel(axis_label(path.rsplit("/", 1)[-1], units_of(ds)))
+        ax.set_title(title or long_name_of(ds))
+    return fig
+
+
+def plot_mass(group: h5py.Group, mass: str, quantity: str, time_window=None, angle_window=None, title: str = "") -> Figure:
+    """Displacement, velocity or acceleration of one mass against time, its impacts marked."""
+    _check_quantity(quantity)
+    return plot_trace(
+        group,
+        f"masses/{mass}/{quantity}",
+        time_window,
+        angle_window,
+        events=read_events(group),
+        impacts_of_mass=mass,
+        title=title or f"{quantity} of {mass}",
+    )
+
+
+def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None, title: str = "") -> Figure:
+    """An element, cam-contact or transducer force against time.
+
+    Impacts of the element are marked on element forces; a negative cam contact force
+    (the follower leaves the cam: jump) is shaded.
+    """
+    element = path.split("/")[1] if path.startswith("elements/") else None
+    return plot_trace(
+        group,
+        path,
+        time_window,
+        angle_window,
+        events=read_events(group),
+        impacts_of_element=element,
+        shade_negative=path == "cam_contact/force",
+        title=title,
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Comparison files
+
+
+def plot_compare(f: h5py.Group, mass: str, quantity: str, time_window=None, angle_window=None) -> Figure:
+    """Impact vs no-impact overlay with the percent difference under it (thesis figs 8.21-8.26).
+
+    Top panel: ``/impact/masses/<mass>/<quantity>`` and ``/no_impact/...`` against their
+    own time; bottom panel: ``/difference/masses/<mass>/<quantity>`` [%], defined as
+    100·(impact − no_impact)/max|impact|.
+    """
+    _check_quantity(quantity)
+    path = f"masses/{mass}/{quantity}"
+    groups = {}
+    for name in ("impact", "no_impact", "difference"):
+        if name not in f:
+            raise ResultFileError(f"{f.file.filename}: /{name}: not in the file (not a comparison file?)")
+        groups[name] = f[name]
+    data = {}
+    for name, g in groups.items():
+        ds = require(g, path)
+        mask = _sample_mask(g, time_window, angle_window, angle_source=groups["impact"])
+        data[name] = (g["time"][()][mask], ds[()][mask], ds)
+    with matplotlib.rc_context(_STYLE):
+        fig = Figure(figsize=(_WIDTH, 5.0), layout="constrained")
+        top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
+        t, y, ds = data["impact"]
+        top.plot(t, y, color="tab:blue", label="with impact")
+        t2, y2, _ = data["no_impact"]
+        top.plot(t2, y2, color="tab:orange", linestyle="--", label="without impact")
+        top.set_ylabel(axis_label(quantity, units_of(ds)))
+        top.legend(loc="best")
+        top.set_title(f"{quantity} of {mass}: with and without impact")
+        td, d, dds = data["difference"]
+        bottom.plot(td, d, color="tab:green")
+        bottom.set_ylabel(axis_label("difference", units_of(dds) or "%"))
+        bottom.set_xlabel(axis_label("time", units_of(groups["impact"]["time"])))
+    return fig
+
+
+# --------------------------------------------------------------------------------------
+# Sweep files
+
+
+def _sweep_table(f: h5py.Group) -> tuple[dict[str, np.ndarray], dict[str, str], str]:
+    from camsim.io.hdf5 import read_table
+
+    ds = require(f, "sweep/summary", "sweep table")
+    table = read_table(ds)
+    units = table_units(ds)
+    params = [c for c in table if c.startswith("param:")]
+    if not params:
+        raise ResultFileError(f"{f.file.filename}: /sweep/summary: no param:<key> column")
+    ok = np.ones(len(table[params[0]]), dtype=bool)
+    if "status" in table:
+        ok = np.array([str(s) == "ok" for s in table["status"]], dtype=bool)
+    if not ok.any():
+        raise ResultFileError(f"{f.file.filename}: /sweep/summary: no point has status ok, nothing to plot")
+    table = {k: v[ok] for k, v in table.items()}
+    return table, units, params[0]
+
+
+#: Swept parameters shown in a unit designers read more easily than SI: (unit, factor).
+_SWEEP_DISPLAY_UNITS = {"rad/s": ("rpm", 60.0 / (2.0 * np.pi)), "rad": ("deg", 180.0 / np.pi)}
+
+
+def _sweep_figure(table, units, xcol: str, columns: Sequence[str], title: str) -> Figure:
+    x = np.asarray(table[xcol], dtype=float)
+    x_unit = units.get(xcol, "")
+    if x_unit in _SWEEP_DISPLAY_UNITS:
+        x_unit, factor = _SWEEP_DISPLAY_UNITS[x_unit]
+        x = x * factor
+    order = np.argsort(x, kind="stable")
+    with matplotlib.rc_context(_STYLE):
+        fig, axes = _new_figure(max(2.4 * len(columns), 3.6), len(columns))
+        for ax, col in zip(axes, columns):
+            ax.plot(x[order], np.asarray(table[col], dtype=float)[order], marker="o", markersize=4, color="tab:blue")
+            ax.set_ylabel(axis_label(col.replace("_", " ").replace(":", " "), units.get(col, "")), fontsize=9)
+        axes[-1].set_xlabel(axis_label(xcol.removeprefix("param:"), x_unit))
+        fig.suptitle(title)
+    return fig
+
+
+def plot_sweep_mass(f: h5py.Group, mass: str, quantities: Sequence[str] = QUANTITIES) -> Figure:
+    """Peak displacement/velocity/acceleration of one mass against the first swept parameter.
+
+    Points whose ``status`` is not ``"ok"`` are left out.
+    """
+    table, units, xcol = _sweep_table(f)
+    cols = []
+    for q in quantities:
+        _check_quantity(q)
+        col = f"peak_{q}:{mass}"
+        if col not in table:
+            raise ResultFileError(f"{f.file.filename}: /sweep/summary: no column {col}")
+        cols.append(col)
+    return _sweep_figure(table, units, xcol, cols, f"peaks of {mass}")
+
+
+def sweep_masses(f: h5py.Group) -> list[str]:
+    """Masses with peak columns in a sweep table."""
+    ds = require(f, "sweep/summary")
+    names = []
+    for col in ds.dtype.names or ():
+        if col.startswith("peak_displacement:"):
+            names.append(col.split(":", 1)[1])
+    return names
+
+
+def plot_sweep_columns(f: h5py.Group, columns: Sequence[str], title: str) -> Figure | None:
+    """The given summary columns (those present and not all NaN) against the first parameter."""
+    table, units, xcol = _sweep_table(f)
+    cols = [c for c in columns if c in table and np.any(np.isfinite(np.asarray(table[c], dtype=float)))]
+    if not cols:
+        return None
+    return _sweep_figure(table, units, xcol, cols, title)
+
+
+# --------------------------------------------------------------------------------------
+# Everything a file calls for
+
+
+def _check_quantity(quantity: str) -> None:
+    if quantity not in QUANTITIES:
+        raise InputError(f"--quantity: unknown quantity {quantity!r} (one of {', '.join(QUANTITIES)})")
+
+
+def _split(values: Iterable[str] | None) -> list[str]:
+    out: list[str] = []
+    for v in values or ():
+        out.extend(p.strip() for p in str(v).split(",") if p.strip())
+    return out
+
+
+def _pick_masses(f: h5py.File, available: list[str], wanted: list[str], where: str) -> list[str]:
+    if not available:
+        raise ResultFileError(f"{f.filename}: {where}: no masses in the file")
+    if not wanted:
+        return available
+    for m in wanted:
+        if m not in available:
+            raise InputError(f"{f.filename}: --mass {m}: no such mass in the file (has {', '.join(available)})")
+    return wanted
+
+
+def make_plots(
+    path: str | os.PathLike[str],
+    what: Iterable[str] | None = None,
+    masses: Iterable[str] | None = None,
+    quantities: Iterable[str] | None = None,
+    time_window: tuple[float | None, float | None] | None = None,
+    angle_window: tuple[float | None, float | None] | None = None,
+) -> dict[str, Figure]:
+    """Build every figure requested from a result file, keyed by stable names.
+
+    Parameters
+    ----------
+    path : path
+        A camsim result file (run, compare, sweep or cam).
+    what : iterable of str, optional
+        Plot families (:data:`PLOT_KINDS`; comma-separated strings allowed). Default:
+        everything the file kind offers (run: svaj, masses, forces; compare: compare;
+        sweep: sweep; cam: svaj).
+    masses : iterable of str, optional
+        Masses to plot (default all).
+    quantities : iterable of str, optional
+        Among displacement, velocity, acceleration (default all three).
+    time_window : (float or None, float or None), optional
+        Time range [s].
+    angle_window : (float or None, float or None), optional
+        Cam-angle range [deg] of the continuing angle ``/cam/angle``.
+
+    Returns
+    -------
+    dict
+        ``{"<stem>_masses_M2_acceleration": Figure, ...}`` in a stable order.
+
+    Raises
+    ------
+    InputError, ResultFileError
+        For a file that is not a camsim result, a plot family the file does not hold,
+        an unknown mass or quantity, an empty window. No figure is returned then.
+    """
+    with open_h5(path) as f:
+        return figures_for_file(f, what, masses, quantities, time_window, angle_window, stem=Path(path).stem)
+
+
+def figures_for_file(
+    f: h5py.File,
+    what: Iterable[str] | None = None,
+    masses: Iterable[str] | None = None,
+    quantities: Iterable[str] | None = None,
+    time_window: tuple[float | None, float | None] | None = None,
+    angle_window: tuple[float | None, float | None] | None = None,
+    stem: str = "run",
+) -> dict[str, Figure]:
+    """The figures of :func:`make_plots` from an open result file (or an in-memory image
+    of a :class:`~camsim.run.result.RunResult`); figure names start with ``stem``."""
+    if time_window is not None and angle_window is not None:
+        raise InputError("--time and --angle: give one window, not both")
+    stem = _safe(stem)
+    wanted_masses = _split(masses)
+    wanted_q = _split(quantities) or list(QUANTITIES)
+    for q in wanted_q:
+        _check_quantity(q)
+    kinds = _split(what)
+    for k in kinds:
+        if k not in PLOT_KINDS:
+            raise InputError(f"--what: unknown plot {k!r} (one of {', '.join(PLOT_KINDS)})")
+    figs: dict[str, Figure] = {}
+    kind = file_kind(f)
+    offers = _OFFERS[kind]
+    explicit = bool(kinds)
+    if not kinds:
+        kinds = list(offers)
+    for k in kinds:
+        if k not in offers:
+            raise ResultFileError(
+                f"{f.filename}: --what {k}: not available in a {kind} file (this file offers {', '.join(offers)})"
+            )
+    kinds = [k for k in PLOT_KINDS if k in kinds]
+    for k in kinds:
+        if k == "svaj":
+            figs[f"{stem}_cam_svaj"] = plot_svaj(f, time_window, angle_window)
+        elif k == "masses":
+            chosen = _pick_masses(f, names_with(f, "masses", wanted_q[0]), wanted_masses, "/masses")
+            for m in chosen:
+                for q in wanted_q:
+                    figs[f"{stem}_masses_{_safe(m)}_{q}"] = plot_mass(f, m, q, time_window, angle_window)
+        elif k == "forces":
+            paths = [f"elements/{e}/force" for e in names_with(f, "elements", "force")]
+            paths += [p for p in ("cam_contact/force", "transducer/force") if p in f]
+            if not paths and explicit:
+                raise ResultFileError(f"{f.filename}: --what forces: no element, cam-contact or transducer forces in the file")
+            for p in paths:
+                figs[f"{stem}_{_safe(p.replace('/', '_'))}"] = plot_force(f, p, time_window, angle_window)
+        elif k == "compare":
+            if "impact" not in f:
+                raise ResultFileError(f"{f.filename}: /impact: not in the file (not a comparison file?)")
+            chosen = _pick_masses(f, names_with(f["impact"], "masses", wanted_q[0]), wanted_masses, "/impact/masses")
+            for m in chosen:
+                for q in wanted_q:
+                    figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window)
+        elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
+            if "cam/pressure_angle" not in f:
+                if explicit:
+                    raise ResultFileError(f"{f.filename}: --what design: no /cam/pressure_angle (the machine has no [cam.geometry])")
+                continue
+            from camsim.figures.cam import plot_design_file
+
+            figs[f"{stem}_cam_design"] = plot_design_file(f, time_window, angle_window)
+        elif k == "sweep":
+            if time_window is not None or angle_window is not None:
+                raise InputError("--time/--angle: a sweep plot has no time axis")
+            chosen = _pick_masses(f, sweep_masses(f), wanted_masses, "/sweep/summary")
+            for m in chosen:
+                figs[f"{stem}_sweep_{_safe(m)}"] = plot_sweep_mass(f, m, wanted_q)
+            extra = {
+                "forces": (("peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force"), "peak forces"),
+                "impacts": (("impacts", "max_impact_velocity"), "impacts"),
+                # issue 14: the design chart (pressure angle, radius, stress, torque vs the parameter)
+                "design": (("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque"), "cam design"),
+            }
+            if not wanted_masses:
+                for name, (cols, title) in extra.items():
+                    fig = plot_sweep_columns(f, cols, title)
+                    if fig is not None:
+                        figs[f"{stem}_sweep_{name}"] = fig
+    return figs
+
+
+
+
+def default_output_dir(path: str | os.PathLike[str]) -> Path:
+    """``<dir of input>/<stem>_plots``."""
+    p = Path(path)
+    return p.parent / f"{p.stem}_plots"
+
+
+def prepare_output_dir(out_dir: str | os.PathLike[str]) -> Path:
+    """Create ``out_dir`` if needed and check that files can be written in it.
+
+    Raises
+    ------
+    InputError
+        One line naming the directory.
+    """
+    d = Path(out_dir)
+    if d.exists() and not d.is_dir():
+        raise InputError(f"{d}: output directory is a file")
+    if not d.exists():
+        try:
+            d.mkdir(parents=True)
+        except OSError as exc:
+            raise InputError(f"{d}: cannot create the output directory ({exc.strerror or exc})") from None
+    if not os.access(d, os.W_OK | os.X_OK):
+        raise InputError(f"{d}: output directory is not writable")
+    return d
+
+
+_METADATA = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}
+
+
+def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fmt: str = "png", dpi: float = 150.0) -> list[Path]:
+    """Write each figure as ``out_dir/<name>.<fmt>``, each to a temporary name then renamed.
+
+    Parameters
+    ----------
+    figures : dict
+        Name -> Figure, as returned by :func:`make_plots`.
+    out_dir : path
+        Created if missing.
+    fmt : str
+        ``png``, ``svg`` or ``pdf``.
+    dpi : float
+        Resolution of raster output [dots per inch].
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order of ``figures``.
+    """
+    if fmt not in FORMATS:
+        raise InputError(f"--format: unknown format {fmt!r} (one of {', '.join(FORMATS)})")
+    if not (dpi > 0 and np.isfinite(dpi)):
+        raise InputError(f"--dpi: must be positive, got {dpi:g}")
+    d = prepare_output_dir(out_dir)
+    written = []
+    for name, fig in figures.items():
+        target = d / f"{name}.{fmt}"
+        with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
+        written.append(target)
+    return written

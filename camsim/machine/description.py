@@ -1,0 +1,147 @@
+"""The machine description in SI: plain dataclasses that the rest of camsim uses.
+
+:func:`camsim.machine.loader.load_machine` builds these from a TOML machine file; everything
+below the loader (cam program, model, integrator) sees only these floats in SI units:
+m, kg, s, N, rad. Node names are ``"ground"``, ``"cam"`` or a mass name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+# Elements are the element kinds' own classes (camsim/elements/); re-exported here because
+# a Machine is made of them.
+from camsim.elements import (  # noqa: E402,F401 - re-exported
+    CAM,
+    FIXED_NODES,
+    GROUND,
+    Contact,
+    Damping,
+    Element,
+    LinearContact,
+    PowerContact,
+    PreloadedLink,
+    RigidContact,
+    Spring,
+)
+
+# The cam's own description lives with the cam (camsim/cam/description.py); re-exported here
+# because a Machine is made of it.
+from camsim.cam.description import LAWS, MOTIONS, Cam, CamTable, Segment  # noqa: E402,F401 - re-exported
+
+#: Standard gravity [m/s^2] (CGPM 1901), used for ``gravity = true``.
+STANDARD_GRAVITY = 9.80665
+
+
+@dataclass(frozen=True)
+class Mass:
+    """A lumped mass on the model axis: ``mass`` [kg] > 0."""
+
+    name: str
+    mass: float
+
+
+@dataclass(frozen=True)
+class InitialCondition:
+    """Initial displacement [m] and/or velocity [m/s] of one free mass."""
+
+    mass: str
+    displacement: float | None = None
+    velocity: float | None = None
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """Run settings.
+
+    Attributes
+    ----------
+    cycles : int
+        Recorded revolutions (≥ 1).
+    warmup_cycles : int
+        Revolutions computed and discarded first (≥ 0).
+    sample_rate : float
+        Output samples per second [Hz].
+    gravity : float
+        Acceleration of gravity along −x [m/s^2]; 0 for none.
+    duration : float or None
+        Recorded time [s] instead of ``cycles`` (required when there is no cam).
+    """
+
+    cycles: int = 1
+    warmup_cycles: int = 1
+    sample_rate: float = 50_000.0
+    gravity: float = 0.0
+    duration: float | None = None
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A whole machine in SI, as loaded from a machine file.
+
+    Attributes
+    ----------
+    name : str
+        ``[machine] name``.
+    cam : Cam or None
+        None when the machine has no cam: the ``cam`` node stays at x = 0.
+    masses : tuple of Mass
+    elements : tuple of Element
+    simulation : Simulation
+    initial : tuple of InitialCondition
+    source : str
+        The file the machine came from (for messages), ``"<string>"`` otherwise.
+    text : str
+        The TOML text as read (stored in result files).
+    """
+
+    name: str
+    cam: Cam | None
+    masses: tuple[Mass, ...]
+    elements: tuple[Element, ...]
+    simulation: Simulation = field(default_factory=Simulation)
+    initial: tuple[InitialCondition, ...] = ()
+    source: str = "<string>"
+    text: str = ""
+    base_dir: str = "."
+
+    def with_values(self, values: dict) -> "Machine":
+        """A modified copy: ``{KEY: VALUE}`` in the ``--set`` grammar, checked like the file.
+
+        >>> stiffer = machine.with_values({"element.K12.stiffness": "1.7e6 N/m"})  # doctest: +SKIP
+
+        Keys and values as on the command line (``cam.speed``, ``mass.M2.mass``,
+        ``element.seat.stiffness``, ``cam.segments[2].lift``, ``simulation.cycles``...);
+        a string value carries its units. Raises :class:`~camsim.errors.MachineFileError`
+        naming the key for an unknown key or a bad value.
+        """
+        from pathlib import Path
+
+        from camsim.machine.loader import assignments, load_machine_text
+
+        return load_machine_text(self.text, source=self.source, base_dir=Path(self.base_dir), overrides=assignments(values))
+
+    def mass_of(self, name: str) -> float:
+        """Mass [kg] of the mass called ``name``."""
+        for m in self.masses:
+            if m.name == name:
+                return m.mass
+        raise KeyError(name)
+
+    @property
+    def free_masses(self) -> tuple[Mass, ...]:
+        """Masses that are degrees of freedom (all but the one the cam drives)."""
+        driven = self.cam.drives if self.cam is not None else None
+        return tuple(m for m in self.masses if m.name != driven)
+
+    def element(self, name: str) -> Element:
+        for e in self.elements:
+            if e.name == name:
+                return e
+        raise KeyError(name)
+
+__all__ = [
+    "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
+    "PreloadedLink", "RigidContact", "Spring", "Cam", "CamTable", "InitialCondition", "Machine", "Mass",
+    "Segment", "Simulation", "LAWS", "MOTIONS", "STANDARD_GRAVITY",
+]

@@ -1,0 +1,187 @@
+"""Command-line overrides (``--set KEY=VALUE``) applied to a parsed machine document.
+
+The key grammar addresses masses and elements by name and segments by index::
+
+    cam.speed=150 rpm            cam.segments[2].lift=0.4 in
+    mass.M2.mass=1.7 lb          element.seat.stiffness=9e6
+    simulation.cycles=3          initial.M3.velocity=-0.2 m/s
+
+An overridden value is then checked by the validator exactly like one in the file.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Sequence
+from typing import Any
+
+from camsim import elements as element_kinds
+from camsim.errors import MachineFileError
+from camsim.machine.validator import (
+    CAM_KEYS,
+    ELEMENT_COMMON_KEYS,
+    INITIAL_KEYS,
+    MACHINE_KEYS,
+    MASS_KEYS,
+    SEGMENT_KEYS,
+    SIMULATION_KEYS,
+    TOP_KEYS,
+    _suggest,
+)
+
+
+# --------------------------------------------------------------------------------------
+# Overrides
+# --------------------------------------------------------------------------------------
+_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
+
+
+def _parse_value(text: str) -> Any:
+    """VALUE of ``KEY=VALUE``: a TOML value if it parses as one, else the string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def _named_rows(rows: Any) -> dict[str, dict]:
+    if not isinstance(rows, list):
+        return {}
+    return {r["name"]: r for r in rows if isinstance(r, dict) and isinstance(r.get("name"), str)}
+
+
+def _apply_override(doc: dict, assignment: str, source: str) -> str:
+    """Apply ``assignment``; return the canonical key path it set (for messages)."""
+    if "=" not in assignment:
+        raise MachineFileError(source, assignment, 'override must be KEY=VALUE, e.g. cam.speed="150 rpm"')
+    key, _, raw = assignment.partition("=")
+    key = key.strip()
+    value = _parse_value(raw)
+    parts = key.split(".")
+    matches = [_PART.match(p) for p in parts]
+    if not key or not all(matches):
+        raise MachineFileError(source, key, "malformed override key (write e.g. cam.segments[2].lift)")
+    names = [(m.group(1), None if m.group(2) is None else int(m.group(2))) for m in matches]
+
+    def unknown(valid: Sequence[str], word: str) -> MachineFileError:
+        return MachineFileError(source, key, f"unknown key; {_suggest(word, valid)}")
+
+    head, head_index = names[0]
+    if head not in TOP_KEYS:
+        raise unknown(TOP_KEYS, head)
+    if head == "schema":
+        if len(names) != 1 or head_index is not None:
+            raise MachineFileError(source, key, "schema takes a number: schema=1")
+        doc["schema"] = value
+        return "schema"
+    if len(names) == 1:
+        raise MachineFileError(source, key, f"name a key inside [{head}], e.g. {_example(head)}")
+
+    if head in ("machine", "simulation"):
+        valid = MACHINE_KEYS if head == "machine" else SIMULATION_KEYS
+        (leaf, leaf_index), rest = names[1], names[2:]
+        if head_index is not None or leaf_index is not None or rest or leaf not in valid:
+            raise unknown([f"{head}.{k}" for k in valid], key)
+        _table(doc, head, source)[leaf] = value
+        return f"{head}.{leaf}"
+
+    if head == "cam":
+        (leaf, leaf_index), rest = names[1], names[2:]
+        if head_index is not None or leaf not in CAM_KEYS:
+            raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
+        cam = _table(doc, "cam", source)
+        if leaf == "geometry" and leaf_index is None:  # issue 14: cam.geometry.<key>[.<key>]
+            from camsim.cam.geometry import apply_geometry_override
+
+            return apply_geometry_override(cam, key, rest, value, source)
+        if leaf != "segments":
+            if leaf_index is not None or rest:
+                raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
+            cam[leaf] = value
+            return f"cam.{leaf}"
+        segments = cam.get("segments")
+        if leaf_index is None or len(rest) != 1 or rest[0][1] is not None:
+            raise MachineFileError(source, key, "address one segment key, e.g. cam.segments[2].lift")
+        if not isinstance(segments, list) or leaf_index >= len(segments):
+            count = len(segments) if isinstance(segments, list) else 0
+            raise MachineFileError(
+                source, key, f"no segment {leaf_index}: the file has {count} (indices start at 0)"
+            )
+        seg_key = rest[0][0]
+        if seg_key not in SEGMENT_KEYS:
+            raise unknown([f"cam.segments[{leaf_index}].{k}" for k in SEGMENT_KEYS], key)
+        if not isinstance(segments[leaf_index], dict):
+            raise MachineFileError(source, key, "that segment is not a table")
+        segments[leaf_index][seg_key] = value
+        return f"cam.segments[{leaf_index}].{seg_key}"
+
+    # mass.<name>.<key>, element.<name>.<key>, initial.<mass>.<key>
+    # (mass[1].mass and element[3].stiffness, as in error messages, are accepted too)
+    if head in ("mass", "element"):
+        rows = doc.get(head)
+        if not isinstance(rows, list):
+            raise MachineFileError(source, key, f"the file has no [[{head}]]")
+        if head_index is not None:
+            if head_index >= len(rows) or not isinstance(rows[head_index], dict):
+                raise MachineFileError(
+                    source, key, f"no {head}[{head_index}]: the file has {len(rows)} (indices start at 0)"
+                )
+            index, rest = head_index, names[1:]
+        else:
+            row_name = names[1][0]
+            by_name = [i for i, r in enumerate(rows) if isinstance(r, dict) and r.get("name") == row_name]
+            if names[1][1] is not None or not by_name:
+                existing = list(_named_rows(rows))
+                raise MachineFileError(
+                    source, key, f"no {head} named '{row_name}'; {_suggest(row_name, existing)}"
+                )
+            index, rest = by_name[0], names[2:]
+        row = rows[index]
+        if head == "mass":
+            valid = MASS_KEYS
+        else:
+            kind = row.get("type")
+            valid = ELEMENT_COMMON_KEYS + (element_kinds.type_keys(kind) if isinstance(kind, str) else ())
+        prefix = f"{head}[{index}]" if head_index is not None else f"{head}.{names[1][0]}"
+        if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in valid:
+            word = rest[0][0] if rest else ""
+            raise unknown([f"{prefix}.{k}" for k in valid], f"{prefix}.{word}")
+        row[rest[0][0]] = value
+        return f"{head}[{index}].{rest[0][0]}"
+
+    # initial.<mass>.<key>
+    mass_name = names[1][0]
+    masses = list(_named_rows(doc.get("mass")))
+    if head_index is not None or names[1][1] is not None:
+        raise MachineFileError(source, key, "address initial conditions as initial.<mass>.<key>")
+    if mass_name not in masses:
+        raise MachineFileError(source, key, f"no mass named '{mass_name}'; {_suggest(mass_name, masses)}")
+    rest = names[2:]
+    if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in INITIAL_KEYS:
+        word = rest[0][0] if rest else ""
+        raise unknown([f"initial.{mass_name}.{k}" for k in INITIAL_KEYS], f"initial.{mass_name}.{word}")
+    initial = _table(doc, "initial", source)
+    entry = initial.setdefault(mass_name, {})
+    if not isinstance(entry, dict):
+        raise MachineFileError(source, f"initial.{mass_name}", "expected a table")
+    entry[rest[0][0]] = value
+    return f"initial.{mass_name}.{rest[0][0]}"
+
+
+def _example(head: str) -> str:
+    return {
+        "machine": "machine.name=...",
+        "cam": 'cam.speed="150 rpm"',
+        "mass": 'mass.M2.mass="1.7 lb"',
+        "element": "element.seat.stiffness=9e6",
+        "simulation": "simulation.cycles=3",
+        "initial": 'initial.M3.velocity="-0.2 m/s"',
+    }[head]
+
+
+def _table(doc: dict, name: str, source: str) -> dict:
+    table = doc.setdefault(name, {})
+    if not isinstance(table, dict):
+        raise MachineFileError(source, name, "expected a table")
+    return table

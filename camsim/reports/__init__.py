@@ -1,0 +1,1 @@
+"""Human-readable output: text summaries on the terminal and the units they are shown in."""

@@ -1,0 +1,176 @@
+"""Know before you start: the number of samples and bytes a run will store.
+
+A run's output grows with recorded time × sample rate × number of traces. A mistyped
+``--set simulation.sample_rate=1e12Hz`` or ``simulation.cycles=100000`` would otherwise
+be accepted and fill the disk. :func:`estimate_run` gives the size from the machine alone
+(no integration, milliseconds), and :func:`check_budget` refuses a run above
+``--max-output`` (default :data:`DEFAULT_MAX_OUTPUT`) with one line that gives the
+estimate and the options that reduce it.
+
+The estimate is an upper bound of the stored size: float64 samples, uncompressed, of the
+traces the run stores — all of them (time, cam angle, displacement, velocity,
+acceleration and jerk, three traces per mass, one force per element, the cam contact and
+transducer forces) unless ``--record``, ``--record-last`` or ``--summary-only`` say
+otherwise. ``camsim run`` streams its traces to the file, so memory does not grow with
+this size; the disk does.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+from camsim.errors import InputError
+
+__all__ = ["DEFAULT_MAX_OUTPUT", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
+
+#: Default largest estimated output of a run without ``--yes`` [bytes] (2 GB).
+DEFAULT_MAX_OUTPUT = 2_000_000_000
+
+_SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*([kKMGT]i?B|B)?\s*$")
+_FACTORS = {"B": 1, "kB": 1e3, "KB": 1e3, "MB": 1e6, "GB": 1e9, "TB": 1e12, "KiB": 2**10, "kiB": 2**10, "MiB": 2**20, "GiB": 2**30, "TiB": 2**40}
+
+
+def parse_size(text: str, option: str = "--max-output") -> int:
+    """Bytes of a size text: ``2GB``, ``500 MB``, ``1.5GiB``, ``1e9`` (bare: bytes).
+
+    Raises
+    ------
+    InputError
+        Not a size.
+    """
+    m = _SIZE.match(str(text))
+    if not m or (m.group(2) or "B") not in _FACTORS:
+        raise InputError(f"{option} {text}: expected a size such as 2GB, 500MB or 1.5GiB")
+    return int(float(m.group(1)) * _FACTORS[m.group(2) or "B"])
+
+
+def format_size(n: float) -> str:
+    """``2.1 GB``, ``340 MB``, ``12 kB`` (decimal prefixes)."""
+    for unit, factor in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= factor:
+            return f"{n / factor:.3g} {unit}"
+    return f"{int(n)} B"
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Size of a run's output, computed before it runs.
+
+    Attributes
+    ----------
+    samples : float
+        Output samples per trace.
+    traces : int
+        Traces stored.
+    bytes : float
+        ``samples × traces × 8`` [B] (float64, uncompressed).
+    revolutions : float
+        Revolutions integrated (warm-up included; 0 for a machine without a cam).
+    recorded_s : float
+        Recorded duration [s].
+    """
+
+    samples: float
+    traces: int
+    bytes: float
+    revolutions: float
+    recorded_s: float
+
+
+def count_traces(machine) -> int:
+    """Traces a run of ``machine`` writes (time and cam traces included).
+
+    The layout (spec §7) has the five cam traces even without a cam (zeros); the cam
+    contact force when the cam drives a mass. ``camsim run`` counts the paths of
+    :func:`camsim.run.stream.machine_trace_layout` instead, which also knows ``--record``.
+    """
+    n = 1  # time
+    n += 5  # cam angle, displacement, velocity, acceleration, jerk
+    if machine.cam is not None and machine.cam.drives:
+        n += 1  # cam contact force
+    n += 3 * len(machine.masses)
+    n += len(machine.elements)
+    if any(getattr(e, "transducer", False) for e in machine.elements):
+        n += 1
+    return n
+
+
+def estimate_run(
+    machine,
+    cycles: int | None = None,
+    warmup_cycles: int | None = None,
+    sample_rate: float | None = None,
+    traces: int | None = None,
+    record_fraction: float = 1.0,
+) -> Estimate:
+    """Estimate what a run of ``machine`` with these settings stores (as ``simulate`` would run it).
+
+    Parameters
+    ----------
+    machine : Machine
+    cycles, warmup_cycles : int, optional
+        Overrides of ``[simulation]`` (as in :func:`camsim.run.simulation.simulate`).
+    sample_rate : float, optional
+        Override of the output sample rate [Hz].
+    traces : int, optional
+        Traces stored (default: all, :func:`count_traces`); 0 for a summary-only run.
+    record_fraction : float
+        Fraction of the recorded time whose samples are kept (``--record-last``).
+    """
+    sim = machine.simulation
+    rate = sample_rate if sample_rate is not None else sim.sample_rate
+    n_cycles = cycles if cycles is not None else sim.cycles
+    warm = warmup_cycles if warmup_cycles is not None else sim.warmup_cycles
+    duration = None if cycles is not None else sim.duration
+    period = None
+    if machine.cam is not None:
+        from camsim.cam import CamProgram
+
+        period = CamProgram(machine.cam).period
+    if duration is not None:
+        recorded = float(duration)
+    elif period is not None:
+        recorded = float(n_cycles) * period
+    else:
+        recorded = 0.0
+    revolutions = 0.0 if period is None else recorded / period + (warm or 0)
+    samples = math.floor(recorded * rate * record_fraction) + 1 if rate > 0 else 0
+    n = count_traces(machine) if traces is None else traces
+    return Estimate(samples=float(samples), traces=n, bytes=float(samples) * n * 8.0, revolutions=revolutions, recorded_s=recorded)
+
+
+def record_fraction(machine, record_last: int | None, cycles: int | None = None) -> float:
+    """Fraction of the recorded time that ``--record-last N`` keeps (1 without it)."""
+    if not record_last or machine.cam is None:
+        return 1.0
+    from camsim.cam import CamProgram
+
+    period = CamProgram(machine.cam).period
+    sim = machine.simulation
+    recorded = float(cycles) * period if cycles is not None else (sim.duration if sim.duration is not None else sim.cycles * period)
+    return min(1.0, record_last * period / recorded) if recorded > 0 else 1.0
+
+
+#: What reduces a run's output, as the guard's message names it.
+REDUCE_HINT = (
+    "store less with --record PATTERN (e.g. transducer/*,masses/M3/*), --record-last N "
+    "(revolutions) or --summary-only, or record less with --cycles (simulation.cycles or "
+    "simulation.duration) or --sample-rate; or raise --max-output, or pass --yes to run it anyway"
+)
+
+
+def check_budget(estimate: Estimate, max_bytes: float, where: str) -> None:
+    """Raise :class:`InputError` when the estimate exceeds ``max_bytes``.
+
+    The message gives the estimate and the options that reduce it (exit 2 on the
+    command line; nothing has run, nothing is written).
+    """
+    if estimate.bytes <= max_bytes:
+        return
+    raise InputError(
+        f"{where}: the run would store {estimate.samples:.3g} samples x {estimate.traces} traces "
+        f"= {format_size(estimate.bytes)} ({estimate.recorded_s:.4g} s recorded), above --max-output "
+        f"{format_size(max_bytes)}; {REDUCE_HINT}"
+    )

@@ -1,0 +1,436 @@
+"""The run result: the hub every command, writer and plot reads.
+
+:func:`camsim.run.simulation.simulate` returns a :class:`RunResult`; :func:`open_result` reads
+the same object back from an HDF5 file. Every derived quantity (peaks, the cam force and
+its extremes, the jump flag, impact summaries, the flat scalars of sweeps and studies) is
+computed here, once, so ``run``, ``sweep``, ``compare``, ``study`` and ``fit`` cannot
+disagree about it. The HDF5 layout (spec §7) is :meth:`RunResult.traces`: the writer
+only iterates over it.
+
+Adding an output quantity: compute it in :meth:`RunResult.traces` (a trace) or
+:meth:`RunResult.scalars` (a number) with its units; the writers, ``--json``, sweeps,
+studies and fits pick it up from there.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from camsim.errors import ResultFileError
+from camsim.elements.events import Event, EventKind, EventTable
+from camsim.machine.description import CAM, Machine
+
+#: SI units of the per-mass kinematic quantities.
+QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
+MASS_QUANTITIES = ("displacement", "velocity", "acceleration")
+
+#: Scalars of every run after the per-mass peaks, with their SI units.
+FIXED_SCALARS: tuple[tuple[str, str], ...] = (
+    ("peak_transducer_force", "N"),
+    ("max_cam_contact_force", "N"),
+    ("min_cam_contact_force", "N"),
+    ("jump", ""),
+    ("impacts", ""),
+    ("max_impact_velocity", "m/s"),
+    ("periodicity_residual", ""),
+)
+
+
+@dataclass(frozen=True)
+class Trace:
+    """One sampled quantity on the run's time base.
+
+    Attributes
+    ----------
+    data : ndarray (N,)
+        The samples, SI.
+    units : str
+        Their unit (``"N"``, ``"m/s^2"``, ``"deg"``...).
+    long_name : str
+        What they are, for files and axis labels.
+    """
+
+    data: np.ndarray
+    units: str
+    long_name: str
+
+
+def missing_scalar(name: str):
+    """The value a table shows for a scalar a run did not produce (a failed or cancelled
+    run): no jump, no impacts, NaN for every number."""
+    return {"jump": False, "impacts": 0}.get(name, float("nan"))
+
+
+def scalar_columns(masses: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
+    """Names and SI units of :meth:`RunResult.scalars` for a machine with ``masses``."""
+    cols = [(f"peak_{q}:{m}", QUANTITY_UNITS[q]) for m in masses for q in MASS_QUANTITIES]
+    return cols + list(FIXED_SCALARS)
+
+
+@dataclass
+class RunResult:
+    """Traces, events and derived quantities of one run, all SI, on a uniform time grid.
+
+    Attributes
+    ----------
+    machine : Machine
+    time : ndarray (N,)
+        [s], 0 at the start of the first recorded cycle.
+    cam : dict
+        ``angle`` [deg] (continuing past 360), ``displacement`` [m], ``velocity`` [m/s],
+        ``acceleration`` [m/s^2], ``jerk`` [m/s^3] on the model axis.
+    masses : dict
+        name → {``displacement``, ``velocity``, ``acceleration``} (a driven mass too).
+    elements : dict
+        name → force [N] (tension-positive springs/links, compressive-positive contacts).
+    cam_contact_force : ndarray or None
+        Force of the cam on the driven mass [N] (``cam.drives``).
+    transducer_force : ndarray or None
+        Sum of the contacts marked ``transducer = true`` [N].
+    events : EventTable
+        Events of the recorded window, times on the ``time`` base.
+    periodicity_residual : float
+        Largest difference between the state at the start of the first recorded cycle and
+        one revolution before, relative to each quantity's peak (NaN when not computed).
+    warnings : list of str
+    no_impact : bool
+        True for the no-impact variant (spec §4).
+    boundaries_deg : ndarray
+        Cam angles of the segment joins [deg].
+    sample_rate : float
+        Output sample rate [Hz].
+    """
+
+    machine: Machine
+    time: np.ndarray
+    cam: dict[str, np.ndarray]
+    masses: dict[str, dict[str, np.ndarray]]
+    elements: dict[str, np.ndarray]
+    cam_contact_force: np.ndarray | None
+    transducer_force: np.ndarray | None
+    events: EventTable
+    periodicity_residual: float
+    warnings: list[str] = field(default_factory=list)
+    no_impact: bool = False
+    boundaries_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    sample_rate: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.events, EventTable):
+            self.events = EventTable(self.events)
+
+    # ------------------------------------------------------------------ traces
+    def traces(self) -> dict[str, Trace]:
+        """Every trace of the result file, by its path (spec §7), in file order."""
+        return dict(self._traces)
+
+    @cached_property
+    def _traces(self) -> dict[str, Trace]:
+        out: dict[str, Trace] = {"time": Trace(self.time, "s", "time")}
+        out["cam/angle"] = Trace(self.cam["angle"], "deg", "cam angle θ0 + ω·t")
+        for quantity in ("displacement", "velocity", "acceleration", "jerk"):
+            out[f"cam/{quantity}"] = Trace(self.cam[quantity], QUANTITY_UNITS[quantity], f"cam {quantity} on the model axis")
+        for name, traces in self.masses.items():
+            for quantity in MASS_QUANTITIES:
+                out[f"masses/{name}/{quantity}"] = Trace(traces[quantity], QUANTITY_UNITS[quantity], f"{quantity} of {name}")
+        for element in self.machine.elements:
+            if element.name not in self.elements:
+                continue
+            sense = element.force_sense
+            out[f"elements/{element.name}/force"] = Trace(
+                self.elements[element.name], "N", f"force of {element.name} ({sense})"
+            )
+        if self.cam_contact_force is not None:
+            out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
+        if self.transducer_force is not None:
+            out["transducer/force"] = Trace(self.transducer_force, "N", "force read by the transducer")
+        from camsim.cam.design import design_traces  # issue 14: cam design traces with [cam.geometry]
+
+        for path, (data, units, long_name) in design_traces(self).items():
+            out[path] = Trace(data, units, long_name)
+        return out
+
+    def trace(self, path: str) -> np.ndarray:
+        """The samples of one trace, by its result path (``"transducer/force"``,
+        ``"masses/M3/acceleration"``, ``"elements/K23/force"``; a leading ``/`` is allowed).
+
+        Raises
+        ------
+        KeyError
+            With the list of the paths this result has.
+        """
+        key = path.strip().lstrip("/")
+        hit = self._traces.get(key)
+        if hit is None:
+            raise KeyError(f"no trace {path!r} in this result; it has: {', '.join(self._traces)}")
+        return hit.data
+
+    def units(self, path: str) -> str:
+        """SI unit of a trace (see :meth:`trace`) or of a scalar (see :meth:`scalars`)."""
+        key = path.strip().lstrip("/")
+        if key in self._traces:
+            return self._traces[key].units
+        units = dict(scalar_columns(list(self.masses)))
+        from camsim.cam.design import design_columns  # issue 14
+
+        units.update(design_columns(self.machine))
+        if key in units:
+            return units[key]
+        raise KeyError(f"no trace or scalar {path!r} in this result")
+
+    # ------------------------------------------------------------------ derived quantities
+    @cached_property
+    def cam_force(self) -> np.ndarray | None:
+        """Force of the cam on the follower [N], compressive-positive.
+
+        The cam contact force of a driven mass (``cam.drives``); for a cam that acts
+        through contact elements (``between = ["cam", ...]``), the sum of their forces;
+        None when the machine has neither.
+        """
+        if self.cam_contact_force is not None:
+            return self.cam_contact_force
+        names = [e.name for e in self._cam_contacts if e.name in self.elements]
+        if not names:
+            return None
+        return np.sum([np.asarray(self.elements[n], dtype=float) for n in names], axis=0)
+
+    @property
+    def _cam_contacts(self) -> list:
+        return [e for e in self.machine.elements if e.unilateral and CAM in e.nodes]
+
+    def impacts(self) -> EventTable:
+        """Impact-like events (contacts closing and links rejoining)."""
+        return self.events.impacts()
+
+    def follower_jumps(self) -> bool:
+        """True when the follower leaves the cam (negative cam force, or a cam contact opens)."""
+        return bool(self._scalars["jump"])
+
+    def scalars(self) -> dict[str, Any]:
+        """The flat summary of the run (SI; NaN where a quantity does not apply).
+
+        ``peak_<quantity>:<mass>`` (largest |sample|), ``peak_transducer_force``,
+        ``max_cam_contact_force`` / ``min_cam_contact_force`` (of :attr:`cam_force`),
+        ``jump``, ``impacts`` (count), ``max_impact_velocity``, ``periodicity_residual``.
+        Units: :func:`scalar_columns`. Sweeps, studies and fits read these.
+        """
+        return dict(self._scalars)
+
+    @cached_property
+    def _scalars(self) -> dict[str, Any]:
+        nan = float("nan")
+        out: dict[str, Any] = {}
+        for name, traces in self.masses.items():
+            for quantity in MASS_QUANTITIES:
+                data = traces[quantity]
+                out[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
+        tf = self.transducer_force
+        out["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
+        cf = self.cam_force
+        out["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
+        out["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
+        cam_contacts = {e.name for e in self._cam_contacts}
+        out["jump"] = bool(
+            (cf is not None and cf.size and float(np.min(cf)) < 0)
+            or any(ev.kind == EventKind.RELEASE and ev.element in cam_contacts for ev in self.events)
+        )
+        impacts = self.impacts()
+        out["impacts"] = len(impacts)
+        speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
+        out["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
+        out["periodicity_residual"] = float(self.periodicity_residual)
+        from camsim.cam.design import design_row  # issue 14: design scalars with [cam.geometry]
+
+        out.update(design_row(self))
+        return out
+
+    def design_summary(self, cs: float | None = None) -> dict | None:
+        """Cam design checks, stress, torque and flywheel (:func:`camsim.cam.design.design_summary`).
+
+        ``cs`` is the coefficient of speed fluctuation for the flywheel inertia. None
+        without ``[cam.geometry]``.
+        """
+        from camsim.cam.design import design_summary  # issue 14
+
+        return design_summary(self, cs)
+
+    def summary(self) -> dict:
+        """Peaks (with when), forces, impacts and residual as plain JSON-able values (SI)."""
+        out: dict = {"machine": self.machine.name, "no_impact": self.no_impact, "masses": {}}
+        for name, traces in self.masses.items():
+            entry = {}
+            for quantity, data in traces.items():
+                k = int(np.argmax(np.abs(data))) if data.size else 0
+                entry[quantity] = {"peak": float(np.abs(data[k])) if data.size else 0.0, "time": float(self.time[k]) if data.size else 0.0}
+            out["masses"][name] = entry
+        out["peak_transducer_force"] = _extreme(self.transducer_force, self.time, np.argmax)
+        out["max_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmax)
+        out["min_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmin)
+        out["jump"] = self.follower_jumps()
+        out["impacts"] = [e.to_dict() for e in self.impacts()]
+        out["events"] = len(self.events)
+        out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
+        out["warnings"] = list(self.warnings)
+        design = self.design_summary()  # issue 14: with [cam.geometry]
+        if design is not None:
+            out["design"] = design
+        return out
+
+    # ------------------------------------------------------------------ views
+    def to_pandas(self):
+        """The traces as a :class:`pandas.DataFrame` indexed by time [s].
+
+        Columns are the result paths; ``frame.attrs["units"]`` maps each to its unit.
+        The event table is ``result.events.to_pandas()``.
+        """
+        from camsim.extras import require
+
+        pd = require("pandas", "pandas")
+        traces = self._traces
+        columns, units = {}, {}
+        for path, t in traces.items():
+            if path == "time":
+                continue
+            if t.data.ndim == 2:  # issue 14: x-y curves (cam/pitch_curve, cam/surface) as two columns
+                for k, axis in enumerate("xy"):
+                    columns[f"{path}/{axis}"], units[f"{path}/{axis}"] = t.data[:, k], t.units
+            else:
+                columns[path], units[path] = t.data, t.units
+        frame = pd.DataFrame(columns, index=pd.Index(self.time, name="time"))
+        frame.attrs["units"] = {"time": "s", **units}
+        return frame
+
+    def to_xarray(self):
+        """The traces as an :class:`xarray.Dataset`: time as the coordinate, one variable
+        per result path, ``units`` and ``long_name`` attributes kept; the event table on
+        an ``event`` dimension."""
+        from camsim.extras import require
+
+        xr = require("xarray", "xarray")
+        traces = self._traces
+        data_vars = {
+            path: (("time", "xy") if t.data.ndim == 2 else "time", t.data, {"units": t.units, "long_name": t.long_name})
+            for path, t in traces.items() if path != "time"
+        }  # ("time", "xy"): issue 14's x-y curves
+        for name, (values, units) in self.events.columns().items():
+            data_vars[f"events/{name}"] = ("event", values, {"units": units})
+        return xr.Dataset(
+            data_vars,
+            coords={"time": ("time", self.time, {"units": "s", "long_name": "time"})},
+            attrs={"machine_name": self.machine.name, "no_impact": int(self.no_impact), "sample_rate": self.sample_rate},
+        )
+
+    def plot(self, out_dir: str | os.PathLike[str] | None = None, **options) -> dict:
+        """The ``camsim plot`` figures of this run.
+
+        Parameters
+        ----------
+        out_dir : path, optional
+            Where to save them (PNG); without it the matplotlib figures are returned.
+        **options
+            As :func:`camsim.figures.plots.make_plots` (``what``, ``masses``, ``quantities``,
+            ``time_window``, ``angle_window``).
+
+        Returns
+        -------
+        dict
+            Figure name → :class:`matplotlib.figure.Figure` (or → saved path with ``out_dir``).
+        """
+        import h5py
+
+        from camsim.run.runfile import write_root_attributes, write_run_group
+        from camsim.figures.plots import figures_for_file, save_figures
+
+        # The figures are drawn from the result layout (the same code as for a file),
+        # here an in-memory HDF5 image that never touches the disk.
+        with h5py.File(f"camsim-{id(self)}.h5", "w", driver="core", backing_store=False) as f:
+            write_root_attributes(f, self.machine, "run")
+            write_run_group(f, self)
+            figures = figures_for_file(f, **options)
+        if out_dir is None:
+            return figures
+        return dict(zip(figures, save_figures(figures, out_dir)))
+
+
+def _extreme(values: np.ndarray | None, time: np.ndarray, pick) -> dict | None:
+    if values is None or not values.size:
+        return None
+    k = int(pick(values))
+    return {"value": float(values[k]), "time": float(time[k])}
+
+
+# ---------------------------------------------------------------------- reading back
+def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunResult:
+    """Read a run file (or one side of a comparison file) back as a :class:`RunResult`.
+
+    Parameters
+    ----------
+    path : path
+        A file written by ``camsim run`` or ``camsim compare`` (or :meth:`write`).
+    group : str, optional
+        ``"impact"`` or ``"no_impact"`` for a comparison file.
+
+    Raises
+    ------
+    ResultFileError
+        Not a camsim run or comparison file, or its machine text cannot be loaded.
+    """
+    from camsim.errors import MachineFileError
+    from camsim.io.results import attr_text, file_kind, open_h5, read_events
+    from camsim.machine.loader import load_machine_text
+
+    with open_h5(path) as f:
+        kind = file_kind(f)
+        if kind == "compare":
+            group = group or "impact"
+            if group not in ("impact", "no_impact"):
+                raise ResultFileError(f"{path}: a comparison file has groups impact and no_impact, not {group!r}")
+            g = f[group]
+        elif kind == "run":
+            if group:
+                raise ResultFileError(f"{path}: a run file has no group {group!r}")
+            g = f
+        else:
+            raise ResultFileError(f"{path}: a {kind} file, not a run result")
+        text = attr_text(f, "machine_toml")
+        try:
+            machine = load_machine_text(text, source=f"{path}:machine_toml", base_dir=Path(path).parent)
+        except MachineFileError as exc:
+            raise ResultFileError(f"{path}: cannot rebuild its machine from machine_toml ({exc})") from None
+        try:
+            time = g["time"][()]
+            cam = {q: g[f"cam/{q}"][()] for q in ("angle", "displacement", "velocity", "acceleration", "jerk")}
+            masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
+        except KeyError:  # a run stored with --record or --summary-only (camsim.run.stream)
+            import json
+
+            stored = json.loads(g["summary"].attrs["recorded"]) if "summary" in g and "recorded" in g["summary"].attrs else []
+            raise ResultFileError(
+                f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
+                "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
+            ) from None
+        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
+        cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
+        transducer = g["transducer/force"][()] if "transducer/force" in g else None
+        table = read_events(g) or {}
+        events = EventTable()
+        n = len(next(iter(table.values()))) if table else 0
+        for k in range(n):
+            row = {name: values[k] for name, values in table.items()}
+            events.append(Event(**{name: (str(v) if isinstance(v, (str, bytes, np.str_)) or name in ("element", "kind", "masses") else float(v))
+                                   for name, v in row.items()}))
+        boundaries = g["cam/boundaries_deg"][()] if "cam/boundaries_deg" in g else np.zeros(0)
+        residual = float(g.attrs.get("periodicity_residual", float("nan")))
+        return RunResult(
+            machine=machine, time=time, cam=cam, masses=masses, elements=elements,
+            cam_contact_force=cam_force, transducer_force=transducer, events=events,
+            periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
+            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)),
+        )

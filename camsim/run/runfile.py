@@ -1,0 +1,121 @@
+"""Writing run and comparison results to HDF5 (spec §7).
+
+Layout of a run (at the file root, or inside ``/impact`` and ``/no_impact`` of a
+comparison)::
+
+    time, cam/{angle,displacement,velocity,acceleration,jerk,boundaries_deg},
+    masses/<name>/{displacement,velocity,acceleration}, elements/<name>/force,
+    cam_contact/force, transducer/force, events
+
+Every trace has ``units`` and ``long_name`` attributes and ``time`` attached as its
+dimension scale. Files are written atomically and deterministically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import h5py
+import numpy as np
+
+from camsim._version import __version__
+from camsim.io.atomic import atomic_path
+from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
+from camsim.machine.description import Machine
+
+if TYPE_CHECKING:
+    from camsim.elements.events import Event
+
+#: Result-file schema written by this version.
+SCHEMA = 1
+
+
+def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> None:
+    """Root attributes every camsim file carries (spec §7)."""
+    f.attrs["camsim_version"] = __version__
+    f.attrs["schema"] = SCHEMA
+    f.attrs["file_kind"] = file_kind
+    f.attrs["machine_name"] = machine.name
+    f.attrs["machine_toml"] = machine.text
+    f.attrs["machine_sha256"] = hashlib.sha256(machine.text.encode()).hexdigest()
+    f.attrs["units_system"] = "SI"
+
+
+def write_events(group: h5py.Group, events: Sequence["Event"]) -> None:
+    """The event table as a compound dataset (NaN where a column does not apply)."""
+    from camsim.elements.events import EventTable
+
+    write_table(group, "events", EventTable(events).columns())
+
+
+def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
+    """Write one :class:`~camsim.run.result.RunResult` into ``group``; returns its time scale.
+
+    The traces and their units are the result's own (:meth:`RunResult.traces`).
+    """
+    traces = result.traces()
+    time = write_time(group, traces.pop("time").data)
+    for path, trace in traces.items():
+        write_trace(group, path, trace.data, trace.units, trace.long_name, time)
+        if path == "cam/jerk":  # the joins sit with the cam traces (spec §7 order)
+            group.create_dataset("cam/boundaries_deg", data=np.asarray(result.boundaries_deg, dtype=float)).attrs["units"] = "deg"
+    write_events(group, result.events)
+    group.attrs["no_impact"] = bool(result.no_impact)
+    group.attrs["sample_rate"] = float(result.sample_rate)
+    residual = result.periodicity_residual
+    group.attrs["periodicity_residual"] = float(residual) if not math.isnan(residual) else float("nan")
+    write_summary(group, result)
+    return time
+
+
+def write_summary(group: h5py.Group, result) -> h5py.Group:
+    """The run's flat summary as attributes of ``<group>/summary``.
+
+    One attribute per scalar of :meth:`~camsim.run.result.RunResult.scalars` (SI; NaN where
+    it does not apply) with its unit in ``units:<name>``; ``recorded``: the trace paths
+    the file holds (JSON list; all of them unless the run was recorded with ``--record``
+    or ``--summary-only``); ``record_last``: revolutions of traces kept (0: all). A
+    streamed run computes the scalars over every revolution, whatever it stored.
+    """
+    import json
+
+    from camsim.run.result import scalar_columns
+
+    scalars = result.scalars()
+    units = dict(scalar_columns([m.name for m in result.machine.masses]))
+    g = group.create_group("summary", track_order=True)
+    for name, value in scalars.items():
+        g.attrs[name] = value
+        g.attrs[f"units:{name}"] = units.get(name, "")
+    recorded = getattr(result, "recorded", None)
+    if recorded is None:
+        recorded = list(result.traces())
+    g.attrs["recorded"] = json.dumps(list(recorded))
+    g.attrs["record_last"] = int(getattr(result, "record_last", 0) or 0)
+    return g
+
+
+def write_run(result, path: str | os.PathLike[str]) -> None:
+    """Write a run result to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, result.machine, "run")
+            write_run_group(f, result)
+
+
+def write_comparison(comparison, path: str | os.PathLike[str]) -> None:
+    """Write a :class:`~camsim.analyses.compare.Comparison` (impact, no-impact, difference) atomically."""
+    with atomic_path(path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, comparison.impact.machine, "compare")
+            write_run_group(f.create_group("impact", track_order=True), comparison.impact)
+            write_run_group(f.create_group("no_impact", track_order=True), comparison.no_impact)
+            diff = f.create_group("difference", track_order=True)
+            time = write_time(diff, comparison.time)
+            for name, quantities in comparison.difference.items():
+                for quantity, data in quantities.items():
+                    write_trace(diff, f"masses/{name}/{quantity}", data, "%", f"{quantity} of {name}: 100·(impact − no impact)/max|impact|", time)
