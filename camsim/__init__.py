@@ -26,6 +26,7 @@ _LAZY = {
     "RunResult": "camsim.run.result",
     "open_result": "camsim.run.result",
     "EventKind": "camsim.elements.events",
+    "plot_result": "camsim.figures.plots",
 }
 #: Subpackages that are also callables: ``camsim.analyses.fit(...)``.
 _LAZY_PACKAGES = {"fit": "camsim.analyses.fit", "study": "camsim.analyses.study"}

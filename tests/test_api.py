@@ -121,7 +121,7 @@ def test_plot_gives_the_file_figures(cdtm_run, tmp_path):
     """RunResult.plot draws what ``camsim plot`` draws from the written file."""
     from camsim.figures.plots import make_plots
 
-    figures = cdtm_run.plot(what=["forces"])
+    figures = camsim.plot_result(cdtm_run, what=["forces"])
     path = tmp_path / "run.h5"
     write_run(cdtm_run, path)
     from_file = make_plots(path, what=["forces"])

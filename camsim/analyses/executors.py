@@ -1,8 +1,8 @@
 """Where many independent runs execute: serially, in a local process pool, or on Dask.
 
 Sweeps, studies and fits hand an executor a list of argument tuples and a module-level
-task function (default :func:`camsim.analyses.sweep.runner.run_variant`); it yields ``(index, result)``
-as tasks finish. Process-pool and LocalCluster workers ignore Ctrl-C (the parent's) and
+task function (for instance :func:`camsim.analyses.sweep.runner.run_variant`); it yields
+``(index, result)`` as tasks finish. Process-pool and LocalCluster workers ignore Ctrl-C (the parent's) and
 die with their parent, even on SIGKILL (:mod:`camsim.run.lifecycle`). A task lost with its
 worker comes back as a failed row marked :data:`EXECUTOR_ERROR`, so a resumed job reruns it.
 """
@@ -29,17 +29,15 @@ def default_workers() -> int:
     return os.cpu_count() or 1
 
 
-def _run_variant():
-    from camsim.analyses.sweep.runner import run_variant  # looked up at call time (tests replace it)
-
-    return run_variant
+def _failed(args, exc: BaseException) -> dict:
+    """The row of a task whose worker failed, when the caller gives no ``failed`` of its own."""
+    return {"status": one_line(exc)}
 
 
 class Serial:
     name = "serial"
 
-    def run(self, tasks, fn=None):
-        fn = fn or _run_variant()
+    def run(self, tasks, fn, failed=None):
         for i, args in enumerate(tasks):
             yield i, fn(*args)
 
@@ -65,13 +63,13 @@ class ProcessPool:
         self.executor = ProcessPoolExecutor(max_workers=workers, initializer=guard_worker, initargs=(os.getpid(),))
         self.futures: list = []
 
-    def run(self, tasks, fn=None):
+    def run(self, tasks, fn, failed=None):
         from concurrent.futures import as_completed
 
-        self.futures = [self.executor.submit(fn or _run_variant(), *args) for args in tasks]
+        self.futures = [self.executor.submit(fn, *args) for args in tasks]
         index = {f: i for i, f in enumerate(self.futures)}
         for fut in as_completed(self.futures):
-            yield index[fut], future_value(fut, tasks[index[fut]])
+            yield index[fut], future_value(fut, tasks[index[fut]], failed)
 
     def abort(self):
         for fut in self.futures:
@@ -90,15 +88,17 @@ class ProcessPool:
 EXECUTOR_ERROR = "_executor_error"
 
 
-def future_value(fut, args):
-    """The result of a finished future; an executor failure becomes a failed row."""
+def future_value(fut, args, failed=None):
+    """The result of a finished future; an executor failure becomes a failed row.
+
+    ``failed(args, exc)`` gives that row (the task's parameters and the error); the caller
+    knows its tasks' arguments, the executor does not.
+    """
     try:
         return fut.result()
     except Exception as exc:  # noqa: BLE001 - e.g. a worker process killed
-        from camsim.analyses.sweep.runner import failed_row
-
         # Marked so that it is not stored as the task's result (--resume reruns it).
-        return {**failed_row(args, exc), EXECUTOR_ERROR: True}, None
+        return {**(failed or _failed)(args, exc), EXECUTOR_ERROR: True}, None
 
 
 def _import_distributed():
@@ -185,19 +185,19 @@ class DaskCluster:
 
             self.client.run(guard_worker, None, False)
 
-    def run(self, tasks, fn=None):
+    def run(self, tasks, fn, failed=None):
         import uuid
 
         distributed = _import_distributed()
         tag = uuid.uuid4().hex[:12]
         self.futures = [
-            self.client.submit(fn or _run_variant(), *args, key=f"camsim-variant-{tag}-{i}", pure=False)
+            self.client.submit(fn, *args, key=f"camsim-variant-{tag}-{i}", pure=False)
             for i, args in enumerate(tasks)
         ]
         index = {f.key: i for i, f in enumerate(self.futures)}
         for fut in distributed.as_completed(self.futures, loop=self.client.loop):
             i = index[fut.key]
-            yield i, future_value(fut, tasks[i])
+            yield i, future_value(fut, tasks[i], failed)
 
     def abort(self):
         try:

@@ -10,7 +10,7 @@ import numpy as np
 from camsim.cam import CamProgram, sample_revolution
 from camsim.io.atomic import atomic_path
 from camsim.io.hdf5 import create_file, write_time, write_trace
-from camsim.run.runfile import write_root_attributes
+from camsim.io.hdf5 import write_root_attributes
 
 TRACES = (
     ("displacement", "m", "cam displacement on the model axis"),

@@ -44,6 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from camsim.engine.state import TIME_EPS
+from camsim.engine.stepping import _FACT, _P, StepMaps, forcing_coefficients, step_input_derivatives
+from camsim.engine.windows import INTERP_TOL, LADDER, _first_hit
 from camsim.model.assembly import N_INPUT
 
 #: Unknown node values per step (degree of F's polynomial on a step).
@@ -80,7 +83,6 @@ class Collocation:
     """Step maps of the collocation for one configuration with one closed nonlinear contact."""
 
     def __init__(self, integrator, config, stepper):
-        from camsim.engine.integrator import _FACT, _P, StepMaps
         from camsim.engine.stepping import phi_series
 
         h = integrator.h
@@ -221,8 +223,6 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     or the step was not accepted); ``calm`` when the contact stiffness has settled (see
     :data:`CALM`).
     """
-    from camsim.engine.integrator import TIME_EPS, forcing_coefficients, step_input_derivatives
-    from camsim.engine.nonlinear import _first_hit
 
     h = integ.h
     k0 = round((t - integ.t_ref) / h)
@@ -271,7 +271,6 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     if calm and CALM_REMAINDER and taken >= 8:
         # ... and the remainder about the ladder's linear law would pass the iteration's
         # interpolation test (|Δ⁴r|/384 below INTERP_TOL of the force) on the last steps
-        from camsim.engine.nonlinear import INTERP_TOL, LADDER
 
         ks = slice(taken - 8, taken)
         kq = LADDER ** round(math.log(hi) / math.log(LADDER))

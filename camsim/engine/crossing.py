@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from camsim.engine.stepping import input_at
+
 #: Half-width of the final bracket of a crossing [s] (the guarantee is the full width).
 BRACKET = 1e-10
 #: Largest correction the polish applies to a located root [s].
@@ -86,7 +88,6 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
     step_end = t_step + h_step
     u0 = _analytic_inputs(cam, np.array([t_root]), step_end)[0]
     if Dk is not None:
-        from camsim.engine.integrator import input_at
 
         u_h = input_at(Dk, tau)
         if abs(u_h[0] - u0[0]) > 1e-11 * (abs(u0[0]) + abs(u_h[0])) + 1e-300:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,6 +29,7 @@ from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements import Branch, GuardKind
 from camsim.model.assembly import Configuration, Model
 from camsim.engine.nonlinear import advance_power
+from camsim.engine.state import TIME_EPS, Guard, State, Stretch  # noqa: F401 - also the integrator's public names
 from camsim.engine.rigid import resolve as resolve_rigid
 from camsim.engine.stepping import (  # noqa: F401 - also re-exported for camsim.engine.nonlinear and camsim.engine.crossing
     _FACT,
@@ -49,9 +49,6 @@ from camsim.engine.stepping import (  # noqa: F401 - also re-exported for camsim
 #: a guard within them of zero at the start of a stretch counts as "just crossed".
 #: More events than this at one instant (within INSTANT_TIME) is a failure to resolve.
 MAX_EVENTS_PER_INSTANT = 64
-#: Two times closer than this [s] are the same instant (a stretch end on a grid point, a
-#: boundary reached): far below the 1e-9 s event accuracy, far above rounding of t ~ 1e3 s.
-TIME_EPS = 1e-13
 #: Events closer than this [s] count as one instant for MAX_EVENTS_PER_INSTANT.
 INSTANT_TIME = 1e-12
 #: A time within this fraction of the grid step of a grid point is that grid point: grid
@@ -136,41 +133,6 @@ class _StepInput:
             self.cache[k] = hit
         a, C = hit
         return C @ ((t - a) ** self.j)
-
-
-@dataclass
-class Guard:
-    """A scalar condition that keeps the configuration valid while it is > 0."""
-
-    element: int
-    kind: GuardKind
-    value: Affine  # one row
-    tol: float
-    rate: Affine | None = None  # time derivative (linear configurations)
-
-
-@dataclass
-class Stretch:
-    """Samples of one configuration on the output grid."""
-
-    branches: tuple[Branch, ...]
-    config: Configuration
-    t: np.ndarray
-    z: np.ndarray
-    u: np.ndarray
-    fn: np.ndarray
-    v_impacts: dict[int, float] = field(default_factory=dict)
-
-
-@dataclass
-class State:
-    """Full state of the machine at one instant."""
-
-    t: float
-    x: np.ndarray
-    v: np.ndarray
-    branches: tuple[Branch, ...]
-    v_impacts: dict[int, float]
 
 
 class _GuardContext:

@@ -48,12 +48,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from camsim.engine.collocation import Collocation, collocation_steps
+from camsim.engine.windows import INTERP_TOL, LADDER, _first_hit, _fresh
 from camsim.model.assembly import N_INPUT
 from camsim.engine.recurrence import linear_recurrences
-from camsim.engine.stepping import step_input_derivatives
+from camsim.engine.state import TIME_EPS, State, Stretch
+from camsim.engine.stepping import _FACT, _P, StepMaps, exact_partial, forcing_coefficients, step_input_derivatives
 
-#: Ratio of the stiffness / damping ladder of the reference linear laws.
-LADDER = 1.05
 #: A window keeps the previous window's linear law while the tangent values stay within
 #: this relative distance of it (fewer step maps to build).
 HYSTERESIS = 0.12
@@ -64,9 +64,6 @@ HYSTERESIS = 0.12
 #: Tighter values change no figure of bench/bench_contacts.py and cost iterations; at 1e-9
 #: tests/test_nonlinear_stepper.py sees 2.4e-9 of the static penetration (its bar: 1e-9).
 RTOL = 1e-10
-#: Largest interpolation error of the remainder, relative to the peak contact force (the
-#: same reasoning as RTOL).
-INTERP_TOL = 1e-10
 #: Depth of the Anderson acceleration of the iteration.
 ANDERSON = 3
 #: A window is cut where the contact's tangent stiffness has drifted from the window's
@@ -134,7 +131,6 @@ class PowerContactStepper:
     """Per-configuration data of the iterated-remainder stepper (cached on the integrator)."""
 
     def __init__(self, integrator, config):
-        from camsim.engine.integrator import StepMaps  # noqa: F401  (import cycle)
 
         self.integrator = integrator
         self.config = config
@@ -156,7 +152,6 @@ class PowerContactStepper:
 
     def law(self, k: float, c: float):
         """(linear system, its StepMaps, W_L) for the ladder rungs nearest k, c."""
-        from camsim.engine.integrator import StepMaps
 
         ik = round(math.log(max(k, 1e-300)) / math.log(LADDER)) if k > 0 else -(10**9)
         ic = round(math.log(c) / math.log(LADDER)) if c > 0 else -(10**9)
@@ -224,7 +219,6 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     Same contract as :meth:`camsim.engine.integrator.Integrator._advance_nonlinear`: returns the
     state at the end, the recorded stretch and the guard that fired (or None).
     """
-    from camsim.engine.integrator import TIME_EPS, State, Stretch
 
     integ = integrator
     steppers = integ.__dict__.setdefault("_power_steppers", {})
@@ -675,7 +669,6 @@ def _step_affine(lin, maps, WL, L, full, tau, D_k, g_u_k):
     """One step of a window as an affine map: (P, c, W) with z⁺ = P·z + c + R·W, R the
     remainder's Taylor terms (r, ṙ, r̈, r⃛) at the step's start. A full step uses the law's
     maps; a partial one (a window's first or last) the exact maps of its own length."""
-    from camsim.engine.integrator import exact_partial, forcing_coefficients
     from camsim.engine.stepping import phi_series
 
     if full:
@@ -697,59 +690,12 @@ def _step_affine(lin, maps, WL, L, full, tau, D_k, g_u_k):
     return P, exact_partial(lin, np.zeros(n), E, tau), W
 
 
-def _fresh(guards):
-    """The guards as they are (DOP853 handles a guard at zero at its start itself)."""
-    return guards
-
-
-#: The guards of a stretch stacked into one affine map, by the id of the guard list (the
-#: list is kept with its entry, so the id cannot be reused while the entry lives).
-_GUARD_STACKS: dict[int, tuple] = {}
-
-
-def _guard_stack(guards):
-    """(guards, Cz, Du, Fn, e, tol) of all guards at once: (g, m), (g, 4), (g, p), (g,), (g,)."""
-    hit = _GUARD_STACKS.get(id(guards))
-    if hit is None or hit[0] is not guards:
-        values = [g.value for g in guards]
-        hit = (guards, np.vstack([v.Cz for v in values]), np.vstack([v.Du for v in values]),
-               np.vstack([v.Fn for v in values]), np.concatenate([v.e for v in values]), np.array([g.tol for g in guards]))
-        if len(_GUARD_STACKS) > 64:
-            _GUARD_STACKS.clear()
-        _GUARD_STACKS[id(guards)] = hit
-    return hit
-
-
-def _first_hit(guards, Z, U, zdot, Udot, F, steps, first):
-    """Index of the first step whose guard may cross zero (sign change or Hermite dip)."""
-    if not guards:
-        return None
-    _, Cz, Du, Fn, e, tol = _guard_stack(guards)
-    G = Z @ Cz.T + U @ Du.T + e
-    if Fn.shape[1]:
-        G = G + F[:, None] @ Fn.T
-    Gd = zdot @ Cz.T + Udot @ Du.T
-    g0 = G[:-1].copy()
-    if first:
-        just = np.abs(g0[0]) <= tol
-        g0[0, just] = tol[just]
-    g1 = G[1:]
-    d0 = Gd[:-1] * steps[:, None]
-    d1 = Gd[1:] * steps[:, None]
-    crossing = (g1 <= 0.0) & (g0 > 0.0)
-    maybe = np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0
-    bad = crossing | maybe | (g0 <= 0.0)
-    rows = np.flatnonzero(np.any(bad, axis=1))
-    return int(rows[0]) if rows.size else None
-
-
 class _FastInput:
     """u(t) = [s, ṡ, s̈, s⃛] on [t0, t1] from the grid steps' degree-7 Hermite polynomials,
     built for the whole span in one vectorised pass (a right-hand side evaluated
     thousands of times then costs one small matrix product)."""
 
     def __init__(self, integ, t0, t1):
-        from camsim.engine.integrator import _FACT, _P, TIME_EPS, step_input_derivatives
 
         h = integ.h
         k0 = math.ceil((t0 - integ.t_ref) / h - 1e-7)
@@ -832,7 +778,6 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, r
 
     from camsim.engine.dop853 import OneContactDOP853
     from camsim.elements.base import LENGTH_TOL
-    from camsim.engine.integrator import Stretch
 
     v_imp = state.v_impacts
     cam_input = _FastInput(integ, t0, t_stop if releasing_to is None else max(t_stop, releasing_to))

@@ -45,6 +45,7 @@ import numpy as np
 from camsim.elements import Branch
 from camsim.errors import SimulationError
 from camsim.elements.events import EventKind
+from camsim.engine.state import State
 
 #: A rigid contact whose remaining chatter time is below this sticks at once [s].
 ZENO_TIME = 1e-11
@@ -127,7 +128,6 @@ def resolve(integrator, state, trigger: int, kind: str):
         Velocities after the impulses, rigid branches STUCK or OPEN; events recorded
         (``impact`` per closing contact, ``stick``, ``release``).
     """
-    from camsim.engine.integrator import State
 
     model = integrator.model
     t = state.t

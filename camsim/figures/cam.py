@@ -168,7 +168,7 @@ def plot_design_file(group, time_window=None, angle_window=None, title: str = ""
     [mm], ``cam_contact/normal_force`` [N], ``cam_contact/hertz_stress`` [MPa],
     ``camshaft/torque`` [N·m].
     """
-    from camsim.figures.plots import _in, _sample_mask  # the window helpers of camsim plot
+    from camsim.figures.style import _in, _sample_mask  # the window helpers of camsim plot
 
     panels = [
         ("cam/pressure_angle", 1.0, "pressure angle [deg]"),

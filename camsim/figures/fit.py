@@ -31,7 +31,7 @@ def plot_fit(result, title: str = ""):
     from matplotlib.figure import Figure
 
     from camsim.analyses.fit.measured import _QUANTITY_UNITS
-    from camsim.figures.plots import _STYLE, _WIDTH, axis_label, pretty_units
+    from camsim.figures.style import _STYLE, _WIDTH, axis_label, pretty_units
 
     channels = result.channels
     n = max(1, len(channels))
@@ -77,7 +77,7 @@ def write_report(path: str | os.PathLike[str], result, title: str = "") -> Path:
     import matplotlib
 
     from camsim.io.atomic import atomic_path
-    from camsim.figures.plots import _METADATA
+    from camsim.figures.style import _METADATA
 
     target = Path(path)
     fmt = target.suffix.lstrip(".").lower()

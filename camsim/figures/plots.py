@@ -27,6 +27,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from camsim.errors import InputError, ResultFileError
+from camsim.figures.style import _METADATA, _STYLE, _WIDTH, _in, _sample_mask, _window_text, axis_label, pretty_units  # noqa: F401 - shared with the other figure modules
 from camsim.io.atomic import atomic_path
 from camsim.io.results import (
     file_kind,
@@ -58,22 +59,6 @@ _OFFERS = {
     "sweep": ("sweep",),
 }
 
-#: Style for figures readable at report size (≈ 16 cm wide).
-_STYLE = {
-    "font.size": 10.0,
-    "axes.titlesize": 10.0,
-    "axes.labelsize": 10.0,
-    "legend.fontsize": 9.0,
-    "xtick.labelsize": 9.0,
-    "ytick.labelsize": 9.0,
-    "axes.grid": True,
-    "grid.alpha": 0.35,
-    "lines.linewidth": 1.2,
-    "svg.hashsalt": "camsim",
-    "axes.formatter.useoffset": False,
-    "axes.formatter.limits": (-3, 4),
-}
-_WIDTH = 6.5  # [in]
 
 
 # --------------------------------------------------------------------------------------
@@ -110,63 +95,6 @@ def parse_window(text: str | None, what: str = "window") -> tuple[float | None, 
     if lo is not None and hi is not None and lo >= hi:
         raise InputError(f"{what}: start {lo:g} is not before end {hi:g}")
     return lo, hi
-
-
-def _in(values: np.ndarray, window: tuple[float | None, float | None] | None) -> np.ndarray:
-    mask = np.ones(values.shape, dtype=bool)
-    if window is None:
-        return mask
-    lo, hi = window
-    if lo is not None:
-        mask &= values >= lo
-    if hi is not None:
-        mask &= values <= hi
-    return mask
-
-
-def _window_text(time_window, angle_window) -> str:
-    if time_window is not None:
-        lo, hi = time_window
-        return f"--time {'' if lo is None else f'{lo:g}'}:{'' if hi is None else f'{hi:g}'} s"
-    lo, hi = angle_window
-    return f"--angle {'' if lo is None else f'{lo:g}'}:{'' if hi is None else f'{hi:g}'} deg"
-
-
-def _sample_mask(group: h5py.Group, time_window, angle_window, angle_source: h5py.Group | None = None) -> np.ndarray:
-    """Which samples of ``group``'s time base lie in the window (all of them without one).
-
-    ``angle_source`` provides ``cam/angle`` when ``group`` has none (the difference group
-    of a comparison), interpolated onto ``group``'s time.
-    """
-    t = require(group, "time")[()]
-    if time_window is not None:
-        mask = _in(t, time_window)
-    elif angle_window is not None:
-        if "cam/angle" in group:
-            angle = group["cam/angle"][()]
-        elif angle_source is not None and "cam/angle" in angle_source:
-            angle = np.interp(t, angle_source["time"][()], angle_source["cam/angle"][()])
-        else:
-            raise ResultFileError(f"{group.file.filename}: {group.name.rstrip('/')}/cam/angle: not in the file (needed by --angle)")
-        mask = _in(angle, angle_window)
-    else:
-        return np.ones(t.shape, dtype=bool)
-    if not mask.any():
-        raise InputError(
-            f"{group.file.filename}: {_window_text(time_window, angle_window)}: no samples in the window "
-            f"(the file covers t = {t[0]:g} .. {t[-1]:g} s)"
-        )
-    return mask
-
-
-def pretty_units(units: str) -> str:
-    """Display form of a unit text: ``m/s^2`` -> ``m/s²``."""
-    return units.replace("^2", "²").replace("^3", "³").replace("^-1", "⁻¹")
-
-
-def axis_label(name: str, units: str) -> str:
-    """``name [units]`` (``name`` alone for dimensionless quantities)."""
-    return f"{name} [{pretty_units(units)}]" if units not in ("", "1") else name
 
 
 def _safe(text: str) -> str:
@@ -658,9 +586,6 @@ def prepare_output_dir(out_dir: str | os.PathLike[str]) -> Path:
     return d
 
 
-_METADATA = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}
-
-
 def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fmt: str = "png", dpi: float = 150.0) -> list[Path]:
     """Write each figure as ``out_dir/<name>.<fmt>``, each to a temporary name then renamed.
 
@@ -692,3 +617,36 @@ def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fm
             fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
         written.append(target)
     return written
+
+
+def plot_result(result, out_dir: str | os.PathLike[str] | None = None, **options) -> dict:
+    """The ``camsim plot`` figures of a run result (``camsim.plot_result(result)``).
+
+    Parameters
+    ----------
+    result : camsim.run.result.RunResult
+        The run, in memory.
+    out_dir : path, optional
+        Where to save them (PNG); without it the matplotlib figures are returned.
+    **options
+        As :func:`camsim.figures.plots.make_plots` (``what``, ``masses``, ``quantities``,
+        ``time_window``, ``angle_window``).
+
+    Returns
+    -------
+    dict
+        Figure name → :class:`matplotlib.figure.Figure` (or → saved path with ``out_dir``).
+    """
+    import h5py
+
+    from camsim.run.runfile import write_root_attributes, write_run_group
+
+    # The figures are drawn from the result layout (the same code as for a file),
+    # here an in-memory HDF5 image that never touches the disk.
+    with h5py.File(f"camsim-{id(result)}.h5", "w", driver="core", backing_store=False) as f:
+        write_root_attributes(f, result.machine, "run")
+        write_run_group(f, result)
+        figures = figures_for_file(f, **options)
+    if out_dir is None:
+        return figures
+    return dict(zip(figures, save_figures(figures, out_dir)))

@@ -71,7 +71,7 @@ def plot_study(result, outputs: list[str] | None = None):
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
-    from camsim.figures.plots import _STYLE, axis_label
+    from camsim.figures.style import _STYLE, axis_label
 
     units = dict(result.columns)
     outputs = plotted_outputs(result) if outputs is None else list(outputs)
@@ -145,7 +145,7 @@ def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, ou
 
     from camsim.errors import InputError
     from camsim.io.atomic import atomic_path
-    from camsim.figures.plots import _METADATA
+    from camsim.figures.style import _METADATA
 
     target = Path(path)
     fmt = target.suffix.lstrip(".").lower()

@@ -8,14 +8,36 @@ stored, and datasets are created in a fixed order with fixed chunking.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
 
+from camsim._version import __version__
+
+if TYPE_CHECKING:
+    from camsim.machine.description import Machine
+
 #: Compression used for every trace (lossless; shuffle helps the float bytes compress).
 COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+
+
+#: Result-file schema written by this version.
+SCHEMA = 1
+
+
+def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> None:
+    """Root attributes every camsim file carries (spec §7): the version, the schema, the file's
+    kind, and the machine it came from (name, TOML text, its SHA-256)."""
+    f.attrs["camsim_version"] = __version__
+    f.attrs["schema"] = SCHEMA
+    f.attrs["file_kind"] = file_kind
+    f.attrs["machine_name"] = machine.name
+    f.attrs["machine_toml"] = machine.text
+    f.attrs["machine_sha256"] = hashlib.sha256(machine.text.encode()).hexdigest()
+    f.attrs["units_system"] = "SI"
 
 
 def create_file(path: Any, **options: Any) -> h5py.File:

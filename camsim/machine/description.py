@@ -7,7 +7,10 @@ m, kg, s, N, rad. Node names are ``"ground"``, ``"cam"`` or a mass name.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+
+from camsim.errors import InputError
 
 # Elements are the element kinds' own classes (camsim/elements/); re-exported here because
 # a Machine is made of them.
@@ -105,6 +108,10 @@ class Machine:
     text: str = ""
     base_dir: str = "."
 
+    #: Rebuilds a machine from this one's text with ``--set`` assignments; set by the loader
+    #: that made it (the description sits below the loader, so it is handed the way back).
+    rebuild: Callable[["Machine", dict], "Machine"] | None = field(default=None, repr=False, compare=False)
+
     def with_values(self, values: dict) -> "Machine":
         """A modified copy: ``{KEY: VALUE}`` in the ``--set`` grammar, checked like the file.
 
@@ -113,13 +120,12 @@ class Machine:
         Keys and values as on the command line (``cam.speed``, ``mass.M2.mass``,
         ``element.seat.stiffness``, ``cam.segments[2].lift``, ``simulation.cycles``...);
         a string value carries its units. Raises :class:`~camsim.errors.MachineFileError`
-        naming the key for an unknown key or a bad value.
+        naming the key for an unknown key or a bad value, and
+        :class:`~camsim.errors.InputError` for a machine built in code rather than loaded.
         """
-        from pathlib import Path
-
-        from camsim.machine.loader import assignments, load_machine_text
-
-        return load_machine_text(self.text, source=self.source, base_dir=Path(self.base_dir), overrides=assignments(values))
+        if self.rebuild is None:
+            raise InputError(f"{self.source}: with_values needs a machine loaded from a machine file (camsim.load_machine)")
+        return self.rebuild(self, values)
 
     def mass_of(self, name: str) -> float:
         """Mass [kg] of the mass called ``name``."""

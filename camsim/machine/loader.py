@@ -140,6 +140,11 @@ def read_machine_text(path: str | os.PathLike[str]) -> str:
         raise MachineFileError(source, "", f"cannot read machine file: {exc.strerror or exc}") from None
 
 
+def _with_values(machine: Machine, values: dict[str, Any]) -> Machine:
+    """``machine`` loaded again from its own text with ``values`` as ``--set`` overrides."""
+    return load_machine_text(machine.text, source=machine.source, base_dir=Path(machine.base_dir), overrides=assignments(values))
+
+
 def load_machine_text(
     text: str,
     source: str = "<string>",
@@ -386,4 +391,4 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
 def _replace_text(machine: Machine, text: str, base_dir: Path) -> Machine:
     import dataclasses
 
-    return dataclasses.replace(machine, text=text, base_dir=str(base_dir))
+    return dataclasses.replace(machine, text=text, base_dir=str(base_dir), rebuild=_with_values)

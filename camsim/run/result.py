@@ -327,37 +327,6 @@ class RunResult:
             attrs={"machine_name": self.machine.name, "no_impact": int(self.no_impact), "sample_rate": self.sample_rate},
         )
 
-    def plot(self, out_dir: str | os.PathLike[str] | None = None, **options) -> dict:
-        """The ``camsim plot`` figures of this run.
-
-        Parameters
-        ----------
-        out_dir : path, optional
-            Where to save them (PNG); without it the matplotlib figures are returned.
-        **options
-            As :func:`camsim.figures.plots.make_plots` (``what``, ``masses``, ``quantities``,
-            ``time_window``, ``angle_window``).
-
-        Returns
-        -------
-        dict
-            Figure name → :class:`matplotlib.figure.Figure` (or → saved path with ``out_dir``).
-        """
-        import h5py
-
-        from camsim.run.runfile import write_root_attributes, write_run_group
-        from camsim.figures.plots import figures_for_file, save_figures
-
-        # The figures are drawn from the result layout (the same code as for a file),
-        # here an in-memory HDF5 image that never touches the disk.
-        with h5py.File(f"camsim-{id(self)}.h5", "w", driver="core", backing_store=False) as f:
-            write_root_attributes(f, self.machine, "run")
-            write_run_group(f, self)
-            figures = figures_for_file(f, **options)
-        if out_dir is None:
-            return figures
-        return dict(zip(figures, save_figures(figures, out_dir)))
-
 
 def _extreme(values: np.ndarray | None, time: np.ndarray, pick) -> dict | None:
     if values is None or not values.size:

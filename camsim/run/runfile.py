@@ -13,7 +13,6 @@ dimension scale. Files are written atomically and deterministically.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 from collections.abc import Sequence
@@ -22,28 +21,11 @@ from typing import TYPE_CHECKING
 import h5py
 import numpy as np
 
-from camsim._version import __version__
 from camsim.io.atomic import atomic_path
-from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
-from camsim.machine.description import Machine
+from camsim.io.hdf5 import SCHEMA, create_file, write_root_attributes, write_table, write_time, write_trace  # noqa: F401 - SCHEMA, write_root_attributes: also this writer's names
 
 if TYPE_CHECKING:
     from camsim.elements.events import Event
-
-#: Result-file schema written by this version.
-SCHEMA = 1
-
-
-def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> None:
-    """Root attributes every camsim file carries (spec §7)."""
-    f.attrs["camsim_version"] = __version__
-    f.attrs["schema"] = SCHEMA
-    f.attrs["file_kind"] = file_kind
-    f.attrs["machine_name"] = machine.name
-    f.attrs["machine_toml"] = machine.text
-    f.attrs["machine_sha256"] = hashlib.sha256(machine.text.encode()).hexdigest()
-    f.attrs["units_system"] = "SI"
-
 
 def write_events(group: h5py.Group, events: Sequence["Event"]) -> None:
     """The event table as a compound dataset (NaN where a column does not apply)."""

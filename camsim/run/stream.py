@@ -533,7 +533,7 @@ def simulate_to_file(
     """
     from camsim.io.atomic import atomic_path
     from camsim.io.hdf5 import create_file
-    from camsim.run.runfile import write_root_attributes
+    from camsim.io.hdf5 import write_root_attributes
     from camsim.run.streamfile import TraceStreamWriter
 
     if record_last is not None and record_last < 1:

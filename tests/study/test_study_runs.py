@@ -236,7 +236,7 @@ def test_a_failed_worker_is_not_stored_so_resume_runs_it_again():
     class Executor:
         name = "fake"
 
-        def run(self, tasks, fn=None):
+        def run(self, tasks, fn, failed=None):
             yield 0, ({"status": "BrokenProcessPool: a worker died", _EXECUTOR_ERROR: True}, None)
             yield 1, ({"min_cam_contact_force": 1.0, "status": "ok"}, None)
 

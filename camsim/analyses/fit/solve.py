@@ -107,12 +107,13 @@ class Evaluator:
         """
         from camsim.analyses.fit.measured import trace
         from camsim.analyses.fit.objective import run_scalars
+        from camsim.analyses.sweep import runner as sweep  # run_variant looked up at call time (tests replace it)
 
         keys = [tuple(float(v) for v in p) for p in points]
         todo = list(dict.fromkeys(k for k in keys if k not in self.cache))
         if todo:
             tasks = [(self.source, self.overrides(k), self.settings) for k in todo]
-            for i, (row, result) in self.executor.run(tasks):
+            for i, (row, result) in self.executor.run(tasks, sweep.run_variant, sweep.failed_row):
                 if row.get("status") != "ok" or result is None:
                     where = ", ".join(f"{k}={v:.6g}" for k, v in zip(self.keys, todo[i]))
                     raise SimulationError(f"fit: the run at {where} failed: {row.get('status')}")

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from camsim.errors import MachineFileError
-from camsim.analyses.lump.lumping import (
+from camsim.analyses.lump.values import (
     _COMMON_PART_KEYS,
     _ELEMENT_KEYS,
     _ELEMENT_VALUE_KEYS,

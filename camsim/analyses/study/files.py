@@ -61,7 +61,7 @@ def write_study(result, path: str | os.PathLike[str], csv_path: str | os.PathLik
     """
     from camsim.io.atomic import atomic_path, check_writable
     from camsim.io.hdf5 import create_file, write_table
-    from camsim.run.runfile import write_root_attributes
+    from camsim.io.hdf5 import write_root_attributes
     from camsim.analyses.sweep.files import csv_cell
 
     h5_path = Path(path)

@@ -516,6 +516,7 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
         Runs whose worker process failed (not stored: a resume runs them again).
     """
     from camsim.analyses.executors import EXECUTOR_ERROR
+    from camsim.analyses.sweep.runner import failed_row
 
     interrupted = False
     lost = 0
@@ -524,7 +525,7 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
             on_start(total, len(todo), name)
         finished = total - len(todo)
         if todo:
-            for k, (row, _) in executor.run(tasks, fn=run_sample):
+            for k, (row, _) in executor.run(tasks, run_sample, failed_row):
                 i = todo[k]
                 if row.get(EXECUTOR_ERROR):
                     lost += 1

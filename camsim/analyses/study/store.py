@@ -20,7 +20,7 @@ __all__ = ["MemoryRowStore", "open_store"]
 def open_store(output: Path, columns: list[tuple[str, str]], meta: dict, machine: Any, resume: bool):
     """The RowStore of a study writing ``output`` (created, or resumed with a meta check)."""
     from camsim.io.rowstore import RowStore
-    from camsim.run.runfile import write_root_attributes
+    from camsim.io.hdf5 import write_root_attributes
 
     def decorate(f) -> None:
         write_root_attributes(f, machine, "study")

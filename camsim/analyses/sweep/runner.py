@@ -512,7 +512,7 @@ def run_sweep(
         done = len(grid) - len(todo)
         if progress is not None and done:
             progress(done, len(grid))
-        for k, (row, result) in executor.run(tasks):
+        for k, (row, result) in executor.run(tasks, run_variant, failed_row):
             i = todo[k]
             # the --set keys are not columns; only the varied ones
             transient = row.pop(_EXECUTOR_ERROR, False)
@@ -595,7 +595,7 @@ def _sweep_meta(source: MachineSource, vary, values, fixed, settings: SweepSetti
 def _open_store(output, resume: bool, columns, meta, machine):
     """The RowStore of a sweep at ``output`` and the rows it already holds."""
     from camsim.io.rowstore import RowStore, journal_path_for
-    from camsim.run.runfile import write_root_attributes
+    from camsim.io.hdf5 import write_root_attributes
 
     def decorate(f) -> None:
         write_root_attributes(f, machine, "sweep")
@@ -654,7 +654,7 @@ def _refine(executor, source, fixed, settings, rows, first) -> tuple[float | Non
     quiet = SweepSettings(cycles=settings.cycles, warmup_cycles=settings.warmup_cycles, sample_rate=settings.sample_rate)
     while hi - lo > JUMP_RESOLUTION_RPM:
         mid = 0.5 * (lo + hi)
-        ((_, (row, _)),) = list(executor.run([(source, tuple(fixed) + (f"cam.speed={mid!r} rpm",), quiet)]))
+        ((_, (row, _)),) = list(executor.run([(source, tuple(fixed) + (f"cam.speed={mid!r} rpm",), quiet)], run_variant, failed_row))
         if row["status"] != "ok":
             return None, (lo, hi), f"jump-onset refinement stopped at {mid:.6g} rpm: {row['status']}"
         if row["jump"]:

@@ -1,0 +1,90 @@
+"""What every camsim figure shares: the style, the sample windows, the axis labels.
+
+The figure modules (:mod:`camsim.figures.plots`, :mod:`camsim.figures.cam`,
+:mod:`camsim.figures.study`, :mod:`camsim.figures.fit`) all read these from here.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from camsim.errors import InputError, ResultFileError
+from camsim.io.results import require
+
+#: Style for figures readable at report size (≈ 16 cm wide).
+_STYLE = {
+    "font.size": 10.0,
+    "axes.titlesize": 10.0,
+    "axes.labelsize": 10.0,
+    "legend.fontsize": 9.0,
+    "xtick.labelsize": 9.0,
+    "ytick.labelsize": 9.0,
+    "axes.grid": True,
+    "grid.alpha": 0.35,
+    "lines.linewidth": 1.2,
+    "svg.hashsalt": "camsim",
+    "axes.formatter.useoffset": False,
+    "axes.formatter.limits": (-3, 4),
+}
+_WIDTH = 6.5  # [in]
+
+#: Metadata left out of saved figures so that the same figure gives the same bytes.
+_METADATA = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}
+
+
+def _in(values: np.ndarray, window: tuple[float | None, float | None] | None) -> np.ndarray:
+    mask = np.ones(values.shape, dtype=bool)
+    if window is None:
+        return mask
+    lo, hi = window
+    if lo is not None:
+        mask &= values >= lo
+    if hi is not None:
+        mask &= values <= hi
+    return mask
+
+
+def _window_text(time_window, angle_window) -> str:
+    if time_window is not None:
+        lo, hi = time_window
+        return f"--time {'' if lo is None else f'{lo:g}'}:{'' if hi is None else f'{hi:g}'} s"
+    lo, hi = angle_window
+    return f"--angle {'' if lo is None else f'{lo:g}'}:{'' if hi is None else f'{hi:g}'} deg"
+
+
+def _sample_mask(group: h5py.Group, time_window, angle_window, angle_source: h5py.Group | None = None) -> np.ndarray:
+    """Which samples of ``group``'s time base lie in the window (all of them without one).
+
+    ``angle_source`` provides ``cam/angle`` when ``group`` has none (the difference group
+    of a comparison), interpolated onto ``group``'s time.
+    """
+    t = require(group, "time")[()]
+    if time_window is not None:
+        mask = _in(t, time_window)
+    elif angle_window is not None:
+        if "cam/angle" in group:
+            angle = group["cam/angle"][()]
+        elif angle_source is not None and "cam/angle" in angle_source:
+            angle = np.interp(t, angle_source["time"][()], angle_source["cam/angle"][()])
+        else:
+            raise ResultFileError(f"{group.file.filename}: {group.name.rstrip('/')}/cam/angle: not in the file (needed by --angle)")
+        mask = _in(angle, angle_window)
+    else:
+        return np.ones(t.shape, dtype=bool)
+    if not mask.any():
+        raise InputError(
+            f"{group.file.filename}: {_window_text(time_window, angle_window)}: no samples in the window "
+            f"(the file covers t = {t[0]:g} .. {t[-1]:g} s)"
+        )
+    return mask
+
+
+def pretty_units(units: str) -> str:
+    """Display form of a unit text: ``m/s^2`` -> ``m/s²``."""
+    return units.replace("^2", "²").replace("^3", "³").replace("^-1", "⁻¹")
+
+
+def axis_label(name: str, units: str) -> str:
+    """``name [units]`` (``name`` alone for dimensionless quantities)."""
+    return f"{name} [{pretty_units(units)}]" if units not in ("", "1") else name
