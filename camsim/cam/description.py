@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # issue 14: [cam.geometry]
-    from camsim.cam.geometry import CamGeometry
+    from camsim.cam.arrangement import CamGeometry
 
 MOTIONS = ("rise", "fall", "dwell")
 LAWS = ("cycloidal", "harmonic", "modified-trapezoid", "modified-sine", "poly345", "poly4567")

@@ -111,7 +111,7 @@ def _print_machine(machine: Machine) -> None:
                 f"{max(t.displacement):.6g} m"
             )
         if cam.geometry is not None:  # issue 14: [cam.geometry] in SI
-            from camsim.cam.geometry import geometry_to_dict
+            from camsim.cam.arrangement import geometry_to_dict
 
             geo = Table(title="cam geometry (SI; checks: camsim cam)", title_justify="left", show_header=False)
             geo.add_column("key")

@@ -240,7 +240,7 @@ def override_keys(doc: dict) -> list[str]:
     keys = ["schema"] + [f"machine.{k}" for k in MACHINE_KEYS]
     cam = doc.get("cam")
     keys += [f"cam.{k}" for k in CAM_KEYS if k not in ("segments", "geometry")]
-    from camsim.cam.geometry import GEOMETRY_KEYS, MATERIAL_KEYS  # issue 14
+    from camsim.cam.arrangement import GEOMETRY_KEYS, MATERIAL_KEYS  # issue 14
 
     keys += [f"cam.geometry.{k}" for k in GEOMETRY_KEYS if not k.endswith("_material")]
     keys += [f"cam.geometry.{m}.{k}" for m in ("cam_material", "follower_material") for k in MATERIAL_KEYS]
@@ -316,7 +316,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             "table": None,
         }
         if cam.geometry is not None:  # issue 14
-            from camsim.cam.geometry import geometry_to_dict
+            from camsim.cam.arrangement import geometry_to_dict
 
             cam_dict["geometry"] = geometry_to_dict(cam.geometry)
         if cam.table is not None:

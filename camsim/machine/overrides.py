@@ -92,7 +92,7 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
             raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
         cam = _table(doc, "cam", source)
         if leaf == "geometry" and leaf_index is None:  # issue 14: cam.geometry.<key>[.<key>]
-            from camsim.cam.geometry import apply_geometry_override
+            from camsim.cam.arrangement import apply_geometry_override
 
             return apply_geometry_override(cam, key, rest, value, source)
         if leaf != "segments":

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 from camsim import elements as element_kinds
-from camsim.cam import geometry as _geometry
+from camsim.cam import arrangement as _geometry
 from camsim.elements import COMMON_PARAMS, Param
 
 #: The fixed tables, by their name in the machine file.

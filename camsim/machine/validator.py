@@ -312,7 +312,7 @@ class _Validator:
             profile = self.cam_table(table["table"], arm)
         geometry = None
         if "geometry" in table:  # issue 14: [cam.geometry]
-            from camsim.cam.geometry import parse_geometry
+            from camsim.cam.arrangement import parse_geometry
 
             geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm)
         return Cam(speed=speed, segments=segments, table=profile, ratio=ratio, arm=arm,
