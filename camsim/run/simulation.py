@@ -19,6 +19,7 @@ from camsim.elements import CAM, GROUND, Branch
 from camsim.engine.integrator import Integrator, State, Stretch
 from camsim.machine.description import Machine
 from camsim.model.assembly import Model
+from camsim.model.rigidity import check_cam_resolvable, check_not_rigid
 from camsim.run.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
@@ -229,6 +230,8 @@ def highest_frequency(model: Model) -> float:
             continue
         if config.dim == 0:
             continue
+        if not np.all(np.isfinite(config.A)):
+            return math.inf  # an element beyond float range (1e300 N/m): rigid, check_not_rigid says which
         lam = np.linalg.eigvals(config.A)
         best = max(best, float(np.max(np.abs(lam))) / (2 * math.pi))
     return best
@@ -304,7 +307,9 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     t_rec = warm * period if warm else 0.0
     t_end = t_rec + record_len
     h_out = 1.0 / sim.sample_rate
+    check_cam_resolvable(machine)  # issue 25: a cam faster than events can be located
     f_max = highest_frequency(model)
+    check_not_rigid(model, f_max, SAMPLES_PER_PERIOD)  # issue 25: exit 2 naming the element
     if f_max > 0 and sim.sample_rate < 2 * f_max:
         warnings.append(
             f"sample rate {sim.sample_rate:g} Hz is below twice the highest natural frequency "
