@@ -140,7 +140,7 @@ def check_not_rigid(model, f_max: float, samples_per_period: int) -> None:
         why = (f"stiffness {culprit.stiffness:.3g} N/m on {culprit.mass:.3g} kg gives a natural frequency of "
                f"{culprit.frequency:.3g} Hz")
         fix = ('use a rigid contact (type = "contact", law = "restitution") or a lower stiffness'
-               if element.type_name == "contact" or element.unilateral
+               if element.unilateral
                else "use a lower stiffness, or join the masses into one (a rigid link), or a rigid contact "
                     '(law = "restitution") if it is a contact')
     raise InputError(
