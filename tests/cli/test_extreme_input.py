@@ -219,3 +219,34 @@ def test_any_value_scaled_by_a_power_of_ten_ends_cleanly(tmp_path, case, k):
         assert len(errors) == 1, proc.stderr
     if proc.returncode == 2:
         assert not out.exists()
+
+
+def test_numerical_breakdown_is_exit_1_one_line(tmp_path, monkeypatch):
+    """A singular matrix inside the engine (as the power-law seat of cdtm-power at its
+    coefficient x 1e9 met in the collocation stepper) is exit 1 with one line, no traceback,
+    nothing under the output name. The breakdown is injected into Integrator.run."""
+    from camsim.engine.integrator import Integrator
+
+    def broken(self, *args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(Integrator, "run", broken)
+    out = tmp_path / "out.h5"
+    r = run(["run", MACHINES / "dynacam-2mass.toml", "-o", out, "-q"])
+    assert r.exit_code == 1, r.output
+    lines = error_lines(r)
+    assert len(lines) == 1 and lines[0].startswith("camsim: error:") and "Singular matrix" in lines[0], r.output
+    assert not out.exists()
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
+@pytest.mark.slow
+def test_power_coefficient_times_1e9_ends_cleanly(tmp_path):
+    """cdtm-power with the seat coefficient x 1e9 (1.11e16 lbf/in^1.425) ended in a
+    LinAlgError traceback after about 44 s of CPU; it ends in a result or a one-line exit 1."""
+    out = tmp_path / "out.h5"
+    r = run(["run", MACHINES / "cdtm-power.toml", "--set", 'element.seat.coefficient="1.11e16 lbf/in**1.425"', "-o", out, "-q"])
+    assert r.exit_code in (0, 1), r.output
+    assert "Traceback" not in r.output
+    if r.exit_code == 1:
+        assert len(error_lines(r)) == 1, r.output
