@@ -28,7 +28,7 @@ def run_command(
     rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (see camsim check)."),
     atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against (SI)."),
     max_output: str = typer.Option("2GB", "--max-output", metavar="SIZE", help="Refuse (exit 2, before integrating) a run whose estimated output is larger, e.g. 500MB, 10GB; the message gives the estimate and the options that reduce it."),
-    yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output or the run would take more than 1e9 integration steps."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output or the run would take more than 1e8 integration steps forced by a fast mode."),
     record: list[str] = typer.Option([], "--record", metavar="PATTERN[,PATTERN]", help="Store only the traces whose result path matches a pattern (fnmatch), e.g. 'transducer/*,masses/M3/*' (repeatable); time is stored with them. The summary and events cover everything."),
     record_last: int = typer.Option(None, "--record-last", min=1, metavar="N", help="Store only the last N recorded revolutions of traces; the summary and events cover every revolution."),
     summary_only: bool = typer.Option(False, "--summary-only", help="Store no traces: the event table and the summary (/summary) only."),
@@ -45,7 +45,7 @@ def run_command(
     (peaks per mass, forces, impacts with their approach velocities and Johnson bounds,
     periodicity residual) goes to stderr and to the file's /summary group. Before
     integrating, the output size and the number of integration steps are estimated; above
-    --max-output or 1e9 steps the run is refused (exit 2) unless --yes, and a model too
+    --max-output or 1e8 steps forced by a fast mode the run is refused (exit 2) unless --yes, and a model too
     stiff to integrate (numerically rigid) or a cam too fast to follow is refused (exit 2,
     naming the key). The file is written atomically: Ctrl-C or SIGTERM leaves the
     previous result and no temporary file (exit 130). Exit 0 on success, 1 when the run

@@ -37,9 +37,11 @@ __all__ = ["DEFAULT_MAX_OUTPUT", "DEFAULT_MAX_STEPS", "Estimate", "estimate_run"
 #: Default largest estimated output of a run without ``--yes`` [bytes] (2 GB).
 DEFAULT_MAX_OUTPUT = 2_000_000_000
 
-#: Largest number of integration steps of a run without ``--yes``: about 6 minutes of one
-#: core at the 2.7 M steps/s measured on dynacam-2mass with k12 = 1e14 N/m (issue 25).
-DEFAULT_MAX_STEPS = 1e9
+#: Largest number of integration steps forced by a fast mode without ``--yes``: from half a
+#: minute to several minutes of one core (measured on dynacam-2mass, issue 25: 2.7 M
+#: steps/s with k12 = 1e14 N/m, 0.23 M steps/s with 6e14 N/m, where the modal recurrence
+#: is ill-conditioned and the steps go one by one).
+DEFAULT_MAX_STEPS = 1e8
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*([kKMGT]i?B|B)?\s*$")
 _FACTORS = {"B": 1, "kB": 1e3, "KB": 1e3, "MB": 1e6, "GB": 1e9, "TB": 1e12, "KiB": 2**10, "kiB": 2**10, "MiB": 2**20, "GiB": 2**30, "TiB": 2**40}

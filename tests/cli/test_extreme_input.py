@@ -94,12 +94,12 @@ def test_speed_times_1e9_is_exit_2_naming_the_speed(tmp_path):
 
 
 def test_too_many_steps_is_refused_up_front(tmp_path):
-    """k12 = 1e16 N/m (7.96e6 Hz, just under the rigid limit) for 40 revolutions at 180 rpm:
-    12 steps per period over (40 + 1 warm-up) x 1/3 s = 1.3e9 steps, above the 1e9 budget."""
+    """k12 = 1e16 N/m (7.96e6 Hz, just under the rigid limit) for 4 revolutions at 180 rpm:
+    12 steps per period over (4 + 1 warm-up) x 1/3 s = 1.6e8 steps, above the 1e8 budget."""
     out = tmp_path / "out.h5"
-    r = run(["run", MACHINES / "dynacam-2mass.toml", "--set", 'element.k12.stiffness="1e16 N/m"', "--cycles", "40", "-o", out])
+    r = run(["run", MACHINES / "dynacam-2mass.toml", "--set", 'element.k12.stiffness="1e16 N/m"', "--cycles", "4", "-o", out])
     assert_clean_exit2(r, out, "integration steps", "element.k12.stiffness", "--yes")
-    expected = 12 * math.sqrt(1e16 / 4.0) / (2 * math.pi) * 41 / 3.0
+    expected = 12 * math.sqrt(1e16 / 4.0) / (2 * math.pi) * 5 / 3.0
     assert f"{expected:.3g} integration steps" in r.output
 
 
