@@ -4,7 +4,7 @@ The integrator takes a fixed number of steps per period of the fastest mode of t
 (``SAMPLES_PER_PERIOD`` in :mod:`camsim.run.simulation`) and locates events to
 :data:`EVENT_ACCURACY`. An element stiff enough (or damped hard enough) that its time scale
 approaches that accuracy cannot be resolved: its mode would need steps of a few
-nanoseconds (a stiffness of 1e18 N/m on 4 kg: 8e7 Hz, 6e8 steps per second simulated) and
+nanoseconds (a stiffness of 1e18 N/m on 4 kg: 8e7 Hz, 1e9 steps per second simulated) and
 its deflection drowns in the rounding of the positions. Physically the element is rigid,
 and camsim has a model for that: a rigid contact (``law = "restitution"``), or a lower
 stiffness. :func:`check_not_rigid` says so before anything runs, naming the element key.
@@ -31,9 +31,13 @@ __all__ = ["EVENT_ACCURACY", "RIGID_STEP", "ElementRate", "element_rates", "fast
 #: Accuracy to which events are located [s] (spec §4, docs/model.md).
 EVENT_ACCURACY = 1e-9
 
-#: Shortest integration step the engine is asked to take [s]: ten times the event accuracy,
-#: so that a located event still falls well inside one step of the fastest mode.
-RIGID_STEP = 10 * EVENT_ACCURACY
+#: Shortest integration step the engine is asked to take [s]: a hundred times the event
+#: accuracy, ten times the bracket (up to 1e-8 s) over which camsim.engine.crossing carries
+#: the state to second order to polish a crossing, so that a located event stays a small
+#: fraction of a step of the fastest mode. With 12 steps per period: 833 kHz. Beyond it the
+#: runs that still end are slow (dynacam-2mass with k12 = 6e14 N/m, 1.95 MHz: 69 s of CPU
+#: for one revolution and its warm-up, an ill-conditioned modal recurrence stepping one by one).
+RIGID_STEP = 100 * EVENT_ACCURACY
 
 
 def rigid_frequency(samples_per_period: int) -> float:
