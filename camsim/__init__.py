@@ -14,7 +14,6 @@ See ``docs/python-api.md``. Errors a user can cause derive from :class:`InputErr
 raises :class:`SimulationError`.
 """
 
-from camsim._version import __version__
 from camsim.errors import CamsimError, InputError, MachineError, MachineFileError, ResultFileError, SimulationError
 
 #: Public names imported on first use, so that ``import camsim`` (and the CLI) stays light.
@@ -47,6 +46,10 @@ __all__ = [
 def __getattr__(name: str):
     import importlib
 
+    if name == "__version__":  # importlib.metadata, looked up on first use (camsim._version)
+        from camsim import _version
+
+        return _version.__version__
     if name in _LAZY_PACKAGES:
         return importlib.import_module(_LAZY_PACKAGES[name])
     module = _LAZY.get(name)

@@ -7,23 +7,95 @@ SI floats; nothing below the loader sees a pint object.
 from __future__ import annotations
 
 import math
+import os
 import re
+import sys
+from pathlib import Path
 from typing import Any
 
 _REGISTRY = None
+
+#: Environment variable naming the folder of camsim's on-disk caches (default: the user's
+#: cache folder, e.g. ~/.cache/camsim on Linux); an empty value turns the caches off.
+CACHE_ENV = "CAMSIM_CACHE_DIR"
+
+
+def cache_folder() -> Path | None:
+    """Folder of pint's parsed-definitions cache, or None when it cannot be used.
+
+    Per user (``platformdirs.user_cache_path("camsim")``, or ``$CAMSIM_CACHE_DIR``), in a
+    ``pint`` subfolder. None -- build the registry from its definitions, as without a
+    cache -- when the folder cannot be created or written (a read-only home, a shared
+    account) or ``$CAMSIM_CACHE_DIR`` is empty.
+    """
+    env = os.environ.get(CACHE_ENV)
+    if env is not None and not env.strip():
+        return None
+    try:
+        if env:
+            base = Path(env).expanduser()
+        else:
+            import platformdirs  # a dependency of pint
+
+            base = platformdirs.user_cache_path("camsim", appauthor=False)
+        folder = base / "pint"
+        folder.mkdir(parents=True, exist_ok=True)
+    except (OSError, ImportError):
+        return None
+    return folder if os.access(folder, os.W_OK | os.X_OK) else None
+
+
+def _import_pint():
+    """``import pint``, without letting it import dask.
+
+    pint imports ``dask.base`` at import time when dask is installed (0.4 s on the 2-core
+    test machine, half of pint's import), for Quantities that wrap dask arrays, which camsim
+    never makes. Unless dask is already loaded, it is hidden while pint is imported (a
+    ``None`` entry in ``sys.modules`` makes ``find_spec("dask")`` return None); dask itself
+    stays importable afterwards (``camsim study --executor dask`` imports it then).
+    """
+    if "pint" in sys.modules or "dask" in sys.modules:
+        import pint
+
+        return pint
+    sys.modules["dask"] = None  # type: ignore[assignment]
+    try:
+        import pint
+    finally:
+        if sys.modules.get("dask", 0) is None:
+            del sys.modules["dask"]
+    return pint
+
+
+def build_registry(folder: Path | None) -> Any:
+    """A camsim pint registry, its parsed definitions cached in ``folder`` (None: no cache).
+
+    pint's own disk cache (``UnitRegistry(cache_folder=...)``) keeps the parsed definition
+    files, keyed by a hash of their content, so a new pint version or definitions file
+    never reads a stale entry. A cache that cannot be read (a file half-written by a
+    concurrent run, a pickle of another Python) falls back to building without it: the
+    registry is the same either way (tests/test_units_cache.py).
+    """
+    pint = _import_pint()
+    if folder is not None:
+        try:
+            return pint.UnitRegistry(autoconvert_offset_to_baseunit=True, cache_folder=folder)
+        except Exception:  # noqa: BLE001 - any cache trouble: build from the definitions
+            pass
+    return pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
 
 
 def registry() -> Any:
     """The one pint ``UnitRegistry`` of camsim, created on first use.
 
-    Building it costs about 0.2 s, so commands that never parse a unit (``--help``,
-    ``plot``, ``check``) do not pay for it. ``camsim.units.ureg`` is the same object.
+    Building it from pint's definition files costs about 0.5 s, so it is cached on disk
+    (:func:`cache_folder`, :func:`build_registry`: about 0.1 s from the cache), and commands
+    that never parse a unit (``--help``, ``plot``, ``check``) do not build it at all.
+    ``camsim.units.ureg`` is the same object.
     """
     global _REGISTRY
     if _REGISTRY is None:
-        import pint
-
-        _REGISTRY = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+        _REGISTRY = build_registry(cache_folder())
     return _REGISTRY
 
 
@@ -123,9 +195,9 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
         if bare_unit is None:
             return number
         return float(registry().Quantity(number, bare_unit).to(target).magnitude)
-    import pint
-
     ureg = registry()
+    import pint  # loaded by registry()
+
     text = value.strip()
     if _MIL.search(text):
         raise QuantityError(

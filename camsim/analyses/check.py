@@ -31,10 +31,7 @@ from camsim.errors import InputError, ResultFileError
 from camsim.io.hdf5 import read_table
 from camsim.io.results import all_datasets, attr_text, file_kind, list_traces, open_h5, table_units, time_bases, units_of
 
-#: Default relative tolerance, relative to each dataset's peak |value| (golden file).
-DEFAULT_RTOL = 1e-6
-#: Default absolute tolerance, in the dataset's SI unit.
-DEFAULT_ATOL = 1e-12
+from camsim.analyses.tolerances import DEFAULT_ATOL, DEFAULT_RTOL  # noqa: E402  (re-exported)
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,6 @@ from typing import Any
 import typer
 from rich.console import Console
 
-from camsim._version import __version__
 from camsim.errors import InputError, SimulationError
 from camsim.units import QuantityError, to_si
 
@@ -45,6 +44,8 @@ app = typer.Typer(
 
 def _print_version(value: bool) -> None:
     if value:
+        from camsim._version import __version__  # importlib.metadata: only when asked
+
         typer.echo(f"camsim {__version__}")
         raise typer.Exit()
 

@@ -8,6 +8,7 @@ The library calls behind it: :class:`camsim.cam.CamProgram` (peaks, warnings) an
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 from pathlib import Path
 
 import typer
@@ -16,11 +17,21 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cam import CamProgram
 from camsim.cli.app import app, err_console, print_json, user_errors
 from camsim.errors import InputError, MachineFileError
-from camsim.io.atomic import check_writable
-from camsim.cam.files import write_cam_csv, write_cam_hdf5
+
+if TYPE_CHECKING:
+    from camsim.cam import CamProgram
+
+
+def __getattr__(name: str):
+    # write_cam_csv/write_cam_hdf5 live in camsim.cam.files (h5py): imported when asked for,
+    # so that `camsim --help` does not load h5py (issue 25, fast start)
+    if name in ("write_cam_csv", "write_cam_hdf5"):
+        from camsim.cam import files
+
+        return getattr(files, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 #: The traces written by ``camsim cam -o``: name, units, long name.
 def _num(value: float | None, fmt: str = ".4g") -> str:
@@ -129,6 +140,10 @@ def cam_command(
     (an undercut roller, a cusp under a flat face) is an error (exit 2) naming the cam
     angles; nothing is written then.
     """
+    from camsim.cam import CamProgram
+    from camsim.cam.files import write_cam_csv, write_cam_hdf5
+    from camsim.io.atomic import check_writable
+
     with user_errors():
         kind = None
         if output is not None:

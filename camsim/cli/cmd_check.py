@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, print_json, user_errors
-from camsim.analyses.check import DEFAULT_ATOL, DEFAULT_RTOL
+from camsim.analyses.tolerances import DEFAULT_ATOL, DEFAULT_RTOL
 
 
 @app.command("check")

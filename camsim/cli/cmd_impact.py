@@ -9,19 +9,20 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.physics import impact
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.errors import InputError
-from camsim.io.forcedeflection import read_force_deflection_csv
 from camsim.units import QuantityError, to_si
 
 from camsim.units import LBF  # noqa: E402
+
+if TYPE_CHECKING:
+    from camsim.physics import impact
 
 impact_app = typer.Typer(
     name="impact",
@@ -212,6 +213,7 @@ def impact_command(
 
 def _calculate(**given: str | None) -> tuple[dict[str, Any], impact.ImpactEstimates]:
     """Parse and check the options, then call :func:`camsim.physics.impact.estimate_impact`."""
+    from camsim.physics import impact  # numpy: only when the command runs
     if given["mass"] is None:
         raise InputError("--mass is required (the striking mass, e.g. --mass \"0.0079 lb\")")
     if (given["velocity"] is None) == (given["drop_height"] is None):
@@ -411,6 +413,9 @@ def fit_command(
     Prints C in N/m^a and in the file's units, the exponent a and R^2 of the log-log fit.
     At least 3 samples, all positive.
     """
+    from camsim.io.forcedeflection import read_force_deflection_csv
+    from camsim.physics import impact  # numpy: only when the command runs
+
     json_out = json_out or bool((ctx.obj or {}).get("json"))
     with user_errors():
         samples = read_force_deflection_csv(data)

@@ -28,7 +28,7 @@ def run_command(
     rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (see camsim check)."),
     atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against (SI)."),
     max_output: str = typer.Option("2GB", "--max-output", metavar="SIZE", help="Refuse (exit 2, before integrating) a run whose estimated output is larger, e.g. 500MB, 10GB; the message gives the estimate and the options that reduce it."),
-    yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output or the run would take more than 1e8 integration steps forced by a fast mode."),
     record: list[str] = typer.Option([], "--record", metavar="PATTERN[,PATTERN]", help="Store only the traces whose result path matches a pattern (fnmatch), e.g. 'transducer/*,masses/M3/*' (repeatable); time is stored with them. The summary and events cover everything."),
     record_last: int = typer.Option(None, "--record-last", min=1, metavar="N", help="Store only the last N recorded revolutions of traces; the summary and events cover every revolution."),
     summary_only: bool = typer.Option(False, "--summary-only", help="Store no traces: the event table and the summary (/summary) only."),
@@ -44,8 +44,10 @@ def run_command(
     less (the summary and the event table always cover every revolution). The summary
     (peaks per mass, forces, impacts with their approach velocities and Johnson bounds,
     periodicity residual) goes to stderr and to the file's /summary group. Before
-    integrating, the output size is estimated; above --max-output the run is refused
-    (exit 2) unless --yes. The file is written atomically: Ctrl-C or SIGTERM leaves the
+    integrating, the output size and the number of integration steps are estimated; above
+    --max-output or 1e8 steps forced by a fast mode the run is refused (exit 2) unless --yes, and a model too
+    stiff to integrate (numerically rigid) or a cam too fast to follow is refused (exit 2,
+    naming the key). The file is written atomically: Ctrl-C or SIGTERM leaves the
     previous result and no temporary file (exit 130). Exit 0 on success, 1 when the run
     fails (diverges, unresolved chatter) or --check-against finds a regression, 2 on bad
     input.
@@ -80,7 +82,7 @@ def run_command(
         remove_stale_temps(target)  # left by a run that was killed outright
         stored = select_traces(machine_trace_layout(loaded, no_impact), patterns or None, summary_only)
         estimate = estimate_run(loaded, cycles=cycles, warmup_cycles=warmup, sample_rate=rate, traces=len(stored),
-                                record_fraction=record_fraction(loaded, record_last, cycles))
+                                record_fraction=record_fraction(loaded, record_last, cycles), no_impact=no_impact)
         if not yes:
             check_budget(estimate, limit, str(machine))
         if check_against is not None:

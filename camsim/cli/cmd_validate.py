@@ -7,6 +7,7 @@ A thin layer over :func:`camsim.machine.loader.load_machine` and
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 from pathlib import Path
 
 import typer
@@ -14,8 +15,10 @@ from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
-from camsim.elements import Param
-from camsim.machine.description import Machine
+
+if TYPE_CHECKING:  # numpy and the element kinds: imported by the command, not by --help
+    from camsim.elements import Param
+    from camsim.machine.description import Machine
 
 
 @app.command("validate")

@@ -456,10 +456,12 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         r = X[:, 0]
         Zr = resp.states()
         Z = Zu + Zr
-        if ok and K >= 5:
+        if ok and K >= 6:
             # The remainder is carried by its cubic Hermite per step, whose error is
             # h⁴·|r⁗|/384 ≈ |Δ⁴r|/384: where that is not negligible (a bounce, the
             # stiffness sweeping within a few steps) the window goes to DOP853 instead.
+            # (Δ⁴ of the K - 1 inner nodes needs K >= 6; a window cut short by the stop
+            # time can have K = 5.)
             ok = float(np.max(np.abs(np.diff(r[1:-1], 4)))) / 384.0 <= INTERP_TOL * scale
         if not ok or np.any(F <= 0.0):
             r_prev = None

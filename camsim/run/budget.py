@@ -13,6 +13,15 @@ acceleration and jerk, three traces per mass, one force per element, the cam con
 transducer forces) unless ``--record``, ``--record-last`` or ``--summary-only`` say
 otherwise. ``camsim run`` streams its traces to the file, so memory does not grow with
 this size; the disk does.
+
+The estimate also counts the integration steps: the engine takes
+``SAMPLES_PER_PERIOD`` steps per period of the fastest mode (or one per output sample,
+whichever is finer), so a very stiff element or a very long recorded time makes the run
+long whatever it stores. When the fastest mode sets the step and the run would take more
+than :data:`DEFAULT_MAX_STEPS`, it is refused up front with the element that sets the pace
+(steps at the output rate are what the user asked for: the size guard covers them); a
+model too fast to integrate at all (numerically rigid, :mod:`camsim.model.rigidity`) or a
+cam too fast to follow is refused outright.
 """
 
 from __future__ import annotations
@@ -23,10 +32,16 @@ from dataclasses import dataclass
 
 from camsim.errors import InputError
 
-__all__ = ["DEFAULT_MAX_OUTPUT", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
+__all__ = ["DEFAULT_MAX_OUTPUT", "DEFAULT_MAX_STEPS", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
 
 #: Default largest estimated output of a run without ``--yes`` [bytes] (2 GB).
 DEFAULT_MAX_OUTPUT = 2_000_000_000
+
+#: Largest number of integration steps forced by a fast mode without ``--yes``: from half a
+#: minute to several minutes of one core (measured on dynacam-2mass, issue 25: 2.7 M
+#: steps/s with k12 = 1e14 N/m, 0.23 M steps/s with 6e14 N/m, where the modal recurrence
+#: is ill-conditioned and the steps go one by one).
+DEFAULT_MAX_STEPS = 1e8
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*([kKMGT]i?B|B)?\s*$")
 _FACTORS = {"B": 1, "kB": 1e3, "KB": 1e3, "MB": 1e6, "GB": 1e9, "TB": 1e12, "KiB": 2**10, "kiB": 2**10, "MiB": 2**20, "GiB": 2**30, "TiB": 2**40}
@@ -70,6 +85,11 @@ class Estimate:
         Revolutions integrated (warm-up included; 0 for a machine without a cam).
     recorded_s : float
         Recorded duration [s].
+    steps : float
+        Integration steps, warm-up included (0 when not estimated).
+    pace : str
+        What sets the step: ``"the output samples"`` or the fastest element and its
+        frequency.
     """
 
     samples: float
@@ -77,6 +97,13 @@ class Estimate:
     bytes: float
     revolutions: float
     recorded_s: float
+    steps: float = 0.0
+    pace: str = ""
+
+    @property
+    def paced_by_mode(self) -> bool:
+        """True when the fastest mode, not the output sample rate, sets the step."""
+        return self.pace.startswith(tuple("0123456789"))
 
 
 def count_traces(machine) -> int:
@@ -104,6 +131,7 @@ def estimate_run(
     sample_rate: float | None = None,
     traces: int | None = None,
     record_fraction: float = 1.0,
+    no_impact: bool = False,
 ) -> Estimate:
     """Estimate what a run of ``machine`` with these settings stores (as ``simulate`` would run it).
 
@@ -118,6 +146,13 @@ def estimate_run(
         Traces stored (default: all, :func:`count_traces`); 0 for a summary-only run.
     record_fraction : float
         Fraction of the recorded time whose samples are kept (``--record-last``).
+    no_impact : bool
+        The no-impact variant (its fastest mode differs).
+
+    Raises
+    ------
+    InputError
+        A cam too fast to follow, a numerically rigid model (before anything runs).
     """
     sim = machine.simulation
     rate = sample_rate if sample_rate is not None else sim.sample_rate
@@ -138,7 +173,46 @@ def estimate_run(
     revolutions = 0.0 if period is None else recorded / period + (warm or 0)
     samples = math.floor(recorded * rate * record_fraction) + 1 if rate > 0 else 0
     n = count_traces(machine) if traces is None else traces
-    return Estimate(samples=float(samples), traces=n, bytes=float(samples) * n * 8.0, revolutions=revolutions, recorded_s=recorded)
+    steps, pace = integration_steps(machine, recorded, (warm or 0) * period if period else 0.0, rate, no_impact)
+    return Estimate(samples=float(samples), traces=n, bytes=float(samples) * n * 8.0, revolutions=revolutions,
+                    recorded_s=recorded, steps=steps, pace=pace)
+
+
+def integration_steps(machine, recorded: float, warmup: float, rate: float, no_impact: bool = False) -> tuple[float, str]:
+    """Integration steps of a run and what sets their length (as ``simulate`` chooses them).
+
+    Refuses (:class:`InputError`) a cam too fast to follow and a numerically rigid model
+    (:mod:`camsim.model.rigidity`), before anything runs.
+
+    Parameters
+    ----------
+    recorded, warmup : float
+        Recorded and warm-up durations [s].
+    rate : float
+        Output sample rate [Hz].
+    """
+    from camsim.model.assembly import Model
+    from camsim.model.rigidity import check_cam_resolvable, check_not_rigid, fastest_element
+    from camsim.run.simulation import SAMPLES_PER_PERIOD, highest_frequency
+
+    check_cam_resolvable(machine)
+    model = Model(machine, no_impact=no_impact)
+    f_max = highest_frequency(model)
+    check_not_rigid(model, f_max, SAMPLES_PER_PERIOD)
+    if rate <= 0:
+        return 0.0, ""
+    h_out = 1.0 / rate
+    substeps = max(1, math.ceil(h_out * f_max * SAMPLES_PER_PERIOD))
+    h = h_out / substeps
+    h_warm = 1.0 / (SAMPLES_PER_PERIOD * f_max) if f_max > 0 else h
+    if h_warm <= 1.5 * h:
+        h_warm = h
+    steps = recorded / h + warmup / h_warm
+    if substeps == 1:
+        return steps, "one step per output sample"
+    fast = fastest_element(model)
+    who = f", element.{fast.element}.{fast.key}" if fast is not None else ""
+    return steps, f"{SAMPLES_PER_PERIOD} steps per period of the fastest mode, {f_max:.3g} Hz{who}"
 
 
 def record_fraction(machine, record_last: int | None, cycles: int | None = None) -> float:
@@ -161,16 +235,24 @@ REDUCE_HINT = (
 )
 
 
-def check_budget(estimate: Estimate, max_bytes: float, where: str) -> None:
-    """Raise :class:`InputError` when the estimate exceeds ``max_bytes``.
+def check_budget(estimate: Estimate, max_bytes: float, where: str, max_steps: float = DEFAULT_MAX_STEPS) -> None:
+    """Raise :class:`InputError` when the estimate exceeds ``max_bytes`` or ``max_steps``.
 
     The message gives the estimate and the options that reduce it (exit 2 on the
     command line; nothing has run, nothing is written).
     """
-    if estimate.bytes <= max_bytes:
-        return
-    raise InputError(
-        f"{where}: the run would store {estimate.samples:.3g} samples x {estimate.traces} traces "
-        f"= {format_size(estimate.bytes)} ({estimate.recorded_s:.4g} s recorded), above --max-output "
-        f"{format_size(max_bytes)}; {REDUCE_HINT}"
-    )
+    if estimate.bytes > max_bytes:
+        raise InputError(
+            f"{where}: the run would store {estimate.samples:.3g} samples x {estimate.traces} traces "
+            f"= {format_size(estimate.bytes)} ({estimate.recorded_s:.4g} s recorded), above --max-output "
+            f"{format_size(max_bytes)}; {REDUCE_HINT}"
+        )
+    # Steps at the output rate are what the user asked for (cycles x sample rate; a long
+    # --summary-only run shows its progress bar); steps forced by a fast mode are not.
+    if estimate.steps > max_steps and estimate.paced_by_mode:
+        raise InputError(
+            f"{where}: the run would take {estimate.steps:.3g} integration steps ({estimate.pace}; "
+            f"{estimate.recorded_s:.4g} s recorded), above {max_steps:.3g} (minutes to hours of computing); "
+            f"lower the stiffness or damping that sets the pace (or make that contact rigid, "
+            f'law = "restitution"), record less with --cycles or simulation.duration, or pass --yes to run it anyway'
+        )

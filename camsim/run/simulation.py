@@ -7,6 +7,7 @@ HDF5 writer, the plots and the summary table all read.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -19,6 +20,7 @@ from camsim.elements import CAM, GROUND, Branch
 from camsim.engine.integrator import Integrator, State, Stretch
 from camsim.machine.description import Machine
 from camsim.model.assembly import Model
+from camsim.model.rigidity import check_cam_resolvable, check_not_rigid
 from camsim.run.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
@@ -229,6 +231,8 @@ def highest_frequency(model: Model) -> float:
             continue
         if config.dim == 0:
             continue
+        if not np.all(np.isfinite(config.A)):
+            return math.inf  # an element beyond float range (1e300 N/m): rigid, check_not_rigid says which
         lam = np.linalg.eigvals(config.A)
         best = max(best, float(np.max(np.abs(lam))) / (2 * math.pi))
     return best
@@ -304,7 +308,9 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     t_rec = warm * period if warm else 0.0
     t_end = t_rec + record_len
     h_out = 1.0 / sim.sample_rate
+    check_cam_resolvable(machine)  # issue 25: a cam faster than events can be located
     f_max = highest_frequency(model)
+    check_not_rigid(model, f_max, SAMPLES_PER_PERIOD)  # issue 25: exit 2 naming the element
     if f_max > 0 and sim.sample_rate < 2 * f_max:
         warnings.append(
             f"sample rate {sim.sample_rate:g} Hz is below twice the highest natural frequency "
@@ -334,22 +340,43 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     # Warm-up cycles are not recorded: integrate them on a coarser grid, just dense
     # enough to see every guard (each step is exact whatever its length).
     h_warm = 1.0 / (SAMPLES_PER_PERIOD * f_max) if f_max > 0 else integrator.h
-    if t_rec > 0 and h_warm > 1.5 * integrator.h:
-        warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
-        state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
-    if consumer is None:
-        _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
-        result = _assemble(run, stretches)
-        peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
-    else:
-        integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
-        result = consumer.finish()
-        peak = result.peak
+    with numerical_failure(machine):
+        if t_rec > 0 and h_warm > 1.5 * integrator.h:
+            warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
+            state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
+        if consumer is None:
+            _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
+            result = _assemble(run, stretches)
+            peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
+        else:
+            integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
+            result = consumer.finish()
+            peak = result.peak
     result.periodicity_residual = _residual(model, saved, stops, peak)
     result.sample_rate = sim.sample_rate
     if consumer is not None:
         consumer.close(result)
     return result
+
+
+@contextmanager
+def numerical_failure(machine: Machine):
+    """Turn a numerical breakdown inside the engine into a :class:`SimulationError` (exit 1,
+    one line) instead of a traceback.
+
+    A singular Newton matrix or an overflow comes from a machine at the edge of what the
+    engine resolves -- in practice a power-law contact far stiffer than its neighbours (the
+    CDTM's seat coefficient x 1e9: singular collocation matrix after 44 s, issue 25) --
+    which the up-front checks (:mod:`camsim.model.rigidity`, linear laws only) cannot see.
+    """
+    try:
+        yield
+    except (np.linalg.LinAlgError, FloatingPointError, OverflowError) as exc:
+        raise SimulationError(
+            f"{machine.source}: the integration broke down numerically ({type(exc).__name__}: {exc}); an element "
+            f"is probably too stiff to resolve: lower its stiffness or coefficient, or make the contact rigid "
+            f'(law = "restitution")'
+        ) from exc
 
 
 @dataclass(frozen=True)
