@@ -221,6 +221,13 @@ class Integrator:
         s, v, a, j = self.cam.svaj(t)
         return np.stack([s, v, a, j], axis=-1)
 
+    def analytic_inputs(self, t: float) -> np.ndarray:
+        """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the limit from the right at a join):
+        (4,). Unlike :meth:`inputs`, never the step's Hermite polynomial, whose s̈ and s⃛
+        inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
+        s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
+        return np.array([s_[0], v_[0], a_[0], j_[0]])
+
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
         """Cam input [s, ṡ, s̈, s⃛] at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
 
@@ -531,8 +538,15 @@ class Integrator:
             root = self._refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
             if root is not None:
                 tau, z = root
-                # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket
-                tau, z = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k])
+                # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket; issue 25:
+                # over the whole step on the exact state when the step's input polynomial
+                # misplaced the root (None: no crossing in this step after all)
+                z_k = Z[k]
+                polished = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k],
+                                           state_at=lambda t, z_k=z_k, Ek=Ek: exact_partial(config, z_k, Ek, t) if t > 0 else z_k)
+                if polished is None:
+                    continue
+                tau, z = polished
                 return nodes[k] + tau, z, guard, k
         return None
 
