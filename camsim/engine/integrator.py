@@ -533,7 +533,14 @@ class Integrator:
         if not candidates:
             return None
         candidates.sort(key=lambda c: (c[0], c[1]))
+        # Several guards may cross inside one step: every candidate of the earliest step
+        # that holds a crossing is located and the earliest root wins (sorting by step
+        # alone handled them in guard order; issue 25: a seat impact 8.6e-5 s before a
+        # rider's inside one 10 kHz step was found only after it, as a penetration).
+        best = None
         for t_k, k, guard, how, ends in candidates:
+            if best is not None and k != best[3]:
+                break
             Ek = forcing_coefficients(config, D[k : k + 1])[0]
             root = self._refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
             if root is not None:
@@ -547,8 +554,9 @@ class Integrator:
                 if polished is None:
                     continue
                 tau, z = polished
-                return nodes[k] + tau, z, guard, k
-        return None
+                if best is None or nodes[k] + tau < best[0]:
+                    best = (nodes[k] + tau, z, guard, k)
+        return best
 
     def _refine(self, config, guard, z0, Dk, Ek, hk, just_started, ends=None):
         """Locate the first root of the guard in one step on the exact solution.
@@ -665,7 +673,7 @@ class Integrator:
         """Largest DOP853 step of a nonlinear phase [s] (four grid steps)."""
         return max(self.h * 4, 1e-6)
 
-    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, solver=None):
+    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, solver=None, forces=None):
         """DOP853 (rtol ``rtol_nonlinear``) from t0 towards t_stop with every guard as a
         terminal event; returns (grid points in [t0, t_end), the states there, the state at
         t_end, the guard that fired or None, t_end).
@@ -681,6 +689,12 @@ class Integrator:
 
         ``solver``: a stepper with the same interface started at (t0, z0) towards t_stop
         (:class:`camsim.engine.dop853.OneContactDOP853`); default scipy's DOP853 on ``rhs``.
+
+        ``forces(t, z)``: the closed power-law contacts' forces F_nl (p,). A guard that
+        depends on them (a stuck rigid contact's force λ where a closed power-law contact
+        acts on the masses it holds) is evaluated with them; without ``forces`` such a guard
+        read only its linear part and missed its crossing (issue 25: a rider's release
+        recorded at the next event, 3.9e-5 s late).
         """
         from scipy.integrate import DOP853  # only contact phases of nonlinear contacts
         from scipy.optimize import brentq
@@ -693,7 +707,15 @@ class Integrator:
             Gu = np.array([guard.value.Du[0] for guard in guards])
             tol = np.array([guard.tol for guard in guards])
             ge = np.array([float(guard.value.e[0]) for guard in guards])
-            ge = ge + np.where(np.abs(Gz @ z0 + Gu @ cam_input(t0) + ge) <= tol, tol, 0.0)
+            Gf = np.array([guard.value.Fn[0] for guard in guards]) if forces is not None else None
+            if Gf is not None and (Gf.size == 0 or not np.any(Gf)):
+                Gf = None  # no guard reads F_nl (the usual case)
+
+            def linear_part(t, z):
+                value = Gz @ z + Gu @ cam_input(t)
+                return value + Gf @ forces(t, z) if Gf is not None else value
+
+            ge = ge + np.where(np.abs(linear_part(t0, z0) + ge) <= tol, tol, 0.0)
         if solver is None:
             solver = DOP853(rhs, t0, z0, t_stop, rtol=self.rtol_nonlinear, atol=self.nonlinear_atol(z0.size),
                             max_step=self.dop853_max_step())
@@ -703,7 +725,7 @@ class Integrator:
         if grid.size and grid[0] <= t0:
             Z[0] = z0
             done = 1
-        g_old = Gz @ z0 + Gu @ cam_input(t0) + ge if events else None
+        g_old = linear_part(t0, z0) + ge if events else None
         fired = None
         eps = np.finfo(float).eps
         while True:
@@ -714,13 +736,17 @@ class Integrator:
             dense = None
             t_end, z_end = t_new, z_new
             if events:
-                g_new = Gz @ z_new + Gu @ cam_input(t_new) + ge
+                g_new = linear_part(t_new, z_new) + ge
                 # a crossing downwards (solve_ivp's test)
                 for k in np.flatnonzero((g_old >= 0.0) & (g_new <= 0.0)).tolist():
                     if dense is None:
                         dense = solver.dense_output()
-                    root = brentq(_guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k])), t_old, t_new,
-                                  xtol=4 * eps, rtol=4 * eps)
+                    if Gf is not None and np.any(Gf[k]):
+                        guard_k = (lambda t, k=k: float(Gz[k] @ dense(t) + Gu[k] @ cam_input(t)
+                                                        + Gf[k] @ forces(t, dense(t))) + ge[k])
+                    else:
+                        guard_k = _guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k]))
+                    root = brentq(guard_k, t_old, t_new, xtol=4 * eps, rtol=4 * eps)
                     if root > t0 + TIME_EPS and (fired is None or root < t_end):
                         fired, t_end = guards[k], root
                 g_old = g_new
@@ -758,7 +784,14 @@ class Integrator:
             return A @ z + B @ u + b + L @ fn
 
         t0 = state.t
-        grid, Zs, z_end, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input)
+        def forces(t, z):
+            u = cam_input(t)
+            out = np.empty(len(contacts))
+            for k, (i, dcz, ddu, de, rcz, rdu, re) in enumerate(contacts):
+                out[k] = force_of[k](dcz @ z + ddu @ u + de, rcz @ z + rdu @ u + re, v_imp.get(i))
+            return out
+
+        grid, Zs, z_end, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, forces=forces)
         stretch = None
         if record and grid.size:
             Us = self.inputs(grid)
