@@ -221,3 +221,40 @@ def locate_exact(cam, guard, offset: float, t_step: float, h_step: float, tau: f
     if not 0.0 < root <= h_step:
         return tau, z
     return root, (state_at(root) if z.size else z)
+
+
+def root_near(g, t_lo: float, t_hi: float, t_guess: float) -> float | None:
+    """The crossing (g > 0 before, ≤ 0 at it) of a scalar g nearest to ``t_guess`` inside
+    [t_lo, t_hi], searched outwards from the guess (brackets of 1e-10 s growing ×4) and
+    closed by Brent's method to 1e-14 s; None when g shows no such sign change there."""
+    from scipy.optimize import brentq  # only where an event is located
+
+    g_guess = g(t_guess)
+    width = BRACKET
+    if g_guess > 0.0:
+        lo = t_guess
+        while True:
+            hi = min(t_guess + width, t_hi)
+            if g(hi) <= 0.0:
+                break
+            if hi >= t_hi:
+                return None
+            lo = hi
+            width *= 4.0
+    else:
+        hi = t_guess
+        while True:
+            lo = max(t_guess - width, t_lo)
+            if g(lo) > 0.0:
+                break
+            if lo <= t_lo:
+                return None
+            hi = lo
+            width *= 4.0
+    root = brentq(g, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+    return min(root + 2e-14, hi) if g(root) > 0.0 else root
+
+
+def analytic_input(cam, t: float, end: float) -> np.ndarray:
+    """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the left limit at ``end``): (4,)."""
+    return _analytic_inputs(cam, np.array([t]), end)[0]

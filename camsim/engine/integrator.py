@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from camsim.errors import SimulationError, ZenoError
-from camsim.engine.crossing import polish_crossing
+from camsim.engine.crossing import analytic_input, polish_crossing, root_near
 from camsim.elements.events import Event, EventKind
 from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements import Branch, GuardKind
@@ -728,6 +728,7 @@ class Integrator:
         g_old = linear_part(t0, z0) + ge if events else None
         fired = None
         eps = np.finfo(float).eps
+        analytic = self.cam if self.cam is not None and hasattr(self.cam, "svaj") else None
         while True:
             message = solver.step()
             if solver.status == "failed":
@@ -747,6 +748,19 @@ class Integrator:
                     else:
                         guard_k = _guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k]))
                     root = brentq(guard_k, t_old, t_new, xtol=4 * eps, rtol=4 * eps)
+                    if analytic is not None and np.any(Gu[k, 2:]):
+                        # The guard reads s̈ (a stuck rigid contact's force): located again
+                        # with the cam law itself, not the step polynomials of cam_input,
+                        # whose s̈ inside a short grid step carries the rounding of s
+                        # amplified by ~1/h² (issue 25; 2.9e-8 s at 500 kHz).
+                        def guard_law(t, k=k):
+                            z_t = dense(t)
+                            value = Gz[k] @ z_t + Gu[k] @ analytic_input(self.cam, t, t_stop) + ge[k]
+                            return float(value + Gf[k] @ forces(t, z_t)) if Gf is not None else float(value)
+
+                        better = root_near(guard_law, t_old, t_new, root)
+                        if better is not None:
+                            root = better
                     if root > t0 + TIME_EPS and (fired is None or root < t_end):
                         fired, t_end = guards[k], root
                 g_old = g_new
