@@ -29,6 +29,7 @@ from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements import Branch, GuardKind
 from camsim.model.assembly import Configuration, Model
 from camsim.engine.nonlinear import advance_power
+from camsim.engine.watch import CamForceWatch
 from camsim.engine.state import TIME_EPS, Guard, State, Stretch  # noqa: F401 - also the integrator's public names
 from camsim.engine.rigid import resolve as resolve_rigid
 from camsim.engine.stepping import (  # noqa: F401 - also re-exported for camsim.engine.nonlinear and camsim.engine.crossing
@@ -201,6 +202,8 @@ class Integrator:
         self._join_array: list[float] | None = None  # sorted cam joins of the current run
         self._joins: set[float] = set()  # cam segment joins of the current run
         self._stacked = None  # the current stretch's guards stacked into matrices
+        #: Jump warnings: the driven mass's cam contact force located like an event (issue 25).
+        self.watch = CamForceWatch(self)
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
@@ -375,8 +378,11 @@ class Integrator:
             return self._advance_linear(state, config, z0, guards, t_stop, record)
         if (len(config.power_contacts) == 1 and config.dim and NONLINEAR_STEPPER
                 and hasattr(self.model.elements[config.power_contacts[0]], "nonlinear_tangent")):
-            return advance_power(self, state, config, z0, guards, t_stop, record)  # issue 12 hook
-        return self._advance_nonlinear(state, config, z0, guards, t_stop, record)
+            out = advance_power(self, state, config, z0, guards, t_stop, record)  # issue 12 hook
+        else:
+            out = self._advance_nonlinear(state, config, z0, guards, t_stop, record)
+        self.watch.samples(state, out[0], out[1], config)
+        return out
 
     def _advance_linear(self, state, config, z0, guards, t_stop, record):
         maps = self.maps(config)
@@ -422,6 +428,7 @@ class Integrator:
             if hit is not None:
                 self._chunk = 512  # events come in clusters: look ahead a little after one
                 t_event, z_event, guard, index = hit
+                self.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
                 keep = nodes[: index + 1]
                 mask = self._on_grid(keep)
                 if record:
@@ -430,6 +437,7 @@ class Integrator:
                     collected_u.append(U[: index + 1][mask])
                 end = self._state_from(config, z_event, t_event, state)
                 return end, self._stretch(state, config, collected_t, collected_z, collected_u), guard
+            self.watch.linear_chunk(config, nodes, Z, U, D)
             mask = self._on_grid(nodes[:-1])
             if record:
                 collected_t.append(nodes[:-1][mask])
