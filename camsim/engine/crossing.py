@@ -20,7 +20,17 @@ crossing:
    the crossing is placed by linear interpolation;
 3. if no sign change shows (the Hermite root was off by more than 5e-11 s), bisection on
    the analytic guard from a bracket grown around the root (up to ±1e-8 s,
-   :data:`MAX_SHIFT`), until it is below 1e-10 s.
+   :data:`MAX_SHIFT`), until it is below 1e-10 s;
+4. if the crossing is not within ±1e-8 s either, the guard is located afresh over the
+   whole step on the **exact** state (``state_at``: the step's exact map from its start)
+   and the analytic cam input (:func:`locate_exact`, Brent's method to 1e-14 s). This is
+   the case of a guard that reads the cam acceleration directly — a stuck rigid contact's
+   force λ = m·s̈ + … — at a fine grid: the step's Hermite polynomial matches s, ṡ, s̈, s⃛
+   at both ends, but inside a step of a few µs its second derivative carries the rounding
+   of s amplified by ~1/h² (1e-6 relative at 200 kHz), which moved the Hermite root of a
+   release near the jump speed by up to 1e-6 s (issue 25). When the analytic guard does
+   not cross inside the step at all (the Hermite "crossing" was that rounding), there is
+   no event in this step: ``None``.
 
 The guarantee (docs/model.md): every event is located within 1e-10 s of the crossing
 of its guard evaluated with the exact cam law and the exact state, at any slope, except
@@ -52,7 +62,8 @@ def _analytic_inputs(cam, t: np.ndarray, step_end: float) -> np.ndarray:
     return out
 
 
-def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau: float, z: np.ndarray, Dk=None):
+def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau: float, z: np.ndarray, Dk=None,
+                    state_at=None):
     """Refine a located crossing on the analytic cam law to a 1e-10 s bracket.
 
     Parameters
@@ -139,8 +150,11 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
             width *= 2.0
             lo, hi = t_c - width, t_c + width
             if width > MAX_SHIFT:
-                # Not within MAX_SHIFT (where the carried state holds): a guard flat to
-                # rounding here; keep the located root.
+                # Not within MAX_SHIFT (where the carried state holds): on the exact state
+                # over the whole step when it is known, else keep the located root (a
+                # guard flat to rounding here).
+                if state_at is not None:
+                    return locate_exact(cam, guard, offset, t_step, h_step, tau, z, state_at)
                 return tau, z
         while hi - lo > BRACKET:
             mid = 0.5 * (lo + hi)
@@ -160,3 +174,87 @@ def _clip(tau_new, z_new, tau, z, h_step, zdot, t_root, t_step):
     if 0.0 < tau_new <= h_step:
         return tau_new, z_new
     return tau, z
+
+
+def locate_exact(cam, guard, offset: float, t_step: float, h_step: float, tau: float, z: np.ndarray, state_at):
+    """The first crossing of the guard inside the step on the exact state and the analytic
+    cam law, searched from the located root ``tau`` outwards (Brent's method to 1e-14 s).
+
+    Returns (τ, z) of the crossing, the located root unchanged when the guard is already
+    ≤ 0 at the step start (nothing better defined), or None when the guard stays > 0 over
+    the step (the located root was an artefact of the step's polynomial input).
+    """
+    from scipy.optimize import brentq  # only on this rare path
+
+    step_end = t_step + h_step
+
+    def g(t_local: float) -> float:
+        zt = state_at(t_local) if z.size else z
+        u = _analytic_inputs(cam, np.array([t_step + t_local]), step_end)
+        return float(guard.value(zt[None, :], u)[0, 0]) - offset
+
+    g_tau = g(tau)
+    width = BRACKET
+    if g_tau > 0.0:
+        lo = tau
+        while True:
+            hi = min(tau + width, h_step)
+            if g(hi) <= 0.0:
+                break
+            if hi >= h_step:
+                return None
+            lo = hi
+            width *= 4.0
+    else:
+        hi = tau
+        while True:
+            lo = max(tau - width, 0.0)
+            if g(lo) > 0.0:
+                break
+            if lo <= 0.0:
+                return tau, z
+            hi = lo
+            width *= 4.0
+    root = brentq(g, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+    if g(root) > 0.0:  # the event is where the guard is at or below zero: the bracket's far side
+        root = min(root + 2e-14, hi)
+    if not 0.0 < root <= h_step:
+        return tau, z
+    return root, (state_at(root) if z.size else z)
+
+
+def root_near(g, t_lo: float, t_hi: float, t_guess: float) -> float | None:
+    """The crossing (g > 0 before, ≤ 0 at it) of a scalar g nearest to ``t_guess`` inside
+    [t_lo, t_hi], searched outwards from the guess (brackets of 1e-10 s growing ×4) and
+    closed by Brent's method to 1e-14 s; None when g shows no such sign change there."""
+    from scipy.optimize import brentq  # only where an event is located
+
+    g_guess = g(t_guess)
+    width = BRACKET
+    if g_guess > 0.0:
+        lo = t_guess
+        while True:
+            hi = min(t_guess + width, t_hi)
+            if g(hi) <= 0.0:
+                break
+            if hi >= t_hi:
+                return None
+            lo = hi
+            width *= 4.0
+    else:
+        hi = t_guess
+        while True:
+            lo = max(t_guess - width, t_lo)
+            if g(lo) > 0.0:
+                break
+            if lo <= t_lo:
+                return None
+            hi = lo
+            width *= 4.0
+    root = brentq(g, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+    return min(root + 2e-14, hi) if g(root) > 0.0 else root
+
+
+def analytic_input(cam, t: float, end: float) -> np.ndarray:
+    """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the left limit at ``end``): (4,)."""
+    return _analytic_inputs(cam, np.array([t]), end)[0]

@@ -23,12 +23,13 @@ import math
 import numpy as np
 
 from camsim.errors import SimulationError, ZenoError
-from camsim.engine.crossing import polish_crossing
+from camsim.engine.crossing import analytic_input, polish_crossing, root_near
 from camsim.elements.events import Event, EventKind
 from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements import Branch, GuardKind
 from camsim.model.assembly import Configuration, Model
 from camsim.engine.nonlinear import advance_power
+from camsim.engine.watch import CamForceWatch
 from camsim.engine.state import TIME_EPS, Guard, State, Stretch  # noqa: F401 - also the integrator's public names
 from camsim.engine.rigid import resolve as resolve_rigid
 from camsim.engine.stepping import (  # noqa: F401 - also re-exported for camsim.engine.nonlinear and camsim.engine.crossing
@@ -201,6 +202,8 @@ class Integrator:
         self._join_array: list[float] | None = None  # sorted cam joins of the current run
         self._joins: set[float] = set()  # cam segment joins of the current run
         self._stacked = None  # the current stretch's guards stacked into matrices
+        #: Jump warnings: the driven mass's cam contact force located like an event (issue 25).
+        self.watch = CamForceWatch(self)
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
@@ -220,6 +223,13 @@ class Integrator:
             return hit.copy()
         s, v, a, j = self.cam.svaj(t)
         return np.stack([s, v, a, j], axis=-1)
+
+    def analytic_inputs(self, t: float) -> np.ndarray:
+        """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the limit from the right at a join):
+        (4,). Unlike :meth:`inputs`, never the step's Hermite polynomial, whose s̈ and s⃛
+        inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
+        s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
+        return np.array([s_[0], v_[0], a_[0], j_[0]])
 
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
         """Cam input [s, ṡ, s̈, s⃛] at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
@@ -368,8 +378,11 @@ class Integrator:
             return self._advance_linear(state, config, z0, guards, t_stop, record)
         if (len(config.power_contacts) == 1 and config.dim and NONLINEAR_STEPPER
                 and hasattr(self.model.elements[config.power_contacts[0]], "nonlinear_tangent")):
-            return advance_power(self, state, config, z0, guards, t_stop, record)  # issue 12 hook
-        return self._advance_nonlinear(state, config, z0, guards, t_stop, record)
+            out = advance_power(self, state, config, z0, guards, t_stop, record)  # issue 12 hook
+        else:
+            out = self._advance_nonlinear(state, config, z0, guards, t_stop, record)
+        self.watch.samples(state, out[0], out[1], config)
+        return out
 
     def _advance_linear(self, state, config, z0, guards, t_stop, record):
         maps = self.maps(config)
@@ -415,6 +428,7 @@ class Integrator:
             if hit is not None:
                 self._chunk = 512  # events come in clusters: look ahead a little after one
                 t_event, z_event, guard, index = hit
+                self.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
                 keep = nodes[: index + 1]
                 mask = self._on_grid(keep)
                 if record:
@@ -423,6 +437,7 @@ class Integrator:
                     collected_u.append(U[: index + 1][mask])
                 end = self._state_from(config, z_event, t_event, state)
                 return end, self._stretch(state, config, collected_t, collected_z, collected_u), guard
+            self.watch.linear_chunk(config, nodes, Z, U, D)
             mask = self._on_grid(nodes[:-1])
             if record:
                 collected_t.append(nodes[:-1][mask])
@@ -526,15 +541,30 @@ class Integrator:
         if not candidates:
             return None
         candidates.sort(key=lambda c: (c[0], c[1]))
+        # Several guards may cross inside one step: every candidate of the earliest step
+        # that holds a crossing is located and the earliest root wins (sorting by step
+        # alone handled them in guard order; issue 25: a seat impact 8.6e-5 s before a
+        # rider's inside one 10 kHz step was found only after it, as a penetration).
+        best = None
         for t_k, k, guard, how, ends in candidates:
+            if best is not None and k != best[3]:
+                break
             Ek = forcing_coefficients(config, D[k : k + 1])[0]
             root = self._refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
             if root is not None:
                 tau, z = root
-                # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket
-                tau, z = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k])
-                return nodes[k] + tau, z, guard, k
-        return None
+                # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket; issue 25:
+                # over the whole step on the exact state when the step's input polynomial
+                # misplaced the root (None: no crossing in this step after all)
+                z_k = Z[k]
+                polished = polish_crossing(self, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k],
+                                           state_at=lambda t, z_k=z_k, Ek=Ek: exact_partial(config, z_k, Ek, t) if t > 0 else z_k)
+                if polished is None:
+                    continue
+                tau, z = polished
+                if best is None or nodes[k] + tau < best[0]:
+                    best = (nodes[k] + tau, z, guard, k)
+        return best
 
     def _refine(self, config, guard, z0, Dk, Ek, hk, just_started, ends=None):
         """Locate the first root of the guard in one step on the exact solution.
@@ -651,7 +681,7 @@ class Integrator:
         """Largest DOP853 step of a nonlinear phase [s] (four grid steps)."""
         return max(self.h * 4, 1e-6)
 
-    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, solver=None):
+    def dop853_span(self, rhs, z0, t0: float, t_stop: float, guards, cam_input, solver=None, forces=None):
         """DOP853 (rtol ``rtol_nonlinear``) from t0 towards t_stop with every guard as a
         terminal event; returns (grid points in [t0, t_end), the states there, the state at
         t_end, the guard that fired or None, t_end).
@@ -667,6 +697,12 @@ class Integrator:
 
         ``solver``: a stepper with the same interface started at (t0, z0) towards t_stop
         (:class:`camsim.engine.dop853.OneContactDOP853`); default scipy's DOP853 on ``rhs``.
+
+        ``forces(t, z)``: the closed power-law contacts' forces F_nl (p,). A guard that
+        depends on them (a stuck rigid contact's force λ where a closed power-law contact
+        acts on the masses it holds) is evaluated with them; without ``forces`` such a guard
+        read only its linear part and missed its crossing (issue 25: a rider's release
+        recorded at the next event, 3.9e-5 s late).
         """
         from scipy.integrate import DOP853  # only contact phases of nonlinear contacts
         from scipy.optimize import brentq
@@ -679,7 +715,15 @@ class Integrator:
             Gu = np.array([guard.value.Du[0] for guard in guards])
             tol = np.array([guard.tol for guard in guards])
             ge = np.array([float(guard.value.e[0]) for guard in guards])
-            ge = ge + np.where(np.abs(Gz @ z0 + Gu @ cam_input(t0) + ge) <= tol, tol, 0.0)
+            Gf = np.array([guard.value.Fn[0] for guard in guards]) if forces is not None else None
+            if Gf is not None and (Gf.size == 0 or not np.any(Gf)):
+                Gf = None  # no guard reads F_nl (the usual case)
+
+            def linear_part(t, z):
+                value = Gz @ z + Gu @ cam_input(t)
+                return value + Gf @ forces(t, z) if Gf is not None else value
+
+            ge = ge + np.where(np.abs(linear_part(t0, z0) + ge) <= tol, tol, 0.0)
         if solver is None:
             solver = DOP853(rhs, t0, z0, t_stop, rtol=self.rtol_nonlinear, atol=self.nonlinear_atol(z0.size),
                             max_step=self.dop853_max_step())
@@ -689,9 +733,10 @@ class Integrator:
         if grid.size and grid[0] <= t0:
             Z[0] = z0
             done = 1
-        g_old = Gz @ z0 + Gu @ cam_input(t0) + ge if events else None
+        g_old = linear_part(t0, z0) + ge if events else None
         fired = None
         eps = np.finfo(float).eps
+        analytic = self.cam if self.cam is not None and hasattr(self.cam, "svaj") else None
         while True:
             message = solver.step()
             if solver.status == "failed":
@@ -700,13 +745,30 @@ class Integrator:
             dense = None
             t_end, z_end = t_new, z_new
             if events:
-                g_new = Gz @ z_new + Gu @ cam_input(t_new) + ge
+                g_new = linear_part(t_new, z_new) + ge
                 # a crossing downwards (solve_ivp's test)
                 for k in np.flatnonzero((g_old >= 0.0) & (g_new <= 0.0)).tolist():
                     if dense is None:
                         dense = solver.dense_output()
-                    root = brentq(_guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k])), t_old, t_new,
-                                  xtol=4 * eps, rtol=4 * eps)
+                    if Gf is not None and np.any(Gf[k]):
+                        guard_k = (lambda t, k=k: float(Gz[k] @ dense(t) + Gu[k] @ cam_input(t)
+                                                        + Gf[k] @ forces(t, dense(t))) + ge[k])
+                    else:
+                        guard_k = _guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k]))
+                    root = brentq(guard_k, t_old, t_new, xtol=4 * eps, rtol=4 * eps)
+                    if analytic is not None and np.any(Gu[k, 2:]):
+                        # The guard reads s̈ (a stuck rigid contact's force): located again
+                        # with the cam law itself, not the step polynomials of cam_input,
+                        # whose s̈ inside a short grid step carries the rounding of s
+                        # amplified by ~1/h² (issue 25; 2.9e-8 s at 500 kHz).
+                        def guard_law(t, k=k):
+                            z_t = dense(t)
+                            value = Gz[k] @ z_t + Gu[k] @ analytic_input(self.cam, t, t_stop) + ge[k]
+                            return float(value + Gf[k] @ forces(t, z_t)) if Gf is not None else float(value)
+
+                        better = root_near(guard_law, t_old, t_new, root)
+                        if better is not None:
+                            root = better
                     if root > t0 + TIME_EPS and (fired is None or root < t_end):
                         fired, t_end = guards[k], root
                 g_old = g_new
@@ -744,7 +806,14 @@ class Integrator:
             return A @ z + B @ u + b + L @ fn
 
         t0 = state.t
-        grid, Zs, z_end, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input)
+        def forces(t, z):
+            u = cam_input(t)
+            out = np.empty(len(contacts))
+            for k, (i, dcz, ddu, de, rcz, rdu, re) in enumerate(contacts):
+                out[k] = force_of[k](dcz @ z + ddu @ u + de, rcz @ z + rdu @ u + re, v_imp.get(i))
+            return out
+
+        grid, Zs, z_end, fired, t_end = self.dop853_span(rhs, z0, t0, t_stop, guards, cam_input, forces=forces)
         stretch = None
         if record and grid.size:
             Us = self.inputs(grid)

@@ -456,7 +456,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         r = X[:, 0]
         Zr = resp.states()
         Z = Zu + Zr
-        if ok and K >= 6:
+        if ok and K >= 6:  # Δ⁴ of the K − 1 inner nodes needs five of them (K = 5 raised on an empty max)
             # The remainder is carried by its cubic Hermite per step, whose error is
             # h⁴·|r⁗|/384 ≈ |Δ⁴r|/384: where that is not negligible (a bounce, the
             # stiffness sweeping within a few steps) the window goes to DOP853 instead.
@@ -822,14 +822,21 @@ def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, r
                               integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure,
                               exponent=getattr(stepper.element, "exponent", 1.0), onset=onset,
                               crossing_step=memory.get(True))
-    grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver)
+    n_z = z0.size
+
+    def forces(t, z):
+        """The one contact's force F_nl at (t, z), for guards that read it (issue 25)."""
+        delta, rate = (Mz @ z + input_at(t)[n_z:]).tolist()
+        return np.array([force(delta, rate)])
+
+    grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver, forces=forces)
     if fired is None and releasing_to is not None and releasing_to > t_end:
         n = z0.size
         delta, rate = (Mz @ z_end + input_at(t_end)[n:]).tolist()
         if _releasing(delta, rate, integ.h):
             solver.t_bound, solver.status = float(releasing_to), "running"
             grid2, Zs2, z_end, fired, t_end = integ.dop853_span(None, z_end, t_end, releasing_to, guards, cam_input,
-                                                                solver)
+                                                                solver, forces=forces)
             grid, Zs = np.concatenate([grid, grid2]), np.concatenate([Zs, Zs2])
     if onset and solver.first_accepted is not None:
         memory[True] = solver.first_accepted

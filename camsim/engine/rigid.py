@@ -108,6 +108,21 @@ def _rows(model, indices, signs):
     return J, js
 
 
+def _pressed_analytic(integrator, t, u, v, open_accelerations):
+    """The open relative accelerations with s̈ and s⃛ from the cam law itself.
+
+    ``integrator.inputs`` interpolates between grid points with the step's Hermite
+    polynomial, whose s̈ inside a step of a few µs carries the rounding of s amplified by
+    ~1/h² (1e-6 relative at 200 kHz). A release located on the exact guard (λ = 0 with the
+    analytic cam law, camsim.engine.crossing) can then read as still pressed by that
+    rounding and creep on in tiny steps (issue 25): a release opens when either reading
+    says the machine does not press the contact outright.
+    """
+    u_law = u.copy()
+    u_law[2:] = integrator.analytic_inputs(t)[2:]
+    return open_accelerations(v, u_law)[0]
+
+
 def resolve(integrator, state, trigger: int, kind: str):
     """The state after every rigid contact touching at ``state.t`` is resolved.
 
@@ -167,12 +182,12 @@ def resolve(integrator, state, trigger: int, kind: str):
         open_branches[pos] = Branch.OPEN
     open_branches = tuple(open_branches)
 
-    def open_accelerations(v_now):
+    def open_accelerations(v_now, uu=u):
         config = model.configuration(open_branches)
-        z = config.state_from_full(state.x, v_now, u[0], u[1])
-        fn = integrator.nonlinear_forces(config, z[None, :], u[None, :], state.v_impacts)
-        acc = config.a(z[None, :], u[None, :], fn)[0]
-        return J @ acc + js * u[2], acc
+        z = config.state_from_full(state.x, v_now, uu[0], uu[1])
+        fn = integrator.nonlinear_forces(config, z[None, :], uu[None, :], state.v_impacts)
+        acc = config.a(z[None, :], uu[None, :], fn)[0]
+        return J @ acc + js * uu[2], acc
 
     # ---- impulses (Newton's law per contact, one LCP)
     P = np.zeros(len(idx))
@@ -210,7 +225,7 @@ def resolve(integrator, state, trigger: int, kind: str):
             # The trigger's force has just reached zero going down: it opens unless the
             # machine presses it closed outright.
             k_trig = idx.index(trigger)
-            if k_trig in candidates and a_open[k_trig] >= -acc_tol:
+            if k_trig in candidates and (a_open[k_trig] >= -acc_tol or _pressed_analytic(integrator, t, u, v, open_accelerations)[k_trig] >= -acc_tol):
                 candidates.remove(k_trig)
         if candidates:
             Wc = W[np.ix_(candidates, candidates)]

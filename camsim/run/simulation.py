@@ -344,6 +344,9 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         if t_rec > 0 and h_warm > 1.5 * integrator.h:
             warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
+            # the cam contact force's sign where the warm-up ends: the recorded window starts
+            # with no jump row the continuous run does not have (issue 25)
+            integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
             result = _assemble(run, stretches)
@@ -505,7 +508,8 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     cam_force = traces["cam_contact_force"]
     events = EventTable(_events(machine, model, cam, run.integrator.events, t_rec, run.t_end, time, traces["elements"]))
     if cam_force is not None:
-        events.extend(_jump_rows(cam, time, cam_force, t_rec, model.driven))
+        # jump rows are events of the integrator (camsim.engine.watch), located on the
+        # exact solution like every other; here only the warning of the sampled minimum
         events.sort(key=lambda e: e.time)
         if np.min(cam_force) < 0:
             k = int(np.argmin(cam_force))
@@ -591,29 +595,6 @@ def refined_peak(left: float, top: float, right: float) -> float:
     if curvature < 0.0:
         return top - 0.125 * (right - left) ** 2 / curvature
     return top
-
-
-def _jump_rows(cam, time, cam_force, t_rec, driven, before: tuple[float, float] | None = None) -> list[Event]:
-    """Rows where the cam contact force turns negative; ``before`` is the (time [s],
-    force [N]) sample just before ``time[0]`` when the samples come in pieces."""
-    if before is not None:
-        time = np.concatenate([[before[0]], time])
-        cam_force = np.concatenate([[before[1]], cam_force])
-    rows = []
-    negative = cam_force < 0
-    starts = np.flatnonzero(negative[1:] & ~negative[:-1]) + 1
-    if negative[0] and before is None:
-        starts = np.concatenate([[0], starts])
-    for k in starts:
-        if k == 0:
-            t_cross = time[0]
-        else:
-            f0, f1 = cam_force[k - 1], cam_force[k]
-            t_cross = time[k - 1] + (time[k] - time[k - 1]) * f0 / (f0 - f1)
-        ev = Event(time=float(t_cross), element="cam", kind=EventKind.JUMP, masses=f"cam/{driven}")
-        ev.angle_deg = float(np.degrees(cam.angle(np.array([t_cross]))[0]))
-        rows.append(ev)
-    return rows
 
 
 def _residual(model: Model, saved: dict, stops, peak) -> float:

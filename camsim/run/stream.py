@@ -17,7 +17,7 @@ whatever is stored (``record``, ``record_last``, ``summary_only``):
 * the event table: the integrator's events as they happen; the simulated peak force and
   the contact duration of each impact by a running window (:class:`_ImpactWindow`) that
   spans pieces (the parabola refinement keeps the samples either side of the maximum);
-* the jump rows: sign changes of the cam contact force, carrying the last sample over.
+* the jump rows: none here — they are events of the integrator (camsim.engine.watch).
 
 A sample is processed only once every event that could concern it is known: the
 integrator reports, with each stretch, the time up to which its event list is complete;
@@ -39,7 +39,6 @@ from camsim.elements.events import EventTable
 from camsim.run.result import MASS_QUANTITIES, RunResult, scalar_columns
 from camsim.run.simulation import (
     RunSetup,
-    _jump_rows,
     _simulate,
     boundaries_deg,
     johnson_annotate,
@@ -290,8 +289,6 @@ class StreamAssembler:
 
         self._design = DesignAccumulator.for_machine(run.machine)  # None without [cam.geometry]
         self._open: list[_ImpactWindow] = []
-        self._last_cf: tuple[float, float] | None = None
-        self._jumps: list = []
         self._samples = 0
         self._masses: dict[str, dict[str, dict]] = {}
         self._extremes: dict[str, dict | None] = {"peak_transducer_force": None, "max_cam_contact_force": None, "min_cam_contact_force": None}
@@ -386,8 +383,6 @@ class StreamAssembler:
         self._open = still
         cf = traces["cam_contact_force"]
         if cf is not None:
-            self._jumps.extend(_jump_rows(self.run.cam, time, cf, self.run.t_rec, self.run.model.driven, before=self._last_cf))
-            self._last_cf = (time[-1], cf[-1])
             k = int(np.argmin(cf))
             if self._cam_min is None or cf[k] < self._cam_min[0]:
                 self._cam_min = (cf[k], time[k])
@@ -429,7 +424,7 @@ class StreamAssembler:
         run = self.run
         events = self.events
         if run.model.driven:
-            events.extend(self._jumps)
+            # jump rows came with the integrator's events (camsim.engine.watch)
             events.sort(key=lambda e: e.time)
             if self._cam_min is not None and self._cam_min[0] < 0:
                 run.warnings.append(negative_cam_force_warning(run.model.driven, *self._cam_min))

@@ -1,0 +1,277 @@
+"""Jump warnings as located events: the cam contact force of a driven mass crossing zero.
+
+A driven mass moves with the cam (``[cam] drives``); the force the cam must exert on it,
+
+    F_c = m·(s̈ + g) + Σ_upper f_i − Σ_lower f_i     (f_i the tension of each element on it)
+
+(:meth:`camsim.model.assembly.Model.cam_contact_force`), turning negative means a
+force-closed follower would leave the cam: a ``jump`` row (spec §4, §7). F_c changes no
+branch, so it is *watched*, not acted on: the trajectory is the same bits with or without
+the watch. It is located like every event (issue 25):
+
+- in a linear configuration F_c is affine in (z, u) with an exact time derivative, so each
+  chunk's nodes give its values and rates; every step where it may cross (a sign change, or
+  a cubic-Hermite dip bound that reaches zero) is searched on the exact solution and the
+  crossing polished on the analytic cam law (:func:`camsim.engine.crossing.polish_crossing`),
+  to 1e-10 s whatever the sample rate;
+- in a stretch where a power-law contact is closed (no exact solution between samples) the
+  crossing is the root of the cubic Hermite of F_c through the recorded samples and its
+  exact rates (ż from the configuration's right-hand side): an interpolation error ~h⁴;
+  where F_c itself reads a power-law contact force (one acts on the driven mass), by linear
+  interpolation between samples;
+- F_c may jump where a stretch ends (a cam segment join, where s̈ jumps, or an event that
+  changes the forces on the driven mass): its value before and after are compared there, and
+  a drop below zero is a jump at that instant.
+
+A crossing counts when F_c falls below −:data:`FORCE_TOL` (1e-9 N) — a force resting at
+zero to rounding (a dwell without preload) is no jump — and it is placed where F_c = 0.
+The watch keeps F_c's last value across stretches and runs: a recording integrator that
+continues a warm-up starts with the warm-up's last value, so the recorded window starts
+with no jump the continuous run does not have.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from camsim.elements import FORCE_TOL
+from camsim.elements.affine import N_INPUT, Affine
+from camsim.elements.events import Event, EventKind
+from camsim.engine.crossing import analytic_input, polish_crossing, root_near
+from camsim.engine.state import Guard
+from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
+
+
+class CamForceWatch:
+    """Locates the zero crossings of the driven mass's cam contact force.
+
+    Parameters
+    ----------
+    integrator : camsim.engine.integrator.Integrator
+        The integrator whose stretches are watched; jump rows go to its ``events``.
+    """
+
+    def __init__(self, integrator):
+        self.integrator = integrator
+        model = integrator.model
+        self.model = model
+        self.driven = model.driven
+        self.active = bool(self.driven)
+        #: (t [s], F_c [N]) at the end of the last watched piece, None before the first.
+        self.last: tuple[float, float] | None = None
+        self._affines: dict = {}
+
+    # ------------------------------------------------------------------ the force
+    def affine(self, config):
+        """(F_c, dF_c/dt or None) of a configuration as affine maps of (z, u, F_nl)."""
+        hit = self._affines.get(config.branches)
+        if hit is not None:
+            return hit
+        model, driven = self.model, self.driven
+        m = config.dim
+        p = len(config.power_contacts)
+        Cz = np.zeros((1, m))
+        Du = np.zeros((1, N_INPUT))
+        Fn = np.zeros((1, p))
+        e = np.zeros(1)
+        Du[0, 2] = model.driven_mass
+        e[0] = model.driven_mass * model.gravity
+        for i, element in enumerate(model.elements):
+            if driven not in element.nodes:
+                continue
+            # the force on the driven mass: −f on the upper node, +f on the lower (tension
+            # f), a compressive contact force F acts +σF on the upper node
+            on_upper = 1.0 if element.upper == driven else -1.0
+            branch = model.branch_of(config.branches, i)
+            if i in config.stuck_contacts:
+                sigma = element.contact_side(branch)[0]
+                k = config.stuck_contacts.index(i)
+                lam = config.lam.rows(slice(k, k + 1))
+                w = -on_upper * sigma
+                Cz, Du, Fn, e = Cz + w * lam.Cz, Du + w * lam.Du, Fn + w * lam.Fn, e + w * lam.e
+                continue
+            if i in config.power_contacts:
+                sigma = element.contact_side(branch)[0]
+                Fn[0, config.power_contacts.index(i)] -= on_upper * sigma
+                continue
+            law = model.linear_branch(i, branch)
+            if law is None:
+                continue
+            k_, c_, f0 = law
+            # f = k·d + c·ḋ + f0, d = G·x + g_s·s, ḋ = G·v + g_s·ṡ; F_c gains +f (upper), −f (lower)
+            geo = model.geometry[i]
+            d = Affine.combine([(geo.G.reshape(1, -1), config.x)], const=np.zeros(1), du=_du(0, geo.g_s))
+            rate = Affine.combine([(geo.G.reshape(1, -1), config.v)], const=np.zeros(1), du=_du(1, geo.g_s))
+            w = on_upper
+            Cz = Cz + w * (k_ * d.Cz + c_ * rate.Cz)
+            Du = Du + w * (k_ * d.Du + c_ * rate.Du)
+            Fn = Fn + w * (k_ * d.Fn + c_ * rate.Fn)
+            e = e + w * (k_ * d.e + c_ * rate.e + f0)
+        value = Affine(Cz, Du, Fn, e)
+        rate = None
+        if not np.any(value.Fn) and not np.any(value.Du[:, 3]):
+            integ = self.integrator
+            rate = integ._rate(config, Affine(Cz, Du, np.zeros_like(Fn), e))
+        hit = (value, rate)
+        self._affines[config.branches] = hit
+        return hit
+
+    # ------------------------------------------------------------------ recording
+    def _jump(self, t: float) -> None:
+        self.integrator.events.append(
+            Event(time=float(t), element="cam", kind=EventKind.JUMP, masses=f"cam/{self.driven}")
+        )
+
+    def _boundary(self, t0: float, f0: float) -> None:
+        """A piece starts at t0 with F_c = f0: a drop below zero since the last piece ends
+        (a jump of F_c at a join or an event, or the run's very first instant)."""
+        if f0 < -FORCE_TOL and (self.last is None or self.last[1] >= -FORCE_TOL):
+            self._jump(t0)
+
+    # ------------------------------------------------------------------ linear stretches
+    def linear_chunk(self, config, nodes, Z, U, D, t_cut=None, z_cut=None, index=None):
+        """Watch one chunk of a linear stretch: nodes (N,), exact states Z (N, m), inputs U
+        (N, 4), the steps' Hermite derivatives D (N − 1, 8); with ``t_cut`` the chunk ends at
+        an event at t_cut (state ``z_cut``) inside step ``index``."""
+        if not self.active:
+            return
+        value, rate = self.affine(config)
+        integ = self.integrator
+        if t_cut is not None:
+            # the chunk up to the event: nodes ≤ index, then the partial step to t_cut
+            u_cut = integ.inputs(np.array([t_cut]))
+            if t_cut - nodes[index] > 0.0:
+                nodes = np.concatenate([nodes[: index + 1], [t_cut]])
+                Z = np.vstack([Z[: index + 1], z_cut[None, :]])
+                U = np.vstack([U[: index + 1], u_cut])
+                D = np.vstack([D[:index], step_input_derivatives(U[index : index + 1], u_cut, np.array([t_cut - nodes[index]]))])
+            else:
+                nodes, Z, U, D = nodes[: index + 1], Z[: index + 1], U[: index + 1], D[:index]
+        G = (Z @ value.Cz.T + U @ value.Du.T + value.e)[:, 0]
+        self._boundary(float(nodes[0]), float(G[0]))
+        if nodes.size >= 2:
+            guard_value = Affine(value.Cz, value.Du, value.Fn, value.e + FORCE_TOL)
+            guard = Guard(-1, None, guard_value, 0.0, rate)
+            g = G + FORCE_TOL
+            steps = np.diff(nodes)
+            g0, g1 = g[:-1], g[1:]
+            if rate is not None:
+                Gd = (Z @ rate.Cz.T + U @ rate.Du.T + rate.e)[:, 0]
+                d0, d1 = Gd[:-1] * steps, Gd[1:] * steps
+                crossing = (g0 > 0.0) & (g1 <= 0.0)
+                maybe = ~crossing & (g0 > 0.0) & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
+                for k in np.flatnonzero(crossing | maybe).tolist():
+                    self._locate_linear(config, guard, value, nodes, Z, D, Gd, g, k)
+        self.last = (float(nodes[-1]), float(G[-1]))
+
+    def _locate_linear(self, config, guard, value, nodes, Z, D, Gd, g, k):
+        """The first crossing of F_c + FORCE_TOL downwards inside step k, placed where
+        F_c = 0 on the exact solution and the cam law (None found: a dip that stays above)."""
+        integ = self.integrator
+        hk = float(nodes[k + 1] - nodes[k])
+        t_k = float(nodes[k])
+        Ek = forcing_coefficients(config, D[k : k + 1])[0]
+        z_k = Z[k]
+
+        def state_at(tau):
+            return exact_partial(config, z_k, Ek, tau) if tau > 0 else z_k
+
+        ends = (float(g[k]), float(g[k + 1]), float(Gd[k]), float(Gd[k + 1]))
+        root = integ._refine(config, guard, z_k, D[k], Ek, hk, False, ends)
+        if root is None:
+            return
+        polished = polish_crossing(integ, config, guard, t_k, hk, root[0], root[1], D[k], state_at=state_at)
+        if polished is None:
+            return
+        tau = polished[0]
+
+        def force(t_local):
+            u = analytic_input(integ.cam, t_k + t_local, t_k + hk)  # the left limit at the step's end
+            return float(value(state_at(t_local)[None, :], u[None, :])[0, 0])
+
+        # the jump is where F_c = 0, a hair before it passes −FORCE_TOL
+        at_zero = root_near(force, 0.0, tau, tau) if tau > 0.0 else None
+        self._jump(t_k + (at_zero if at_zero is not None else tau))
+
+    # ------------------------------------------------------------------ other stretches
+    def samples(self, start, end, stretch, config, rhs_rates=True):
+        """Watch a stretch integrated without an exact solution between samples (a closed
+        power-law contact): its start state, recorded samples and end state."""
+        if not self.active:
+            return
+        integ = self.integrator
+        value, _ = self.affine(config)
+        ts, Fs, Rs = [], [], []
+        for st in (start, end):
+            u = integ.inputs(np.array([st.t]))
+            z = config.state_from_full(st.x, st.v, u[0, 0], u[0, 1])
+            fn = integ.nonlinear_forces(config, z[None, :], u, st.v_impacts)
+            ts.append(np.array([st.t]))
+            Fs.append(value(z[None, :], u, fn)[:, 0])
+            Rs.append(self._rates(config, value, z[None, :], u, fn))
+        t = [ts[0]]
+        F = [Fs[0]]
+        R = [Rs[0]]
+        if stretch is not None and stretch.t.size:
+            inner = (stretch.t > start.t) & (stretch.t < end.t)
+            if np.any(inner):
+                z, u, fn = stretch.z[inner], stretch.u[inner], stretch.fn[inner]
+                t.append(stretch.t[inner])
+                F.append(value(z, u, fn)[:, 0])
+                R.append(self._rates(config, value, z, u, fn))
+        t.append(ts[1])
+        F.append(Fs[1])
+        R.append(Rs[1])
+        t, F, R = np.concatenate(t), np.concatenate(F), np.concatenate(R)
+        self._boundary(float(t[0]), float(F[0]))
+        g = F + FORCE_TOL
+        for k in np.flatnonzero((g[:-1] > 0.0) & (g[1:] <= 0.0)).tolist():
+            self._jump(_hermite_zero(t[k], t[k + 1], F[k], F[k + 1], R[k], R[k + 1]))
+        self.last = (float(t[-1]), float(F[-1]))
+
+    def _rates(self, config, value, z, u, fn):
+        """dF_c/dt on samples: exact where F_c reads no power-law force, else NaN."""
+        if np.any(value.Fn):
+            return np.full(z.shape[0], np.nan)
+        zdot = z @ config.A.T + u @ config.B.T + config.b
+        if config.L.shape[1]:
+            zdot = zdot + fn @ config.L.T
+        udot = np.zeros_like(u)
+        udot[:, :3] = u[:, 1:]
+        return (zdot @ value.Cz.T + udot @ value.Du.T)[:, 0]
+
+
+def _du(channel: int, coefficient: float) -> np.ndarray:
+    du = np.zeros((1, N_INPUT))
+    du[0, channel] = coefficient
+    return du
+
+
+def _hermite_zero(t0, t1, f0, f1, d0, d1) -> float:
+    """The zero of F between samples (f0 ≥ 0 > f1): of the cubic Hermite with the exact
+    rates d0, d1 [N/s] where known, else of the chord."""
+    h = t1 - t0
+    chord = t0 + h * f0 / (f0 - f1) if f0 != f1 else t1
+    if not (math.isfinite(d0) and math.isfinite(d1)) or h <= 0.0:
+        return float(chord)
+    a0, a1, b0, b1 = f0, f1, d0 * h, d1 * h
+    c2 = 3 * (a1 - a0) - 2 * b0 - b1
+    c3 = 2 * (a0 - a1) + b0 + b1
+    lo, hi = 0.0, 1.0
+    x = (chord - t0) / h
+    for _ in range(60):
+        p = a0 + x * (b0 + x * (c2 + x * c3))
+        if p > 0.0:
+            lo = x
+        else:
+            hi = x
+        dp = b0 + x * (2 * c2 + 3 * x * c3)
+        x_new = x - p / dp if dp != 0.0 else 0.5 * (lo + hi)
+        if not (lo < x_new < hi):
+            x_new = 0.5 * (lo + hi)
+        if abs(x_new - x) < 1e-16:
+            break
+        x = x_new
+    return float(t0 + x * h)
