@@ -31,6 +31,6 @@ _common = dict(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much],
 )
 #: Examples per invariant test (the tests scale it: cheap invariants run more).
-settings.register_profile("camsim-invariants-dev", max_examples=3, **_common)
+settings.register_profile("camsim-invariants-dev", max_examples=2, **_common)
 settings.register_profile("camsim-invariants-ci", max_examples=20, **_common)
 settings.register_profile("camsim-invariants", settings.get_profile(f"camsim-invariants-{_choice}"))

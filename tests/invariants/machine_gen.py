@@ -211,10 +211,11 @@ def _damping(draw, allow_restitution: bool) -> dict:
     return {}
 
 
-def _contact_law(draw, law: str) -> dict:
-    """Law keys of a contact or lash (stiffness 1e4..3e6 N/m or its power-law equivalent)."""
+def _contact_law(draw, law: str, plain: bool = False) -> dict:
+    """Law keys of a contact or lash (stiffness 1e4..3e6 N/m or its power-law equivalent);
+    ``plain``: no restitution-given damping (the reference of invariant (e) takes c or ζ)."""
     if law == "linear":
-        return {"law": "linear", "stiffness": Q(draw(_log_uniform(1e4, 3e6)), "stiffness"), **_damping(draw, True)}
+        return {"law": "linear", "stiffness": Q(draw(_log_uniform(1e4, 3e6)), "stiffness"), **_damping(draw, not plain)}
     if law == "power":
         a = draw(st.sampled_from([1.0, 1.25, 1.5]))
         k_ref = draw(_log_uniform(1e4, 3e6))  # secant stiffness at 0.1 mm
@@ -283,14 +284,14 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
         drives = "M1"
     elif coupling == "contact":
         law = law_of()
-        elements.append({"name": "roller", "type": "contact", "between": ["cam", "M1"], **_contact_law(draw, law)})
+        elements.append({"name": "roller", "type": "contact", "between": ["cam", "M1"], **_contact_law(draw, law, linear)})
     else:
         law = law_of()
         clearance = draw(st.floats(min_value=2e-5, max_value=2e-4))
         # free while 0 < d < clearance (offset = clearance/2): the closure spring keeps
         # the follower on the lower face, d ≤ 0; the upper face catches it when it jumps
         elements.append({"name": "yoke", "type": "lash", "between": ["cam", "M1"], "clearance": Q(clearance, "length"),
-                         "offset": Q(clearance / 2, "length"), **_contact_law(draw, law)})
+                         "offset": Q(clearance / 2, "length"), **_contact_law(draw, law, linear)})
     for k in range(1, n):
         lower, upper = names[k - 1], names[k]
         kind = draw(st.sampled_from(["spring", "preloaded"]))
@@ -307,15 +308,15 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
         if extra == "contact":
             elements.append({"name": f"stop{k}{k + 1}", "type": "contact", "between": [lower, upper],
                              "gap": Q(draw(st.floats(min_value=1e-5, max_value=5e-4)), "length"),
-                             **_contact_law(draw, law_of())})
+                             **_contact_law(draw, law_of(), linear)})
         elif extra == "lash":
             elements.append({"name": f"lash{k}{k + 1}", "type": "lash", "between": [lower, upper],
                              "clearance": Q(draw(st.floats(min_value=1e-4, max_value=1e-3)), "length"),
-                             **_contact_law(draw, law_of())})
+                             **_contact_law(draw, law_of(), linear)})
         if draw(st.booleans()):
             elements.append({"name": f"seat{k + 1}", "type": "contact", "between": ["ground", upper],
                              "gap": Q(draw(st.floats(min_value=0.1, max_value=0.6)) * model_lift, "length"),
-                             **_contact_law(draw, law_of())})
+                             **_contact_law(draw, law_of(), linear)})
     free = [name for name in names if name != drives]
     initial = {}
     if free and draw(st.integers(min_value=0, max_value=3)) == 0:
