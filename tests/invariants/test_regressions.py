@@ -2,7 +2,8 @@
 
 Each test names its reference and tolerance. Classification (docs/validation.md):
 
-* fixed here: a rigid lash in the static equilibrium (``camsim/elements/lash.py``);
+* fixed here: a rigid lash in the static equilibrium (``camsim/elements/lash.py``); the
+  warm-up grid that did not resolve the cam input (``camsim/run/simulation.py``);
 * engine event location (issue 25 item 1, fixed in the engine): several events in one
   output step handled in element order rather than time order (shows as a file-order
   dependence); jump warnings located by interpolating output samples;
@@ -190,7 +191,7 @@ def test_warmup_cycle_is_as_exact_as_a_recorded_one():
     (of peak) off: the recorded revolution after it differs from the second revolution of
     a continuous run by 2.4e-6 of peak, and from the independent reference by 4.75e-6.
     Reference: the continuous run (``cycles = 2``), 1e-9 of peak (invariant b).
-    camsim/run/simulation.py: the coarse warm-up grid."""
+    Fixed in camsim/run/simulation.py (``warmup_step``: 64 steps per shortest motion)."""
     from invariant_checks import check_warmup
 
     assert check_warmup((MACHINES / "coarse-warmup.toml").read_text()) == []
