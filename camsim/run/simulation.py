@@ -59,9 +59,11 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
         nq = config.dim // 2
         A21 = config.A[nq:, :nq]
         rhs = config.B[nq:] @ u + config.b[nq:]
-        if config.linear:
+        if not nq:  # every free mass held by stuck rigid contacts: nothing to solve
+            q = np.zeros(0)
+        elif config.linear:
             try:
-                q = np.linalg.solve(A21, -rhs) if nq else np.zeros(0)
+                q = np.linalg.solve(A21, -rhs)
             except np.linalg.LinAlgError:
                 q = None
             if q is not None and nq and np.linalg.cond(A21) > EQUILIBRIUM_MAX_CONDITION:

@@ -174,17 +174,17 @@ def render(spec: MachineSpec, units: str = "SI", sample_rate: float | None = Non
 
 # --------------------------------------------------------------------------- strategies
 def _log_uniform(lo: float, hi: float):
-    return st.floats(min_value=math.log(lo), max_value=math.log(hi)).map(math.exp)
+    return st.floats(allow_subnormal=False, min_value=math.log(lo), max_value=math.log(hi)).map(math.exp)
 
 
 @st.composite
 def cam_programs(draw):
     """(segments, peak deceleration per unit ω² [m/rad²] at the roller, total lift [m])."""
     n_motions = draw(st.sampled_from([2, 2, 4]))
-    durations = [draw(st.floats(min_value=60.0, max_value=150.0 if n_motions == 2 else 80.0)) for _ in range(n_motions)]
+    durations = [draw(st.floats(allow_subnormal=False, min_value=60.0, max_value=150.0 if n_motions == 2 else 80.0)) for _ in range(n_motions)]
     dwell_total = 360.0 - sum(durations)
     dwells = [dwell_total / n_motions] * n_motions  # a dwell after each motion
-    lift = draw(st.floats(min_value=0.002, max_value=0.015))
+    lift = draw(st.floats(allow_subnormal=False, min_value=0.002, max_value=0.015))
     segments, peak = [], 0.0
     for k in range(n_motions):
         motion = "rise" if k % 2 == 0 else "fall"
@@ -203,11 +203,11 @@ def cam_programs(draw):
 def _damping(draw, allow_restitution: bool) -> dict:
     choice = draw(st.sampled_from(["none", "ratio", "coefficient"] + (["restitution"] if allow_restitution else [])))
     if choice == "ratio":
-        return {"damping_ratio": draw(st.floats(min_value=0.0, max_value=0.2))}
+        return {"damping_ratio": draw(st.floats(allow_subnormal=False, min_value=0.0, max_value=0.2))}
     if choice == "coefficient":
-        return {"damping": Q(draw(st.floats(min_value=0.0, max_value=50.0)), "damping")}
+        return {"damping": Q(draw(st.floats(allow_subnormal=False, min_value=0.0, max_value=50.0)), "damping")}
     if choice == "restitution":
-        return {"restitution": draw(st.floats(min_value=0.3, max_value=1.0))}
+        return {"restitution": draw(st.floats(allow_subnormal=False, min_value=0.3, max_value=1.0))}
     return {}
 
 
@@ -222,17 +222,17 @@ def _contact_law(draw, law: str, plain: bool = False) -> dict:
         out = {"law": "power", "exponent": a, "coefficient": Q(k_ref * 1e-4 ** (1 - a), f"power:{a!r}")}
         damping = draw(st.sampled_from(["none", "restitution", "hysteresis"]))
         if damping == "restitution":
-            out["restitution"] = draw(st.floats(min_value=0.3, max_value=1.0))
+            out["restitution"] = draw(st.floats(allow_subnormal=False, min_value=0.3, max_value=1.0))
         elif damping == "hysteresis":
-            out["hysteresis_damping"] = Q(draw(st.floats(min_value=0.0, max_value=2.0)), "hysteresis")
+            out["hysteresis_damping"] = Q(draw(st.floats(allow_subnormal=False, min_value=0.0, max_value=2.0)), "hysteresis")
         return out
     if law == "restitution":
         return {"law": "restitution", "restitution": draw(st.sampled_from([0.0, 0.0, 0.3, 0.6]))}
     n = draw(st.sampled_from([1.0, 1.5]))
     k_ref = draw(_log_uniform(1e4, 3e6))
     return {"law": "adams-impact", "exponent": n, "stiffness": Q(k_ref * 1e-4 ** (1 - n), f"power:{n!r}"),
-            "max_damping": Q(draw(st.floats(min_value=0.0, max_value=50.0)), "damping"),
-            "penetration_depth": Q(draw(st.floats(min_value=1e-5, max_value=1e-3)), "length")}
+            "max_damping": Q(draw(st.floats(allow_subnormal=False, min_value=0.0, max_value=50.0)), "damping"),
+            "penetration_depth": Q(draw(st.floats(allow_subnormal=False, min_value=1e-5, max_value=1e-3)), "length")}
 
 
 @st.composite
@@ -260,8 +260,8 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
         return law
 
     segments, peak, lift = draw(cam_programs())
-    rpm = draw(st.floats(min_value=600.0, max_value=1800.0))
-    ratio = draw(st.one_of(st.none(), st.floats(min_value=0.5, max_value=1.5)))
+    rpm = draw(st.floats(allow_subnormal=False, min_value=600.0, max_value=1800.0))
+    ratio = draw(st.one_of(st.none(), st.floats(allow_subnormal=False, min_value=0.5, max_value=1.5)))
     model_lift = lift * (ratio or 1.0)
     omega = rpm * 2 * math.pi / 60.0
     n = draw(st.integers(min_value=1, max_value=max_masses))
@@ -275,7 +275,7 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
     m_chain = sum(kg for _, kg in masses)
     k_close = draw(_log_uniform(1e3, 3e4))
     need = m_chain * peak * (ratio or 1.0) * omega**2 - 0.5 * k_close * model_lift
-    onset = draw(st.floats(min_value=0.5, max_value=2.0))
+    onset = draw(st.floats(allow_subnormal=False, min_value=0.5, max_value=2.0))
     preload = max(1.0, onset * need)
     elements.append({"name": "closure", "type": "spring", "between": ["ground", "M1"],
                      "stiffness": Q(k_close, "stiffness"), "preload": Q(preload, "force"), **_damping(draw, False)})
@@ -287,7 +287,7 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
         elements.append({"name": "roller", "type": "contact", "between": ["cam", "M1"], **_contact_law(draw, law, linear)})
     else:
         law = law_of()
-        clearance = draw(st.floats(min_value=2e-5, max_value=2e-4))
+        clearance = draw(st.floats(allow_subnormal=False, min_value=2e-5, max_value=2e-4))
         # free while 0 < d < clearance (offset = clearance/2): the closure spring keeps
         # the follower on the lower face, d ≤ 0; the upper face catches it when it jumps
         elements.append({"name": "yoke", "type": "lash", "between": ["cam", "M1"], "clearance": Q(clearance, "length"),
@@ -307,15 +307,15 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
         extra = draw(st.sampled_from(["none", "none", "contact", "lash"] if not linear else ["none", "contact"]))
         if extra == "contact":
             elements.append({"name": f"stop{k}{k + 1}", "type": "contact", "between": [lower, upper],
-                             "gap": Q(draw(st.floats(min_value=1e-5, max_value=5e-4)), "length"),
+                             "gap": Q(draw(st.floats(allow_subnormal=False, min_value=1e-5, max_value=5e-4)), "length"),
                              **_contact_law(draw, law_of(), linear)})
         elif extra == "lash":
             elements.append({"name": f"lash{k}{k + 1}", "type": "lash", "between": [lower, upper],
-                             "clearance": Q(draw(st.floats(min_value=1e-4, max_value=1e-3)), "length"),
+                             "clearance": Q(draw(st.floats(allow_subnormal=False, min_value=1e-4, max_value=1e-3)), "length"),
                              **_contact_law(draw, law_of(), linear)})
         if draw(st.booleans()):
             elements.append({"name": f"seat{k + 1}", "type": "contact", "between": ["ground", upper],
-                             "gap": Q(draw(st.floats(min_value=0.1, max_value=0.6)) * model_lift, "length"),
+                             "gap": Q(draw(st.floats(allow_subnormal=False, min_value=0.1, max_value=0.6)) * model_lift, "length"),
                              **_contact_law(draw, law_of(), linear)})
     free = [name for name in names if name != drives]
     initial = {}
@@ -324,9 +324,9 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
         touching = [e for e in elements if name in e["between"]]
         if draw(st.booleans()) and not any(e["type"] == "lash" or e["between"] == ["ground", name] for e in touching):
             # a drop: the mass starts above its rest position, at rest
-            initial[name] = {"displacement": Q(draw(st.floats(min_value=1e-4, max_value=2e-3)), "length")}
+            initial[name] = {"displacement": Q(draw(st.floats(allow_subnormal=False, min_value=1e-4, max_value=2e-3)), "length")}
         else:
-            initial[name] = {"velocity": Q(draw(st.floats(min_value=-0.3, max_value=0.3)), "velocity")}
+            initial[name] = {"velocity": Q(draw(st.floats(allow_subnormal=False, min_value=-0.3, max_value=0.3)), "velocity")}
     warmup = draw(st.sampled_from([0, 1]))
     spec = MachineSpec(rpm=rpm, segments=segments, ratio=ratio, drives=drives, masses=masses, elements=elements,
                        gravity=gravity, initial=initial, warmup_cycles=warmup, cycles=1)
@@ -343,3 +343,21 @@ def permuted(spec: MachineSpec, seed: int) -> MachineSpec:
     if len(element_order) > 1 and element_order == sorted(element_order):
         element_order.reverse()
     return MachineSpec(**{**spec.__dict__, "mass_order": mass_order, "element_order": element_order})
+
+
+def nudged(spec: MachineSpec, ulps: int) -> MachineSpec:
+    """The same machine with every dimensioned value (masses, stiffnesses, forces, lengths,
+    damping...) multiplied by 1 + ulps·2⁻⁵², about what a unit conversion's rounding does."""
+    import copy
+
+    factor = 1.0 + ulps * 2.0**-52
+    out = copy.deepcopy(spec)
+    out.masses = [(name, kg * factor) for name, kg in out.masses]
+    for e in out.elements:
+        for key, value in e.items():
+            if isinstance(value, Q):
+                e[key] = Q(value.value * factor, value.dim)
+    for values in out.initial.values():
+        for key, q in values.items():
+            values[key] = Q(q.value * factor, q.dim)
+    return out

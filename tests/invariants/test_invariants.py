@@ -9,8 +9,10 @@ the spec's promise that the other way changes nothing (spec §4, §6, §7):
     (1e-9 s, 1e-9 of peak), and a streamed run equals the in-memory one bit for bit;
 (c) permuting the [[mass]] and [[element]] tables changes nothing (1e-9 s, 1e-9 of peak,
     compared by name);
-(d) the machine written in US customary units gives the same SI numbers (1e-12 s,
-    1e-12 of peak).
+(d) the machine written in US customary units gives the same SI parameters (1e-15) and
+    the same run (1e-12 s and 1e-12 of peak, or ten times the change that a ±1-ulp nudge
+    of every SI value makes, where the machine is that sensitive: the conversion rounds
+    each value by about an ulp).
 
 Machines: :func:`machine_gen.machine_specs` (1-4 masses, every element kind and contact
 law, every cam law, speeds across the jump onset, gravity on and off, ``[initial]``).
@@ -28,7 +30,7 @@ from hypothesis import given, note, settings
 from hypothesis import strategies as st
 
 from invariant_checks import check_permutation, check_sample_rate, check_streamed, check_units, check_warmup, permute_text
-from machine_gen import machine_specs, render
+from machine_gen import machine_specs, nudged, render
 
 PROFILE = settings(settings.get_profile("camsim-invariants"))
 
@@ -89,8 +91,9 @@ def test_c_file_order_changes_nothing(spec, seed):
 @PROFILE
 @given(spec=machine_specs())
 def test_d_us_units_give_the_same_si_numbers(spec):
-    """(d) The machine in US customary units: same SI events and traces (1e-12)."""
+    """(d) The machine in US customary units: the same SI parameters (1e-15) and the same
+    events and traces (1e-12, or 10x the change a ±1-ulp nudge of the SI values makes)."""
     text, us = render(spec), render(spec, "US")
     note(f"machine file (SI):\n{text}\nmachine file (US):\n{us}")
     _report("d-units", text + "\n# --- the same in US units:\n" + "\n".join("# " + x for x in us.splitlines()),
-            check_units(text, us))
+            check_units(text, us, (render(nudged(spec, 1)), render(nudged(spec, -1)))))

@@ -195,3 +195,20 @@ def test_warmup_cycle_is_as_exact_as_a_recorded_one():
     from invariant_checks import check_warmup
 
     assert check_warmup((MACHINES / "coarse-warmup.toml").read_text()) == []
+
+
+def test_static_equilibrium_with_every_mass_on_a_stuck_rigid_contact():
+    """Found by the suite: M1 on the cam through a rigid roller (e = 0), M2 on a rigid seat,
+    a spring k12 and an Adams IMPACT lash between them. At rest both rigid contacts are
+    stuck, so no coordinate is left, and the equilibrium search (nonlinear because of the
+    lash) answered "no static equilibrium" (camsim/run/simulation.py). Reference, closed
+    form at t = 0 (x1 = s(0) = 0, x2 = seat gap g; the lash's high side pulls, penetration
+    g − c/2): seat = k12·g + k·(g − c/2), roller = P − k12·g − k·(g − c/2); 1e-9 relative."""
+    machine = load((MACHINES / "stuck-with-nonlinear-lash.toml").read_text())
+    run = simulate(machine, warmup_cycles=0)
+    g, c, k12, k, P = 0.0014510820389897424, 0.00036872242102228733, 194928.733550466, 99480.16138406616, 3395.926961567124
+    lash = k * (g - c / 2)
+    assert run.masses["M2"]["displacement"][0] == pytest.approx(g, rel=1e-12)
+    assert run.elements["seat2"][0] == pytest.approx(k12 * g + lash, rel=1e-9)
+    assert run.elements["roller"][0] == pytest.approx(P - k12 * g - lash, rel=1e-9)
+    assert abs(run.elements["lash12"][0]) == pytest.approx(lash, rel=1e-9)
