@@ -173,11 +173,13 @@ def _consistent_branches(model: Model, integrator: Integrator, state: State) -> 
     config = model.configuration(state.branches)
     u = integrator.inputs(np.array([state.t]))
     z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
+    # the constraint forces balance the closed power-law contacts' forces too
+    fn = integrator.nonlinear_forces(config, z[None, :], u, {})
     for pos, i in enumerate(model.switching):
         d = float(model.deflection(i, state.x, u[0, 0]))
 
         def constraint_force(i=i) -> float:
-            return float(config.lam(z[None, :], u)[0, config.stuck_contacts.index(i)])
+            return float(config.lam(z[None, :], u, fn)[0, config.stuck_contacts.index(i)])
 
         branches[pos] = model.elements[i].branch_at_rest(branches[pos], d, constraint_force)
     return tuple(branches)

@@ -212,3 +212,20 @@ def test_static_equilibrium_with_every_mass_on_a_stuck_rigid_contact():
     assert run.elements["seat2"][0] == pytest.approx(k12 * g + lash, rel=1e-9)
     assert run.elements["roller"][0] == pytest.approx(P - k12 * g - lash, rel=1e-9)
     assert abs(run.elements["lash12"][0]) == pytest.approx(lash, rel=1e-9)
+
+
+def test_static_equilibrium_counts_a_power_law_contact_in_a_stuck_stop_force():
+    """Found by the suite: a rigid stop (e = 0.3, gap g) between M1 and M2 with a spring
+    k12, M1 on the cam through a power-law roller F = C·δ^1.5 and a closure spring. The
+    stuck stop's constraint force was computed without the roller's force, came out
+    negative, and the branch search gave up ("does not settle on one branch";
+    camsim/run/simulation.py). Reference, closed form at t = 0 without gravity: the stop
+    carries k12·g; the roller's penetration δ solves C·δ^1.5 = P − k_c·δ (brentq to
+    1e-18 m); forces 1e-9 relative, x1 = −δ to 1e-9 relative."""
+    machine = load((MACHINES / "stuck-stop-on-nonlinear-roller.toml").read_text())
+    run = simulate(machine)
+    C, P, kc, k12, g = 1e9, 300.0, 8000.0, 12000.0, 4e-5
+    delta = brentq(lambda d: C * d**1.5 - (P - kc * d), 0.0, 1e-2, xtol=1e-18)
+    assert run.elements["stop12"][0] == pytest.approx(k12 * g, rel=1e-9)
+    assert run.elements["roller"][0] == pytest.approx(C * delta**1.5, rel=1e-9)
+    assert run.masses["M1"]["displacement"][0] == pytest.approx(-delta, rel=1e-9)
