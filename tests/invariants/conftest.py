@@ -32,5 +32,5 @@ _common = dict(
 )
 #: Examples per invariant test (the tests scale it: cheap invariants run more).
 settings.register_profile("camsim-invariants-dev", max_examples=2, **_common)
-settings.register_profile("camsim-invariants-ci", max_examples=20, **_common)
+settings.register_profile("camsim-invariants-ci", max_examples=16, **_common)
 settings.register_profile("camsim-invariants", settings.get_profile(f"camsim-invariants-{_choice}"))

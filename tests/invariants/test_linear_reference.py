@@ -35,7 +35,9 @@ from reference_solver import reference_run  # noqa: E402
 
 from camsim.run.simulation import simulate  # noqa: E402
 
-PROFILE = settings(settings.get_profile("camsim-invariants"))
+#: Half the profile's examples: a reference run costs several camsim runs.
+PROFILE = settings(settings.get_profile("camsim-invariants"),
+                   max_examples=max(2, settings.get_profile("camsim-invariants").max_examples // 2))
 BRANCH_KINDS = ("impact", "release", "separation", "rejoin")
 #: Event times [s] and traces (fraction of peak) against the reference.
 EVENT_TOL = 1e-8
