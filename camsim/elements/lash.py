@@ -336,6 +336,10 @@ class RigidLash(Lash):
     def branch_at_rest(self, branch, d, constraint_force):
         if self.side_of(branch):
             return Branch.OPEN if constraint_force() < -FORCE_TOL else branch
+        # Open at rest but through a stop: the equilibrium rests on that stop (as a rigid
+        # contact closes at rest), not an error (that is for a given [initial] state).
+        if self.penetration(d) > LENGTH_TOL:
+            return self.closed_branches[0] if self.low - d >= d - self.high else self.closed_branches[1]
         return self.branch_from_state(d, False)
 
     def branch_from_state(self, d, no_impact):

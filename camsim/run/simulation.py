@@ -61,9 +61,11 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
         nq = config.dim // 2
         A21 = config.A[nq:, :nq]
         rhs = config.B[nq:] @ u + config.b[nq:]
-        if config.linear:
+        if not nq:  # every free mass held by stuck rigid contacts: nothing to solve
+            q = np.zeros(0)
+        elif config.linear:
             try:
-                q = np.linalg.solve(A21, -rhs) if nq else np.zeros(0)
+                q = np.linalg.solve(A21, -rhs)
             except np.linalg.LinAlgError:
                 q = None
             if q is not None and nq and np.linalg.cond(A21) > EQUILIBRIUM_MAX_CONDITION:
@@ -173,11 +175,13 @@ def _consistent_branches(model: Model, integrator: Integrator, state: State) -> 
     config = model.configuration(state.branches)
     u = integrator.inputs(np.array([state.t]))
     z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
+    # the constraint forces balance the closed power-law contacts' forces too
+    fn = integrator.nonlinear_forces(config, z[None, :], u, {})
     for pos, i in enumerate(model.switching):
         d = float(model.deflection(i, state.x, u[0, 0]))
 
         def constraint_force(i=i) -> float:
-            return float(config.lam(z[None, :], u)[0, config.stuck_contacts.index(i)])
+            return float(config.lam(z[None, :], u, fn)[0, config.stuck_contacts.index(i)])
 
         branches[pos] = model.elements[i].branch_at_rest(branches[pos], d, constraint_force)
     return tuple(branches)
@@ -338,8 +342,8 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     report = (lambda t: progress(min(1.0, t / total))) if progress else None
     t_final = t_end + 0.5 * h_out
     # Warm-up cycles are not recorded: integrate them on a coarser grid, just dense
-    # enough to see every guard (each step is exact whatever its length).
-    h_warm = 1.0 / (SAMPLES_PER_PERIOD * f_max) if f_max > 0 else integrator.h
+    # enough to see every guard and to carry the cam input exactly (warmup_step).
+    h_warm = warmup_step(machine, f_max, integrator.h)
     with numerical_failure(machine):
         if t_rec > 0 and h_warm > 1.5 * integrator.h:
             warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
@@ -380,6 +384,30 @@ def numerical_failure(machine: Machine):
             f"is probably too stiff to resolve: lower its stiffness or coefficient, or make the contact rigid "
             f'(law = "restitution")'
         ) from exc
+
+
+#: Warm-up steps per shortest cam motion (rise or fall). A step carries the cam input as
+#: the degree-7 Hermite of s, ṡ, s̈, s⃛ at its ends; over a fifth of a rise (the former
+#: warm-up grid of a soft machine) that is 1e-7 of the lift off, and across the jerk
+#: steps inside a modified trapezoid or sine (not segment joins) worse. 64 steps per
+#: motion keep the recorded revolution after a warm-up equal to the same revolution of a
+#: continuous run to 1e-9 of peak (tests/invariants, invariant b; issue 25).
+WARMUP_STEPS_PER_MOTION = 64
+
+
+def warmup_step(machine: Machine, f_max: float, h: float) -> float:
+    """Step [s] of the unrecorded warm-up grid: at most 1/(12·f_max) (every guard seen)
+    and 1/WARMUP_STEPS_PER_MOTION of the shortest rise or fall (the cam input exact);
+    ``h`` (the recording step) when neither bounds it."""
+    bounds = []
+    if f_max > 0:
+        bounds.append(1.0 / (SAMPLES_PER_PERIOD * f_max))
+    cam = machine.cam
+    if cam is not None:
+        motions = [seg.duration for seg in (cam.segments or ()) if seg.motion != "dwell"]
+        shortest = min(motions) if motions else 2 * math.pi / WARMUP_STEPS_PER_MOTION  # a table cam: by revolution
+        bounds.append(shortest / cam.speed / WARMUP_STEPS_PER_MOTION)
+    return min(bounds) if bounds else h
 
 
 @dataclass(frozen=True)

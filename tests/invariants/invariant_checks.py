@@ -1,0 +1,282 @@
+"""The invariants of issue 25 as plain functions of machine-file text.
+
+Each ``check_*`` runs camsim on one or two machine texts and returns a list of
+discrepancies (empty: the invariant holds). The hypothesis tests call them on generated
+machines; regression tests call them on the reduced machines that once failed, so any
+failure is reproduced by pasting the printed TOML into a call.
+
+References and tolerances are those of the spec (§4: every event located to 1e-9 s,
+the output grid only chooses where traces are recorded):
+
+* events compare by sequence of (element, kind) and by time, |Δt| ≤ 1e-9 s (1e-12 s for
+  the US-units invariant);
+* traces compare at the instants both runs share, max |Δ| ≤ tol × peak |trace|.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from camsim.machine.loader import load_machine_text
+from camsim.run.simulation import simulate
+from camsim.run.stream import simulate_to_file
+
+#: Event times agree to this [s] (spec §4).
+EVENT_TOL = 1e-9
+#: Traces agree to this fraction of their peak.
+TRACE_TOL = 1e-9
+
+
+def load(text: str):
+    """The machine of ``text`` (source ``<hypothesis>``)."""
+    return load_machine_text(text, source="<hypothesis>")
+
+
+def event_rows(result, t0: float = 0.0, t1: float = math.inf, shift: float = 0.0) -> list[tuple]:
+    """(time − shift [s], element, kind) of the events with t0 ≤ time ≤ t1."""
+    return [(e.time - shift, e.element, str(e.kind)) for e in result.events if t0 <= e.time <= t1]
+
+
+def compare_events(a: list[tuple], b: list[tuple], tol: float, edges: tuple[float, float] | None = None) -> list[str]:
+    """Discrepancies between two event lists: sequence of (element, kind) and times.
+
+    ``edges`` (t0, t1): events within ``tol`` of a window edge may be missing from the
+    other list (they belong to either side of the edge).
+    """
+    if edges is not None:
+        near = lambda t: abs(t - edges[0]) <= tol or abs(t - edges[1]) <= tol  # noqa: E731
+        a_in = [r for r in a if not near(r[0])]
+        b_in = [r for r in b if not near(r[0])]
+        if [r[1:] for r in a_in] == [r[1:] for r in b_in]:
+            a, b = a_in, b_in
+    problems = []
+    seq_a, seq_b = [r[1:] for r in a], [r[1:] for r in b]
+    if seq_a != seq_b:
+        k = next((i for i, (x, y) in enumerate(zip(seq_a, seq_b)) if x != y), min(len(a), len(b)))
+        problems.append(
+            f"event sequences differ from row {k}: {len(a)} vs {len(b)} events; "
+            f"first: {a[k] if k < len(a) else None} vs {b[k] if k < len(b) else None}; "
+            f"a[k-1:k+3] = {a[max(0, k - 1):k + 3]}; b[k-1:k+3] = {b[max(0, k - 1):k + 3]}"
+        )
+        return problems
+    worst, at = 0.0, None
+    for x, y in zip(a, b):
+        d = abs(x[0] - y[0])
+        if d > worst:
+            worst, at = d, (x, y)
+    if worst > tol:
+        problems.append(f"event time differs by {worst:.3g} s > {tol:g} s: {at[0]} vs {at[1]}")
+    return problems
+
+
+def shared_instants(ta: np.ndarray, tb: np.ndarray, tol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (ia, ib) of the samples of two time bases that fall on the same instant."""
+    ib = np.clip(np.searchsorted(tb, ta), 0, len(tb) - 1)
+    ib_left = np.clip(ib - 1, 0, len(tb) - 1)
+    pick = np.where(np.abs(tb[ib_left] - ta) < np.abs(tb[ib] - ta), ib_left, ib)
+    ok = np.abs(tb[pick] - ta) <= tol
+    return np.flatnonzero(ok), pick[ok]
+
+
+def compare_traces(a, b, tol: float, ia=None, ib=None, skip_near: list[float] = ()) -> list[str]:
+    """Largest difference of every trace at the samples ``ia`` of ``a`` and ``ib`` of ``b``,
+    relative to the trace's peak over both runs (a trace absent from one is a problem)."""
+    ta, tb = a.traces(), b.traces()
+    problems = []
+    if set(ta) != set(tb):
+        problems.append(f"trace sets differ: {sorted(set(ta) ^ set(tb))}")
+    if ia is None:
+        ia = ib = slice(None)
+    for path in sorted(set(ta) & set(tb)):
+        if path == "time":
+            continue
+        xa, xb = np.asarray(ta[path].data), np.asarray(tb[path].data)
+        if path == "cam/boundaries_deg" or xa.shape != a.time.shape:
+            if xa.shape != xb.shape or np.any(np.abs(xa - xb) > tol * max(1.0, np.max(np.abs(xa), initial=0.0))):
+                problems.append(f"{path}: differs")
+            continue
+        pa, pb = xa[ia], xb[ib]
+        peak = max(np.max(np.abs(xa), initial=0.0), np.max(np.abs(xb), initial=0.0))
+        diff = np.abs(pa - pb)
+        if diff.size == 0:
+            continue
+        k = int(np.argmax(diff))
+        if diff[k] > tol * peak or not np.isfinite(diff[k]):
+            t = a.time[ia][k] if not isinstance(ia, slice) else a.time[k]
+            problems.append(f"{path}: differs by {diff[k] / peak if peak else diff[k]:.3g} of its peak "
+                            f"{peak:.4g} at t = {t:.9g} s ({pa[k]!r} vs {pb[k]!r})")
+    return problems
+
+
+# --------------------------------------------------------------------------- (a)
+def check_sample_rate(text: str, rates: tuple[float, float]) -> list[str]:
+    """(a) The same machine at two sample rates: the same events (sequence, times to
+    1e-9 s) and the same traces at the instants both grids share (1e-9 of each peak)."""
+    machine = load(text)
+    lo, hi = (simulate(machine, sample_rate=r) for r in rates)
+    problems = compare_events(event_rows(lo), event_rows(hi), EVENT_TOL)
+    ia, ib = shared_instants(lo.time, hi.time)
+    if len(ia) < len(lo.time) // 2:
+        problems.append(f"only {len(ia)} of {len(lo.time)} samples shared")
+    return problems + compare_traces(lo, hi, TRACE_TOL, ia, ib)
+
+
+# --------------------------------------------------------------------------- (b)
+def check_warmup(text: str) -> list[str]:
+    """(b) ``cycles = 2`` equals ``warmup_cycles = 1, cycles = 1`` over the second
+    revolution: events (1e-9 s) and traces (1e-9 of each peak), on a sample rate near
+    20 kHz that puts a whole number of samples in a revolution."""
+    machine = load(text)
+    from camsim.cam.program import CamProgram
+
+    period = CamProgram(machine.cam).period
+    rate = round(period * 20_000) / period
+    both = simulate(machine, warmup_cycles=0, cycles=2, sample_rate=rate)
+    second = simulate(machine, warmup_cycles=1, cycles=1, sample_rate=rate)
+    problems = compare_events(event_rows(both, period - 1e-12, 2 * period + 1e-12, shift=period),
+                              event_rows(second), EVENT_TOL, edges=(0.0, period))
+    # the cam angle of a continuous run goes on past 360 deg (spec §7): one turn less
+    both.cam["angle"] = both.cam["angle"] - 360.0
+    ia, ib = shared_instants(both.time - period, second.time)
+    if len(ib) != len(second.time):
+        problems.append(f"only {len(ib)} of {len(second.time)} samples of the second revolution found")
+    return problems + compare_traces(both, second, TRACE_TOL, ia, ib)
+
+
+def check_streamed(text: str, tmp: Path) -> list[str]:
+    """(b) A streamed run (simulate_to_file) equals the in-memory one: traces and events
+    bit for bit (the two share their sample assembly; docs/streaming)."""
+    machine = load(text)
+    memory = simulate(machine)
+    path = Path(tmp) / "streamed.h5"
+    streamed = simulate_to_file(machine, path)
+    back = streamed.open()
+    problems = compare_traces(memory, back, 0.0)
+    if len(memory.time) != len(back.time) or np.any(memory.time != back.time):
+        problems.append("time bases differ")
+    cols = ("time", "element", "kind", "relative_velocity", "peak_force", "contact_duration")
+
+    def rows(events):
+        return [tuple(getattr(e, c) for c in cols) for e in events]
+
+    a, b = rows(memory.events), rows(streamed.events)
+    if len(a) != len(b) or any(
+        x[:3] != y[:3] or any(not (u == v or (math.isnan(u) and math.isnan(v))) for u, v in zip(x[3:], y[3:]))
+        for x, y in zip(a, b)
+    ):
+        problems.append(f"event tables differ: in memory {a} vs streamed {b}")
+    return problems
+
+
+# --------------------------------------------------------------------------- (c)
+def permute_text(text: str, seed: int) -> str:
+    """The machine of ``text`` with its [[mass]] and [[element]] tables shuffled (and reversed
+    if the shuffle left them in order)."""
+    doc = tomllib.loads(text)
+    rng = random.Random(seed)
+    for key in ("mass", "element"):
+        rows = list(doc.get(key, []))
+        if len(rows) > 1:
+            order = list(range(len(rows)))
+            rng.shuffle(order)
+            if order == sorted(order):
+                order.reverse()
+            doc[key] = [rows[i] for i in order]
+    return tomli_w.dumps(doc)
+
+
+def check_permutation(text: str, other: str) -> list[str]:
+    """(c) Two orderings of one machine: the same events (1e-9 s) and the same traces by
+    name (1e-9 of each peak)."""
+    a, b = simulate(load(text)), simulate(load(other))
+    problems = compare_events(event_rows(a), event_rows(b), EVENT_TOL)
+    return problems + compare_traces(a, b, TRACE_TOL)
+
+
+# --------------------------------------------------------------------------- (d)
+#: The SI and US texts of one machine agree to this (times [s] and fraction of peaks)...
+UNITS_TOL = 1e-12
+#: ...or to this multiple of the rounding floor, whichever is larger (check_units).
+FLOOR_FACTOR = 10.0
+
+
+def check_units(si_text: str, us_text: str, nudged_texts: tuple[str, ...] = ()) -> list[str]:
+    """(d) The machine written in SI and in US units: the same SI parameters (1e-15
+    relative: the unit conversion itself) and the same run, events and traces to 1e-12.
+
+    A unit conversion rounds each value by about one ulp, and on a machine with impacts a
+    one-ulp change of its parameters alone moves the traces by up to ~1e-10 of peak
+    (measured: a mass changed by one ulp, tests/invariants/test_regressions.py). So the
+    run of the US text must agree with the SI run to 1e-12, or, where the machine is that
+    sensitive, to within FLOOR_FACTOR times the change of the SI run under the
+    ``nudged_texts`` (the SI machine with every value moved by ±1 ulp): no worse than
+    rounding."""
+    ma, mb = load(si_text), load(us_text)
+    problems = compare_parameters(ma, mb)
+    a, b = simulate(ma), simulate(mb)
+    floor_t, floor_x = 0.0, 0.0
+    for text in nudged_texts:
+        c = simulate(load(text))
+        floor_t = max(floor_t, _event_spread(a, c))
+        floor_x = max(floor_x, _trace_spread(a, c))
+    if math.isinf(floor_t):
+        # a one-ulp change of the SI machine already changes its event sequence (a grazing
+        # contact at its threshold): no run can be compared at any tolerance, only the
+        # parameters
+        return problems
+    problems += compare_events(event_rows(a), event_rows(b), max(UNITS_TOL, FLOOR_FACTOR * floor_t))
+    return problems + compare_traces(a, b, max(UNITS_TOL, FLOOR_FACTOR * floor_x))
+
+
+def _event_spread(a, b) -> float:
+    ra, rb = event_rows(a), event_rows(b)
+    if [r[1:] for r in ra] != [r[1:] for r in rb]:
+        return math.inf  # a one-ulp change changes the event sequence: no floor applies
+    return max((abs(x[0] - y[0]) for x, y in zip(ra, rb)), default=0.0)
+
+
+def _trace_spread(a, b) -> float:
+    worst = 0.0
+    ta, tb = a.traces(), b.traces()
+    for path in ta:
+        if path == "time" or ta[path].data.shape != a.time.shape:
+            continue
+        x, y = np.asarray(ta[path].data), np.asarray(tb[path].data)
+        peak = max(np.max(np.abs(x), initial=0.0), np.max(np.abs(y), initial=0.0))
+        if peak > 0:
+            worst = max(worst, float(np.max(np.abs(x - y))) / peak)
+    return worst
+
+
+#: Loaded SI parameters of the two texts agree to this (a few roundings of the conversion).
+PARAMETER_TOL = 1e-15
+
+
+def compare_parameters(a, b) -> list[str]:
+    """Every number of the two loaded machines (``machine_to_dict``, SI) agrees to
+    :data:`PARAMETER_TOL` relative: the unit conversion itself, apart from the run."""
+    from camsim.machine.loader import machine_to_dict
+
+    problems = []
+
+    def walk(x, y, path):
+        if isinstance(x, dict):
+            for key in x:
+                if key in ("units", "source", "text", "name"):
+                    continue
+                walk(x[key], y.get(key) if isinstance(y, dict) else None, f"{path}.{key}")
+        elif isinstance(x, (list, tuple)):
+            for k, (u, v) in enumerate(zip(x, y or ())):
+                walk(u, v, f"{path}[{k}]")
+        elif isinstance(x, float) and isinstance(y, float):
+            if abs(x - y) > PARAMETER_TOL * max(abs(x), abs(y)):
+                problems.append(f"parameter {path}: {x!r} vs {y!r} (relative {abs(x - y) / max(abs(x), abs(y)):.2g})")
+
+    walk(machine_to_dict(a), machine_to_dict(b), "machine")
+    return problems
