@@ -58,7 +58,7 @@ def _print_table(machine, program: CamProgram, peaks: list[dict]) -> None:
             _num(p["peak_jerk_deg"], ".5g"),
         )
     # Off a terminal (a log, a pipe) do not squeeze the table into 80 columns.
-    console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
+    console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
     console.print(table)
 
 
@@ -190,7 +190,7 @@ def cam_command(
             if checks is not None:
                 from camsim.reports.summary import render_geometry_checks
 
-                console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
+                console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
                 render_geometry_checks(checks, console, title=(
                     f"cam geometry: {geometry.follower}, Rb {1e3 * geometry.base_radius:.5g} mm"
                     + (f", Rr {1e3 * geometry.roller_radius:.5g} mm" if geometry.is_roller else "")

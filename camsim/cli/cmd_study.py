@@ -116,6 +116,8 @@ def study_command(
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted study (same command): only the missing runs are made."),
     plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Write a figure: histograms with limits, most influential input against each output, Sobol' indices."),
     json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
 ) -> None:
@@ -158,12 +160,18 @@ def study_command(
             except QuantityError as exc:
                 raise InputError(f"--sample-rate: {exc}") from None
         target = out if out is not None else machine.with_name(machine.stem + "_study.h5")
-        check_writable(target)
-        check_writable(csv_path_for(target))
+        from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
+        from camsim.io.rowstore import journal_path_for
+
+        inputs = [("machine file", machine), ("config file", config)]
+        check_output(target, output_format(target, HDF5), owner="study", force=force, inputs=inputs)
+        check_output(csv_path_for(target), output_format(csv_path_for(target), CSV), owner="csv", inputs=inputs,
+                     option="-o (the CSV beside it)")
+        check_journal(target, journal_path_for(target), resume=resume, fresh=fresh, what="study")
         if plot is not None:
-            if plot.suffix.lower() not in (".png", ".svg", ".pdf"):
-                raise InputError(f"--plot {plot}: unknown format '{plot.suffix.lstrip('.')}' (png, svg or pdf)")
-            check_writable(plot)
+            from camsim.io.outputs import FIGURES
+
+            check_output(plot, output_format(plot, FIGURES, "--plot"), owner="figure", inputs=inputs, option="--plot")
         n = samples if samples is not None else cfg.get("samples", 256)
         if samples is not None and samples < 1:
             raise InputError(f"--samples {samples}: needs at least 1")

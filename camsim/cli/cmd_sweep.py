@@ -109,6 +109,8 @@ def sweep_command(
     warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first (overrides simulation.warmup_cycles)."),
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare number: Hz). Default: the machine file\'s. Peaks are taken over the samples.'),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted sweep into the same output: run only the variants missing from <output>.journal (same machine, ranges, --set and settings, else exit 2). Without a journal: a fresh sweep."),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human table: si (N, m) or us (lbf, in). Files and --json are always SI."),
 ) -> None:
@@ -137,8 +139,14 @@ def sweep_command(
     with user_errors(), sigterm_as_interrupt():
         check_unit_system(units)
         target = output if output is not None else _default_output(machine)
-        check_writable(target)
-        check_writable(csv_path_for(target))
+        from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
+        from camsim.io.rowstore import journal_path_for
+
+        inputs = [("machine file", machine)]
+        check_output(target, output_format(target, HDF5), owner="sweep", force=force, inputs=inputs)
+        check_output(csv_path_for(target), output_format(csv_path_for(target), CSV), owner="csv", inputs=inputs,
+                     option="-o (the CSV beside it)")
+        check_journal(target, journal_path_for(target), resume=resume, fresh=fresh, what="sweep")
         try:
             result = run_sweep(
                 machine,

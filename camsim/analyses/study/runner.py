@@ -70,6 +70,10 @@ class RunSettings:
     sample_rate: float | None = None
 
 
+#: Seeds are stored as unsigned 64-bit attributes: 0 <= seed < 2**64.
+SEED_LIMIT = 2**64
+
+
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return f"{type(exc).__name__}: {text[0]}" if text and text[0] else type(exc).__name__
@@ -337,8 +341,9 @@ def study(
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError(f"--samples {samples}: needs a whole number of at least 1")
     samples = int(samples)
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"--seed {seed}: needs a whole number ≥ 0")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < SEED_LIMIT:
+        # checked before any run: the seed is stored as an unsigned 64-bit attribute (issue 26)
+        raise InputError(f"--seed {seed}: needs a whole number from 0 to 2^64 - 1 = {SEED_LIMIT - 1}")
     parsed = [d if isinstance(d, Distribution) else parse_dist(d, tol_sigma) for d in dists]
     if not parsed:
         raise InputError("study: give at least one --dist KEY=SPEC")
@@ -354,6 +359,11 @@ def study(
     corr = correlation_matrix(pairs, len(keys), list(correlate))
     if sensitivity and pairs:
         raise InputError("--sensitivity: Sobol' indices need independent inputs; drop --correlate")
+    if sensitivity and samples < 2:
+        raise InputError(
+            f"--samples {samples}: --sensitivity needs at least 2 samples (the indices are variances over the "
+            "samples, and their intervals a bootstrap of them), e.g. --samples 64"
+        )
     if sensitivity and not is_power_of_two(samples):
         raise InputError(
             f"--samples {samples}: --sensitivity needs a power of two (Saltelli's estimator on Sobol' points), "
