@@ -77,7 +77,8 @@ def output_format(path: str | os.PathLike[str], formats: Mapping[str, str], opti
     if suffix in formats:
         return formats[suffix]
     accepted = ", ".join(dict.fromkeys(formats))
-    raise InputError(f"{path}: {option}: unknown output format {Path(path).suffix or '(no suffix)'!r}; this command writes {accepted}")
+    noun = "figure" if set(formats.values()) <= {"png", "svg", "pdf"} else "output"
+    raise InputError(f"{path}: {option}: unknown {noun} format {Path(path).suffix or '(no suffix)'!r}; this command writes {accepted}")
 
 
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
