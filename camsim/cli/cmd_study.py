@@ -55,6 +55,9 @@ def _render(result, err, system: str = "si") -> None:
         )
     err.print(table)
     for lim in result.limits:
+        if lim.get("reason"):
+            err.print(f"P({lim['expr']}): not determined: {lim['reason']}", markup=False)
+            continue
         lo, hi = lim["ci95"]
         err.print(
             f"P({lim['expr']}) = {_fmt(lim['probability'])} ({lim['crossed']} of {lim['n']} runs; 95 % Clopper-Pearson "
@@ -128,8 +131,9 @@ def study_command(
     reductions, in SI. Statistics: mean, std, percentiles 1/5/50/95/99, min/max with
     95 % bootstrap intervals; --limit gives the probability of crossing each limit;
     --sensitivity the Sobol' indices. Rows are kept as they finish; after Ctrl-C or a
-    kill, run the same command with --resume. Exit 0 when the study ran (failed runs
-    are rows with their reason), 2 on bad input, 130 after Ctrl-C or SIGTERM.
+    kill, run the same command with --resume. Exit 0 when every run ran; 1 when a run
+    failed (its row holds the reason; incomplete = True in the file and the JSON, and no
+    limit probability is concluded), 2 on bad input, 130 after Ctrl-C or SIGTERM.
     """
     from camsim.cli.progress import Bar
     from camsim.errors import InputError
@@ -231,3 +235,6 @@ def study_command(
         else:
             _render(result, err_console, units)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
+        if result.failed:
+            raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
+                       "'status'); no probability is concluded from the others", 1)

@@ -46,7 +46,9 @@ def _render(result, err, system: str = "si") -> None:
         line += f", {cancelled} cancelled"
     err.print(line, markup=False)
     if "param:cam.speed" in params:
-        if result.first_jump_rpm is None:
+        if result.first_jump_rpm is None and result.incomplete:
+            pass  # no conclusion from rows that did not run: the note says why (issue 26)
+        elif result.first_jump_rpm is None:
             err.print("the follower does not jump at any swept speed", markup=False)
         else:
             err.print(f"lowest swept speed at which the follower jumps: {result.first_jump_rpm:.6g} rpm", markup=False)
@@ -124,8 +126,10 @@ def sweep_command(
     speed at which the follower jumps is reported. Each row is stored as its variant
     finishes (<output>.journal, and the HDF5 file, readable while the sweep runs), so a
     killed sweep keeps its finished rows: rerun with --resume. Exit 0 when the sweep
-    ran (failed variants are in the table), 2 on bad input, 130 after Ctrl-C or
-    SIGTERM (finished rows are written, the rest marked "cancelled").
+    ran every variant to a result; 1 when a variant failed or did not run (a worker
+    process died: --resume runs it), the file then has incomplete = True and no jump
+    onset is concluded across rows that did not run; 2 on bad input; 130 after Ctrl-C
+    or SIGTERM (finished rows are written, the rest marked "cancelled").
     """
     from camsim.cli.app import parse_sample_rate
     from camsim.io.atomic import check_writable
@@ -177,6 +181,10 @@ def sweep_command(
                     "rows": jsonable_rows(result),
                     "jump_onset_rpm": result.jump_onset_rpm,
                     "first_jump_rpm": result.first_jump_rpm,
+                    "interrupted": result.stopped,
+                    "incomplete": result.incomplete,
+                    "not_run": result.not_run,
+                    "notes": list(result.notes),
                     "output": str(h5_path),
                     "csv": str(csv_path),
                 }
@@ -186,16 +194,21 @@ def sweep_command(
                 err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
             _render(result, err_console, units)
             err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
-        if result.executor_failures and not result.interrupted:
-            err_console.print(
-                f"warning: {result.executor_failures} variants did not run (a worker process failed); "
-                "rerun with --resume to run them",
-                style="yellow",
-                markup=False,
-            )
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
             raise fail(
                 f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled'); rerun with --resume to complete it",
                 130,
+            )
+        if result.executor_failures:
+            raise fail(
+                f"incomplete: {result.executor_failures} variants did not run (a worker process failed); "
+                f"{h5_path} keeps the others; rerun the same command with --resume to run them",
+                1,
+            )
+        if result.incomplete:
+            raise fail(
+                f"incomplete: {len(result.failed)} of {len(result.rows)} variants failed (their status column "
+                "holds the reason); no conclusion is drawn from them",
+                1,
             )

@@ -195,6 +195,7 @@ class StudyResult:
             "output": None if self.output is None else str(self.output),
             "csv": None if self.csv is None else str(self.csv),
             "failed": self.failed,
+            "incomplete": self.failed > 0,
             "outputs": self.stats,
             "limits": self.limits,
             "sensitivity": sens,
@@ -594,6 +595,15 @@ def _analyse(frame, output_names, limits, keys, samples: int, sensitivity: bool,
     failed = int((~ok).sum())
     if failed:
         notes.append(f"{failed} of {len(ok)} runs failed (their rows hold the reason in 'status'; left out of the statistics)")
+        pool = np.arange(ok.size) < (2 * samples if sensitivity else ok.size)  # the rows the limits are taken over
+        counted, lost = int(pool.sum()), int((pool & ~ok).sum())
+        for row in limit_rows if lost else ():
+            # A failed run may be exactly one that crosses the limit: no probability is
+            # concluded from the runs that did not fail (issue 26); the bounds are exact.
+            low, high = row["crossed"] / counted, (row["crossed"] + lost) / counted
+            row.update(probability=None, per_million=None, ci95=[None, None],
+                       reason=f"{lost} of {counted} runs failed: P is between {low:.4g} and {high:.4g} "
+                              f"({row['crossed']} crossed among the {row['n']} that ran)")
     return stats, limit_rows, sens, ranking, notes
 
 

@@ -65,7 +65,8 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
             group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
             group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
             group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
-            group.attrs["interrupted"] = bool(result.interrupted)
+            group.attrs["interrupted"] = bool(result.stopped)
+            group.attrs["incomplete"] = bool(result.incomplete)  # a row did not run: no conclusion drawn
             cols = {name: (result.column(name), unit) for name, unit in result.columns}
             table = write_table(group, "summary", cols)
             table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
