@@ -213,3 +213,46 @@ def test_compare_with_one_result_file_names_what_it_takes(machine):
     assert result.exit_code == 2
     line = _one_line_error(result)
     assert "UTF-8" not in line and "two" in line and "machine file" in line
+
+
+def test_lump_does_not_replace_a_hand_written_machine_file(tmp_path):
+    """`lump -o` over a machine file that lump did not write needs --force (docs/results.md)."""
+    parts = tmp_path / "parts.toml"
+    shutil.copy(MACHINES / "cdtm-parts.toml", parts)
+    target = tmp_path / "cdtm.toml"
+    shutil.copy(MACHINES / "cdtm.toml", target)
+    before = target.read_bytes()
+    result = runner.invoke(app, ["lump", str(parts), "-o", str(target)])
+    assert result.exit_code == 2
+    assert "--force" in _one_line_error(result)
+    assert target.read_bytes() == before
+    again = runner.invoke(app, ["lump", str(parts), "-o", str(tmp_path / "lumped.toml")])
+    assert again.exit_code == 0, again.stderr
+    # lump's own result is replaced without --force
+    assert runner.invoke(app, ["lump", str(parts), "-o", str(tmp_path / "lumped.toml")]).exit_code == 0
+    assert runner.invoke(app, ["lump", str(parts), "-o", str(target), "--force"]).exit_code == 0
+
+
+def test_export_never_writes_over_a_file_of_another_kind(machine):
+    """`export -o` onto a TOML file named .csv is refused by its bytes, not its name."""
+    out = machine.parent / "r.h5"
+    assert runner.invoke(app, ["run", str(machine), "-o", str(out), "-q", *FAST]).exit_code == 0
+    fake = machine.parent / "notes.csv"
+    shutil.copy(machine, fake)
+    before = fake.read_bytes()
+    result = runner.invoke(app, ["export", str(out), "-o", str(fake)])
+    assert result.exit_code == 2
+    assert "TOML" in _one_line_error(result)
+    assert fake.read_bytes() == before
+    result = runner.invoke(app, ["export", str(out), "-o", str(machine.parent / "r.toml")])
+    assert result.exit_code == 2 and "'.toml'" in _one_line_error(result)
+
+
+def test_cam_outputs_with_the_same_name_are_refused(machine):
+    """`cam -o x.csv --profile x.csv` would write one file over the other."""
+    shutil.copy(MACHINES / "cdtm-geometry.toml", machine)
+    out = machine.parent / "x.csv"
+    result = runner.invoke(app, ["cam", str(machine), "-o", str(out), "--profile", str(out)])
+    assert result.exit_code == 2
+    assert "same file" in _one_line_error(result)
+    assert not out.exists()
