@@ -12,6 +12,7 @@ Each command lives in its own module (``cmd_<name>.py``) that registers itself o
 from __future__ import annotations
 
 import json
+import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -59,8 +60,16 @@ class _OneLineErrors(typer.core.TyperGroup):
         except click_exceptions.ClickException as exc:
             err_console.print(f"camsim: error: {exc.format_message()}", markup=False, highlight=False)
             rv = exc.exit_code
-        except click_exceptions.Abort:
+        except typer.Abort:
             err_console.print("camsim: aborted", markup=False)
+            rv = 1
+        except Exception as exc:  # noqa: BLE001 - the last guard: no traceback reaches the user
+            if os.environ.get("CAMSIM_TRACEBACK"):
+                raise
+            text = " ".join(str(exc).split()) or type(exc).__name__
+            err_console.print(f"camsim: error: internal error ({type(exc).__name__}: {text}); this is a bug in camsim, "
+                              "please report it with the command line (CAMSIM_TRACEBACK=1 shows the traceback)",
+                              markup=False, highlight=False)
             rv = 1
         if not standalone_mode:
             return rv

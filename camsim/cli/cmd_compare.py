@@ -96,14 +96,14 @@ def compare_command(
             from camsim.machine.loader import load_machine
 
             machine_path = inputs[0]
-            from camsim.io.outputs import HDF5, check_output, output_format, sniff_kind
+            from camsim.io.outputs import HDF5, beside, check_output, output_format, sniff_kind
 
             if sniff_kind(machine_path) == "hdf5":
                 raise fail(f"{machine_path}: a result file alone: compare takes one machine file (TOML: the machine "
                            "with and without impact) or two result files (HDF5: A against B)")
             rate = parse_sample_rate(sample_rate)
             machine = load_machine(machine_path, overrides=set_)
-            target = output if output is not None else machine_path.with_name(machine_path.stem + "_compare.h5")
+            target = output if output is not None else beside(machine_path, "_compare.h5")
             check_output(target, output_format(target, HDF5), owner="compare", force=force,
                          inputs=[("machine file", machine_path)])
             from camsim.cam.design import check_machine  # issue 14: undercut/cusp is an error

@@ -17,7 +17,9 @@ def evaluation_store_for(target: Path) -> Path:
 
 def _default_output(machine: Path) -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm_fitted.toml``."""
-    return machine.with_name(machine.stem + "_fitted.toml")
+    from camsim.io.outputs import beside
+
+    return beside(machine, "_fitted.toml")
 
 
 def written_units(params: list[str], targets: list[str]) -> dict[str, str]:

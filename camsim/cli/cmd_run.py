@@ -11,7 +11,9 @@ from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm.h5`` (next to the input)."""
-    return machine_path.with_name(machine_path.stem + suffix + ".h5")
+    from camsim.io.outputs import beside
+
+    return beside(machine_path, suffix + ".h5")
 
 
 @app.command("run")

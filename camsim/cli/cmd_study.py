@@ -163,7 +163,9 @@ def study_command(
                 rate = to_si(rate_text if isinstance(rate_text, str) else float(rate_text), "frequency")
             except QuantityError as exc:
                 raise InputError(f"--sample-rate: {exc}") from None
-        target = out if out is not None else machine.with_name(machine.stem + "_study.h5")
+        from camsim.io.outputs import beside
+
+        target = out if out is not None else beside(machine, "_study.h5")
         from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
         from camsim.io.rowstore import journal_path_for
 

@@ -12,7 +12,9 @@ from camsim.cli.app import app, err_console, fail, print_json, user_errors
 
 def _default_output(machine: Path) -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm_sweep.h5``."""
-    return machine.with_name(machine.stem + "_sweep.h5")
+    from camsim.io.outputs import beside
+
+    return beside(machine, "_sweep.h5")
 
 
 def _render(result, err, system: str = "si") -> None:

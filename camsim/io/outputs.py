@@ -42,6 +42,7 @@ __all__ = [
     "companion_path",
     "check_journal",
     "same_file",
+    "beside",
 ]
 
 #: Suffix -> format of the outputs camsim writes.
@@ -240,6 +241,15 @@ def check_output(
                 what = "a machine file not written by camsim"
             raise InputError(f"{target}: {option}: the file exists and is {what}; pass --force to replace it")
     return target
+
+
+def beside(path: str | os.PathLike[str], suffix: str) -> Path:
+    """The default output next to an input: ``machines/cdtm.toml`` + ``_sweep.h5`` ->
+    ``machines/cdtm_sweep.h5``; an input without a file name ("", ".", a directory) is bad input."""
+    p = Path(path)
+    if not p.name or p.is_dir():
+        raise InputError(f"{str(path)!r}: not a file (give the input file's name)")
+    return p.with_name(p.stem + suffix)
 
 
 def companion_path(path: str | os.PathLike[str], suffix: str, inputs: Iterable[str | os.PathLike[str] | None] = ()) -> Path:
