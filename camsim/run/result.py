@@ -121,6 +121,10 @@ class RunResult:
     no_impact: bool = False
     boundaries_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sample_rate: float = 0.0
+    #: The exact state's cam force and torque at the end of the first recorded revolution
+    #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
+    #: the cam design's energy quantities (issue 26).
+    period_end: dict | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):

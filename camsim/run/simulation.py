@@ -328,6 +328,15 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     def on_stop(st: State) -> None:
         saved[round(st.t, 9)] = st
 
+    # The cam design's energy quantities are taken over exactly one revolution, closed at its
+    # end with the state the integrator stops at there, not with the samples around it
+    # (issue 26: the last sample of one revolution falls short of the period unless the
+    # period is a multiple of the sample spacing).
+    t_period_end = None
+    if has_cam and getattr(machine.cam, "geometry", None) is not None and t_end >= t_rec + period * (1 - 1e-12):
+        t_period_end = t_rec + period
+    all_stops = tuple(stops) + ((t_period_end,) if t_period_end is not None and t_period_end not in stops else ())
+
     total = t_end
     report = (lambda t: progress(min(1.0, t / total))) if progress else None
     t_final = t_end + 0.5 * h_out
@@ -338,13 +347,19 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
         state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
     if consumer is None:
-        _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
+        _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report)
         result = _assemble(run, stretches)
         peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
     else:
-        integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
+        integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
         result = consumer.finish()
         peak = result.peak
+    if t_period_end is not None and round(t_period_end, 9) in saved:
+        end = period_end(run, saved[round(t_period_end, 9)])
+        result.period_end = end
+        design = getattr(result, "_design", None)  # a streamed run's accumulator (camsim.run.stream)
+        if design is not None and end is not None:
+            design.period_end = (end["time"], end["torque"])
     result.periodicity_residual = _residual(model, saved, stops, peak)
     result.sample_rate = sim.sample_rate
     if consumer is not None:
@@ -433,6 +448,30 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
     return {"time": time, "cam": cam_traces, "masses": masses, "elements": elements,
             "cam_contact_force": cam_force, "transducer_force": transducer}
+
+
+def period_end(run: RunSetup, state: State) -> dict | None:
+    """The cam force and camshaft torque at the exact state ``state`` (the end of the first
+    recorded revolution): ``{"time": t [s, recorded clock], "cam_force": Fc [N], "torque": T
+    [N*m]}``, through the same force code as the samples; None without a cam force."""
+    from camsim.cam.design import camshaft_torque
+
+    model, integrator = run.model, run.integrator
+    t = np.array([state.t])
+    u = integrator.inputs(t)
+    config = model.configuration(state.branches)
+    z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])[None, :]
+    fn = integrator.nonlinear_forces(config, z, u, state.v_impacts)
+    x, v, a = config.x(z, u, fn), config.v(z, u, fn), config.a(z, u, fn)
+    lam = config.lam(z, u, fn)
+    forces = model.element_forces(state.branches, x, v, u[:, 0], u[:, 1], lam, config, state.v_impacts)
+    kw = sample_traces(run, t - run.t_rec, x, v, a, u, forces)
+    probe = RunResult(machine=run.machine, events=[], periodicity_residual=float("nan"), **kw)
+    force = probe.cam_force
+    if force is None:
+        return None
+    torque = camshaft_torque(force, u[:, 1], run.cam.speed)
+    return {"time": float(state.t - run.t_rec), "cam_force": float(force[0]), "torque": float(torque[0])}
 
 
 def boundaries_deg(run: RunSetup) -> np.ndarray:
