@@ -35,9 +35,24 @@ def _render(result, err, system: str = "si") -> None:
         for name in columns:
             unit = display[name][0]
             table.add_column(Text(f"{name.removeprefix('param:')}" + (f" [{unit}]" if unit else "")), overflow="fold")
+        from camsim.run.result import missing_reason
+
+        notes: dict[str, str] = {}  # column -> why it has no value in some row (issue 26)
         for row in rows:
-            table.add_row(*[Text(_cell(_scaled(row[name], display[name][1]))) for name in columns])
+            cells = []
+            for name in columns:
+                value = row[name]
+                if isinstance(value, float) and math.isnan(value) and row["status"] == "ok":
+                    notes.setdefault(name, missing_reason(result.machine, name, row) or "not computed")
+                    cells.append(Text("n/a"))
+                elif isinstance(value, float) and math.isnan(value):
+                    cells.append(Text("not run"))
+                else:
+                    cells.append(Text(_cell(_scaled(value, display[name][1]))))
+            table.add_row(*cells)
         err.print(table)
+        for name, why in notes.items():
+            err.print(f"n/a in {name.removeprefix('param:')}: {why}", markup=False)
     ok = sum(r["status"] == "ok" for r in rows)
     cancelled = sum(r["status"] == "cancelled" for r in rows)
     failed = len(rows) - ok - cancelled

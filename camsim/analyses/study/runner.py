@@ -413,9 +413,12 @@ def study(
     units = dict(columns)
     output_names = scalar_names + [e.text for e in exprs]
     parsed_limits = [parse_limit(text, {q: units[q] for q in output_names}) for text in limits]
+    from camsim.run.result import unreachable_limit
+
+    limit_warnings = [w for lim in parsed_limits if (w := unreachable_limit(base, lim.quantity, lim.op, lim.threshold))]
 
     # Every sample, drawn up front.
-    warn: list[str] = []
+    warn: list[str] = list(limit_warnings)
     d = len(parsed)
     if sensitivity:
         u = saltelli_design(samples, d, method, int(seed), warn)

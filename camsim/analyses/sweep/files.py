@@ -91,8 +91,16 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
 
 
 def jsonable_rows(result: "SweepResult") -> list[dict[str, Any]]:
-    """Rows with NaN as None (for ``--json``)."""
+    """Rows with NaN as None (for ``--json``), each with ``reasons``: why a value is null."""
+    from camsim.run.result import missing_reason
+
     out = []
     for row in result.rows:
-        out.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()})
+        entry = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+        reasons = {}
+        for k, v in entry.items():
+            if v is None and not k.startswith("param:"):
+                reasons[k] = missing_reason(result.machine, k, row) or "not computed"
+        entry["reasons"] = reasons
+        out.append(entry)
     return out
