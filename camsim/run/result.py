@@ -297,11 +297,11 @@ class RunResult:
             (cf is not None and cf.size and float(np.min(cf)) < 0)
             or any(ev.kind == EventKind.RELEASE and ev.element in cam_contacts for ev in self.events)
         )
+        out["cam_separation"], out["cam_separation_angle"] = self._cam_separation()
         impacts = self.impacts()
         out["impacts"] = len(impacts)
         speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
         out["max_impact_velocity"] = float(np.nanmax(speeds)) if speeds.size and np.any(np.isfinite(speeds)) else nan
-        out["cam_separation"], out["cam_separation_angle"] = self._cam_separation()
         out["periodicity_residual"] = float(self.periodicity_residual)
         from camsim.cam.design import design_row  # issue 14: design scalars with [cam.geometry]
 
