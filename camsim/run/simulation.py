@@ -23,6 +23,8 @@ from camsim.run.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
 SAMPLES_PER_PERIOD = 12
+#: Internal steps per output sample beyond which a machine is refused as input (issue 26).
+MAX_STEPS_PER_SAMPLE = 1e7
 #: A linear static equilibrium whose stiffness matrix is worse conditioned than this has
 #: no unique solution (a mass held by nothing stiff): ask for an [initial] state instead.
 #: 1e14 leaves two digits of a double for the positions.
@@ -310,7 +312,15 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             f"sample rate {sim.sample_rate:g} Hz is below twice the highest natural frequency "
             f"({f_max:.4g} Hz): the traces alias (events are still located exactly)"
         )
-    substeps = max(1, math.ceil(h_out * f_max * SAMPLES_PER_PERIOD))
+    steps_per_sample = h_out * f_max * SAMPLES_PER_PERIOD
+    if not math.isfinite(steps_per_sample) or steps_per_sample > MAX_STEPS_PER_SAMPLE:
+        # e.g. --set element.k12.stiffness="1e300 N/m": no run can resolve that (issue 26)
+        raise InputError(
+            f"{machine.source}: the highest natural frequency, {f_max:.3g} Hz, needs {steps_per_sample:.3g} internal "
+            f"steps per output sample (at most {MAX_STEPS_PER_SAMPLE:.0e}): a stiffness or a mass is out of any "
+            "physical range"
+        )
+    substeps = max(1, math.ceil(steps_per_sample))
     integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings

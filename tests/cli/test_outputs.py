@@ -256,3 +256,15 @@ def test_cam_outputs_with_the_same_name_are_refused(machine):
     assert result.exit_code == 2
     assert "same file" in _one_line_error(result)
     assert not out.exists()
+
+
+def test_absurd_stiffness_is_bad_input_not_a_traceback(machine):
+    """Issue 26: `--set element.k12.stiffness="1e300 N/m"` ended in a traceback. Now exit 2, one
+    line naming the natural frequency, nothing written."""
+    dyn = machine.parent / "dyn.toml"
+    shutil.copy(MACHINES / "dynacam-2mass.toml", dyn)
+    result = runner.invoke(app, ["run", str(dyn), "--set", "element.k12.stiffness=1e300 N/m", "-o",
+                                 str(machine.parent / "big.h5"), "-q"])
+    assert result.exit_code == 2, result.stderr
+    assert "natural frequency" in _one_line_error(result)
+    assert not (machine.parent / "big.h5").exists()
