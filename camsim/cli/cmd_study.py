@@ -226,8 +226,10 @@ def study_command(
             ) from None
         finally:
             bar.close()
+        from camsim.reports.display import in_system
+
         for w in result.warnings:
-            err_console.print(f"warning: {w}", markup=False)
+            err_console.print(f"warning: {in_system(w, units)}", markup=False)
         if plot is not None:
             from camsim.figures.study import save_study_plot
 

@@ -97,8 +97,10 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
         "periodicity residual (state one revolution apart, relative to peak): "
         + ("not computed" if math.isnan(residual) else f"{residual:.3g}")
     )
+    from camsim.reports.display import in_system
+
     for warning in result.warnings:
-        console.print(f"warning: {warning}", style="yellow")
+        console.print(f"warning: {in_system(warning, system)}", style="yellow", markup=False)
 
 
 def _at(value, fmt=".4g", unit="deg") -> str:

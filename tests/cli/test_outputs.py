@@ -268,3 +268,20 @@ def test_absurd_stiffness_is_bad_input_not_a_traceback(machine):
     assert result.exit_code == 2, result.stderr
     assert "natural frequency" in _one_line_error(result)
     assert not (machine.parent / "big.h5").exists()
+
+
+def test_warnings_follow_units_us(tmp_path):
+    """Issue 26: warnings ignored --units us. The negative-cam-force warning of the DYNACAM
+    model at 400 rpm now shows lbf with the SI value beside it; reference: 1 lbf = 4.4482216152605 N
+    (exact by definition), to the 4 printed digits."""
+    import re
+
+    dyn = tmp_path / "dyn.toml"
+    shutil.copy(MACHINES / "dynacam-2mass.toml", dyn)
+    result = runner.invoke(app, ["run", str(dyn), "--set", "cam.speed=400 rpm", "-o", str(tmp_path / "w.h5"), "-q",
+                                 "--units", "us"])
+    assert result.exit_code == 0, result.stderr
+    line = next(l for l in result.stderr.splitlines() if l.startswith("warning: cam contact force"))
+    m = re.search(r"minimum (\S+) lbf \((\S+) N\)", line)
+    assert m, line
+    assert float(m.group(1)) == pytest.approx(float(m.group(2)) / 4.4482216152605, rel=1e-3)
