@@ -353,6 +353,11 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     # Warm-up cycles are not recorded: integrate them on a coarser grid, just dense
     # enough to see every guard (each step is exact whatever its length).
     h_warm = 1.0 / (SAMPLES_PER_PERIOD * f_max) if f_max > 0 else integrator.h
+    # A nonlinear (power-law) contact has no natural frequency in f_max: a coarser warm-up
+    # grid hands its contact phases to DOP853, and a warm-up revolution cost several recorded
+    # ones (issue 26). Such machines warm up on the recording grid: the same cost per revolution.
+    if any(e.is_nonlinear(b) for e in model.elements for b in Branch):
+        h_warm = integrator.h
     if t_rec > 0 and h_warm > 1.5 * integrator.h:
         warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
         state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
