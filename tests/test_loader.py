@@ -545,3 +545,20 @@ def test_machine_to_dict_units_and_damping():
     k12 = d["elements"][0]
     assert k12["c"] == pytest.approx(2 * 0.05 * math.sqrt(1e5 * 1.0), rel=1e-12)  # m_ref = M2 (upper)
     assert d["masses"][0]["driven"] is True
+
+
+def test_table_cam_below_its_base_circle_warns(tmp_path):
+    """Issue 26: a table cam whose lift goes below 0 (below the base circle) got no warning.
+
+    Reference: the table's own rows (-0.5 mm at 270 deg is below 0, so the lowest lift is at
+    most that); a table with every row
+    at or above 0 and a gentle shape gets no such warning."""
+    from camsim.cam import CamProgram
+
+    text, base = _table_machine(tmp_path, "angle [deg],displacement [mm]\n0,0\n90,10\n180,5\n270,-0.5\n")
+    program = CamProgram(load_machine_text(text, base_dir=base).cam)
+    (warning,) = [w for w in program.warnings if "base circle" in w]
+    assert "1 rows are below 0" in warning
+    assert float(warning.split("(lift 0): ")[1].split(" m")[0]) <= -0.0005  # at least the row's dip
+    text, base = _table_machine(tmp_path, "angle [deg],displacement [mm]\n0,0\n90,10\n180,20\n270,10\n")
+    assert not [w for w in CamProgram(load_machine_text(text, base_dir=base).cam).warnings if "base circle" in w]

@@ -138,7 +138,7 @@ def test_rows_equal_individual_runs_two_keys_grid_order():
         "peak_displacement:m1", "peak_velocity:m1", "peak_acceleration:m1",
         "peak_displacement:m2", "peak_velocity:m2", "peak_acceleration:m2",
         "peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force",
-        "jump", "impacts", "max_impact_velocity", "periodicity_residual", "status",
+        "jump", "cam_separation", "cam_separation_angle", "impacts", "max_impact_velocity", "periodicity_residual", "status",
     ]  # fmt: skip
     combos = [(150, "5e5"), (150, "7e5"), (200, "5e5"), (200, "7e5")]
     assert len(result.rows) == 4

@@ -231,9 +231,12 @@ def export_csv(
             ev_target = Path(events_csv) if events_csv is not None else default_events_path(target)
             if ev_target.resolve() == target.resolve():
                 raise InputError(f"{ev_target}: the events CSV would overwrite the trace CSV")
-        check_writable(target)
+        from camsim.io.outputs import CSV, check_output, output_format
+
+        check_output(target, output_format(target, CSV), owner="csv", inputs=[("result file", path)])
         if ev_target is not None:
-            check_writable(ev_target)
+            check_output(ev_target, output_format(ev_target, CSV, "--events-csv"), owner="csv",
+                         inputs=[("result file", path)], option="--events-csv")
         data = {c: traces[c][()] for c in chosen}
         units: dict[str, str | None] = {c: units_of(traces[c]) for c in chosen}
         ev_units: dict[str, str | None] = {}

@@ -350,6 +350,10 @@ class DesignAccumulator:
         self.count = 0
         self.first_time: list[np.ndarray] = []
         self.first_torque: list[np.ndarray] = []
+        #: (t [s], T [N*m]) at the end of the first recorded revolution, t = one period, from
+        #: the exact state the integrator stopped at there (camsim.run.simulation); the
+        #: revolution is closed with it rather than with the samples around it (issue 26).
+        self.period_end: tuple[float, float] | None = None
 
     @classmethod
     def for_machine(cls, machine) -> "DesignAccumulator | None":
@@ -368,6 +372,9 @@ class DesignAccumulator:
         time = np.asarray(_trace(result, "time"), dtype=float)
         if not time.size:
             return
+        end = getattr(result, "period_end", None)
+        if end is not None and self.period_end is None:
+            self.period_end = (float(end["time"]), float(end["torque"]))
         if "cam_contact/normal_force" in traces:
             value = float(np.max(traces["cam_contact/normal_force"][0]))
             self.peak_normal = value if self.peak_normal is None else max(self.peak_normal, value)
@@ -407,6 +414,16 @@ class DesignAccumulator:
         out.update(peak_normal_force=nan, peak_hertz_stress=nan, peak_hertz_stress_time=nan, peak_torque=nan,
                    peak_torque_time=nan, rms_torque=nan, cycle_work=nan, energy_fluctuation=nan, cs=cs,
                    flywheel_inertia=nan)
+        reasons: dict[str, str] = {}  # why a value is None (issue 26: never a bare "–")
+        if self.peak_torque is None:
+            why = "the run records no camshaft torque (no cam contact force)"
+            for name in ("peak_torque", "peak_torque_time", "rms_torque", "cycle_work", "energy_fluctuation"):
+                reasons[name] = why
+        if self.peak_stress is None:
+            reasons["peak_hertz_stress"] = reasons["peak_hertz_stress_time"] = (
+                "no Hertz stress: the contact force or the surface curvature is never positive")
+        if self.peak_normal is None:
+            reasons["peak_normal_force"] = "the run records no cam contact force"
         if self.peak_normal is not None:
             out["peak_normal_force"] = self.peak_normal
         if self.peak_stress is not None:
@@ -416,7 +433,18 @@ class DesignAccumulator:
             out["rms_torque"] = float(np.sqrt(self.sum_squares / self.count))
             time = np.concatenate(self.first_time)
             torque = np.concatenate(self.first_torque)
-            rev = _one_revolution(time, torque, self.program.period)
+            period = self.program.period
+            if self.period_end is not None:
+                t_end, tq_end = self.period_end
+                keep = time < t_end - 1e-9 * period  # samples of [0, T); T itself is the exact end
+                rev = (np.append(time[keep], t_end), np.append(torque[keep], tq_end)) if keep.any() else None
+            else:
+                rev = _one_revolution(time, torque, period)
+            if rev is None:
+                why = (f"the run records less than one revolution ({period:.6g} s); the energy over a revolution "
+                       "needs a whole one (--cycles 1 or more)")
+                for name in ("cycle_work", "energy_fluctuation"):
+                    reasons.setdefault(name, why)
             if rev is not None:
                 t, tq = rev
                 work, delta = energy_fluctuation(self.program.speed * t, tq)
@@ -424,6 +452,11 @@ class DesignAccumulator:
                 out["energy_fluctuation"] = delta
                 if cs is not None:
                     out["flywheel_inertia"] = flywheel_inertia(delta, cs, self.program.speed)
+        if cs is None:
+            reasons["flywheel_inertia"] = "give --cs, the coefficient of speed fluctuation"
+        elif out["flywheel_inertia"] is None:
+            reasons["flywheel_inertia"] = reasons.get("energy_fluctuation", "no energy fluctuation")
+        out["reasons"] = {k: v for k, v in reasons.items() if out.get(k) is None}
         return out
 
 

@@ -99,6 +99,21 @@ class TableSpline:
                     f"{diff[worst]:.3g} {unit} ({100 * diff[worst] / peak:.2g} % of its peak) at {where}"
                 )
 
+        # A lift below 0 is below the base circle (a segment cam starts on it): a row below 0
+        # or the spline dipping between rows. The follower then runs inside the base circle,
+        # which no real cam allows: worth a warning (issue 26).
+        fine = self.theta0 + np.linspace(0.0, _TWO_PI, max(7200, 16 * angle.size), endpoint=False)
+        dip = self._spline(fine)
+        k = int(np.argmin(dip))
+        if dip[k] < -1e-9 * max(float(np.ptp(lift)), 1e-12):
+            source = f"{table.source}: " if table.source else ""
+            rows = int(np.count_nonzero(lift < 0))
+            cause = f"{rows} rows are below 0" if rows else "the spline dips below 0 between rows"
+            self.warnings.append(
+                f"{source}the lift goes below the base circle (lift 0): {dip[k]:.4g} m at "
+                f"{math.degrees(fine[k]) % 360.0:.4g} deg ({cause}); the follower would run inside the base circle"
+            )
+
     def phase(self, theta: np.ndarray) -> np.ndarray:
         """Map cam angles θ [rad] into the spline's revolution [theta0, theta0 + 2π)."""
         return self.theta0 + np.mod(np.asarray(theta, dtype=float) - self.theta0, _TWO_PI)

@@ -12,24 +12,85 @@ Each command lives in its own module (``cmd_<name>.py``) that registers itself o
 from __future__ import annotations
 
 import json
+import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import typer
+import typer.core
 from rich.console import Console
 
 from camsim.errors import InputError, SimulationError
 from camsim.units import QuantityError, to_si
 
 #: Human output: stderr, colours only on a terminal; wide enough for the tables in logs.
-err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+#: Emoji codes are off: user text such as ``normal:-1:0.1kg`` or ``inf:100:20`` is echoed
+#: verbatim, never with ``:-1:`` turned into a thumbs-down (issue 26).
+err_console = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
 if not err_console.is_terminal:
     err_console.width = 140
 
+class _OneLineErrors(typer.core.TyperGroup):
+    """The command group, with click's usage errors as one line (issue 26).
+
+    Click prints a usage block, a hint and the error (three lines and a blank) for
+    ``--cycles 0`` or ``-n abc``; camsim's rule for bad input is one line on stderr and
+    exit 2, the same as every other input error.
+    """
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):  # noqa: D102
+        try:  # typer >= 0.25 vendors click as typer._click; older ones use click itself
+            from typer._click import exceptions as click_exceptions
+        except ImportError:
+            from click import exceptions as click_exceptions
+
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except getattr(click_exceptions, "NoArgsIsHelpError", ()) as exc:
+            exc.show()  # a bare ``camsim``: the help, as before
+            rv = 2
+        except click_exceptions.UsageError as exc:
+            where = exc.ctx.command_path if exc.ctx is not None else "camsim"
+            message = exc.format_message() + _given(exc, sys.argv[1:] if args is None else list(args))
+            err_console.print(f"camsim: error: {where}: {message} (see {where} -h)", markup=False, highlight=False)
+            rv = exc.exit_code
+        except click_exceptions.ClickException as exc:
+            err_console.print(f"camsim: error: {exc.format_message()}", markup=False, highlight=False)
+            rv = exc.exit_code
+        except typer.Abort:
+            err_console.print("camsim: aborted", markup=False)
+            rv = 1
+        except Exception as exc:  # noqa: BLE001 - the last guard: no traceback reaches the user
+            if os.environ.get("CAMSIM_TRACEBACK"):
+                raise
+            text = " ".join(str(exc).split()) or type(exc).__name__
+            err_console.print(f"camsim: error: internal error ({type(exc).__name__}: {text}); this is a bug in camsim, "
+                              "please report it with the command line (CAMSIM_TRACEBACK=1 shows the traceback)",
+                              markup=False, highlight=False)
+            rv = 1
+        if not standalone_mode:
+            return rv
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _given(exc, args: list[str]) -> str:
+    """`` (got 'abc')``: the value the user gave to the option a usage error is about."""
+    param = getattr(exc, "param", None)
+    opts = getattr(param, "opts", None) or []
+    for i, token in enumerate(args):
+        for opt in opts:
+            if token == opt and i + 1 < len(args):
+                return f" (got {args[i + 1]!r})"
+            if token.startswith(opt + "="):
+                return f" (got {token[len(opt) + 1:]!r})"
+    return ""
+
+
 app = typer.Typer(
     name="camsim",
+    cls=_OneLineErrors,
     help=(
         "Simulate cam-driven machinery with impact and over-travel: load a TOML machine "
         "file, integrate it exactly between events, write HDF5 traces and an impact table."

@@ -69,7 +69,7 @@ def _print_table(machine, program: CamProgram, peaks: list[dict]) -> None:
             _num(p["peak_jerk_deg"], ".5g"),
         )
     # Off a terminal (a log, a pipe) do not squeeze the table into 80 columns.
-    console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
+    console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
     console.print(table)
 
 
@@ -127,6 +127,7 @@ def cam_command(
         "1 um", "--tolerance", metavar="LENGTH",
         help='Chordal tolerance of --profile and --dxf, with units (e.g. "1um", "0.0001 in"; bare number: m).',
     ),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command under -o."),
 ) -> None:
     """Show the cam program: per segment its law, duration, lift and peak |v|, |a|, |j|.
 
@@ -145,28 +146,30 @@ def cam_command(
     from camsim.io.atomic import check_writable
 
     with user_errors():
+        from camsim.io.outputs import CSV, FIGURES, HDF5, check_output, output_format, same_file
+
         kind = None
+        inputs = [("machine file", machine_file)]
+        named = [(o, p) for o, p in (("-o", output), ("--plot", plot), ("--profile", profile), ("--dxf", dxf)) if p is not None]
+        for i, (o1, p1) in enumerate(named):
+            for o2, p2 in named[i + 1:]:
+                if same_file(p1, p2):
+                    raise InputError(f"{p1}: {o1} and {o2} name the same file; give each output its own name")
         if output is not None:
-            suffix = output.suffix.lower()
-            if suffix in (".h5", ".hdf5"):
-                kind = "h5"
-            elif suffix == ".csv":
-                kind = "csv"
-            else:
-                raise InputError(f"{output}: -o: unknown output type {output.suffix or '(none)'!r}; use .h5 or .csv")
-            check_writable(output)
+            fmt = output_format(output, {**HDF5, **CSV})
+            kind = "h5" if fmt == "hdf5" else "csv"
+            check_output(output, fmt, owner="cam" if fmt == "hdf5" else "csv", force=force, inputs=inputs)
         from camsim.cam.profile import UNITS
 
         if unit not in UNITS:
             raise InputError(f"--unit: unknown unit {unit!r}; use mm or in")
         tol = _parse_tolerance(tolerance)
         if plot is not None:
-            if plot.suffix.lower().lstrip(".") not in ("png", "svg", "pdf"):
-                raise InputError(f"{plot}: --plot: unknown image type {plot.suffix or '(none)'!r}; use .png, .svg or .pdf")
-            check_writable(plot)
-        for option, path in (("--profile", profile), ("--dxf", dxf)):
-            if path is not None:
-                check_writable(path)
+            check_output(plot, output_format(plot, FIGURES, "--plot"), owner="figure", inputs=inputs, option="--plot")
+        if profile is not None:
+            check_output(profile, output_format(profile, CSV, "--profile"), owner="csv", inputs=inputs, option="--profile")
+        if dxf is not None:
+            check_output(dxf, output_format(dxf, {".dxf": "dxf"}, "--dxf"), owner="dxf", inputs=inputs, option="--dxf")
         from camsim.machine.loader import load_machine
 
         machine = load_machine(machine_file, overrides=overrides)
@@ -205,7 +208,7 @@ def cam_command(
             if checks is not None:
                 from camsim.reports.summary import render_geometry_checks
 
-                console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False)
+                console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
                 render_geometry_checks(checks, console, title=(
                     f"cam geometry: {geometry.follower}, Rb {1e3 * geometry.base_radius:.5g} mm"
                     + (f", Rr {1e3 * geometry.roller_radius:.5g} mm" if geometry.is_roller else "")

@@ -58,6 +58,7 @@ def compare_command(
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate, e.g. "50 kHz".'),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key, e.g. --set cam.speed="150 rpm" (repeatable).'),
     json_: bool = typer.Option(False, "--json", help="Print the comparison table as JSON on stdout."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human table: si (mm, m/s) or us (in, in/s). Files and --json are always SI."),
 ) -> None:
@@ -81,6 +82,11 @@ def compare_command(
             if set_ or cycles or warmup is not None or sample_rate:
                 raise fail("--set, --cycles, --warmup and --sample-rate apply to a machine file, not to two result files")
             a, b = inputs
+            if output is not None:
+                from camsim.io.outputs import HDF5, check_output, output_format
+
+                check_output(output, output_format(output, HDF5), owner="compare", force=force,
+                             inputs=[("result file A", a), ("result file B", b)])
             comparison = compare_files(a, b)
             if output is not None:
                 write_file_comparison(comparison, a, b, output)
@@ -90,10 +96,16 @@ def compare_command(
             from camsim.machine.loader import load_machine
 
             machine_path = inputs[0]
+            from camsim.io.outputs import HDF5, beside, check_output, output_format, sniff_kind
+
+            if sniff_kind(machine_path) == "hdf5":
+                raise fail(f"{machine_path}: a result file alone: compare takes one machine file (TOML: the machine "
+                           "with and without impact) or two result files (HDF5: A against B)")
             rate = parse_sample_rate(sample_rate)
             machine = load_machine(machine_path, overrides=set_)
-            target = output if output is not None else machine_path.with_name(machine_path.stem + "_compare.h5")
-            check_writable(target)
+            target = output if output is not None else beside(machine_path, "_compare.h5")
+            check_output(target, output_format(target, HDF5), owner="compare", force=force,
+                         inputs=[("machine file", machine_path)])
             from camsim.cam.design import check_machine  # issue 14: undercut/cusp is an error
 
             check_machine(machine)

@@ -17,24 +17,78 @@ def evaluation_store_for(target: Path) -> Path:
 
 def _default_output(machine: Path) -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm_fitted.toml``."""
-    return machine.with_name(machine.stem + "_fitted.toml")
+    from camsim.io.outputs import beside
+
+    return beside(machine, "_fitted.toml")
 
 
-def _render(result, err) -> None:
+def written_units(params: list[str], targets: list[str]) -> dict[str, str]:
+    """The unit the user wrote for each --param key and --target name (``""``: none, SI).
+
+    ``element.K23.push_stiffness=6000:10000lbf/in`` → ``{"element.K23.push_stiffness":
+    "lbf/in"}``; the fit table and its messages show values in these units (issue 26).
+    """
+    from camsim.analyses.fit.objective import ALIASES
+    from camsim.analyses.fit.params import _NUMBER
+
+    out: dict[str, str] = {}
+    for text in params:
+        key, _, spec = text.partition("=")
+        m = _NUMBER.match(spec.split(":")[-1])
+        if m and m.group(2):
+            out[key.strip()] = m.group(2)
+    for text in targets:
+        name, _, spec = text.partition("=")
+        m = _NUMBER.match(spec)
+        if m and m.group(2):
+            out[ALIASES.get(name.strip(), name.strip())] = m.group(2)
+    return out
+
+
+def _converter(si_unit: str, unit: str | None):
+    """(unit shown, SI -> shown function); SI when the written unit does not convert."""
+    if not unit or not si_unit:
+        return si_unit, lambda v: v
+    from camsim.units import ureg
+
+    try:
+        factor = float(ureg.Quantity(1.0, si_unit.replace("²", "^2")).to(unit).magnitude)
+    except Exception:  # noqa: BLE001 - an offset unit or a unit pint cannot scale: show SI
+        return si_unit, lambda v: v
+    return unit, lambda v: v * factor
+
+
+def misfit_lines(result, written: dict[str, str]) -> list[str]:
+    """:attr:`FitResult.misfits` with each target in the unit the user wrote."""
+    lines = []
+    for name, t in result.targets.items():
+        error = t["achieved"] - t["value"]
+        if math.isfinite(error) and abs(error) <= t["sigma"]:
+            continue
+        unit, conv = _converter(t["unit"], written.get(name))
+        lines.append(f"{name}: fitted {conv(t['achieved']):.6g} {unit}, target {conv(t['value']):.6g} {unit} "
+                     f"± {conv(t['sigma']):.3g} (missed by {abs(error) / t['sigma']:.3g} sigma)")
+    lines += [m for m in result.misfits if m.startswith("residual variance")]
+    return lines
+
+
+def _render(result, err, written: dict[str, str] | None = None) -> None:
     from rich.table import Table
     from rich.text import Text
 
+    written = written or {}
     table = Table(show_edge=False, pad_edge=False)
     for name in ("parameter", "unit", "start", "fitted", "std. error", "95 % interval"):
         table.add_column(Text(name), overflow="fold")
     for i, key in enumerate(result.keys):
-        lo, hi = result.ci95[i]
+        unit, conv = _converter(result.units[i], written.get(key))
+        lo, hi = conv(result.ci95[i][0]), conv(result.ci95[i][1])
         table.add_row(
             Text(key),
-            Text(result.units[i] or "—"),
-            Text(f"{result.initial[i]:.6g}"),
-            Text(f"{result.values[i]:.6g}"),
-            Text(f"{result.stderr[i]:.3g}"),
+            Text(unit or "—"),
+            Text(f"{conv(result.initial[i]):.6g}"),
+            Text(f"{conv(result.values[i]):.6g}"),
+            Text(f"{conv(result.stderr[i]):.3g}"),
             Text(f"{lo:.6g} to {hi:.6g}" if math.isfinite(lo) and math.isfinite(hi) else "not determined"),
         )
     err.print(table)
@@ -44,7 +98,9 @@ def _render(result, err) -> None:
             for i in range(len(result.keys)) for j in range(i + 1, len(result.keys))
         ), markup=False)
     for path, rms in result.rms_residual.items():
-        err.print(f"rms residual {path}: {rms:.4g} (noise level used: {result.sigma.get(path, float('nan')):.4g})", markup=False)
+        unit, conv = _converter(result.targets[path]["unit"] if path in result.targets else "", written.get(path))
+        shown = f" {unit}" if unit and path in written else ""
+        err.print(f"rms residual {path}: {conv(rms):.4g}{shown} (noise level used: {conv(result.sigma.get(path, float('nan'))):.4g}{shown})", markup=False)
     state = "converged" if result.converged else "NOT converged"
     err.print(
         f"{state}: cost {result.cost:.6g}, residual variance {result.residual_variance:.4g} "
@@ -98,14 +154,19 @@ def fit_command(
     cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions of every run (overrides simulation.cycles)."),
     warmup: int = typer.Option(None, "--warmup", min=0, help="Warm-up revolutions of every run (overrides simulation.warmup_cycles)."),
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate of every run, e.g. "50 kHz" (default: the machine file\'s); the simulation is interpolated linearly at the measured times.'),
+    accept_misfit: bool = typer.Option(False, "--accept-misfit", help="Write the fitted file (exit 0) even when a --target is missed by more than its sigma or the residual variance of a trace fit is above 2 (the misfit is printed as a warning)."),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard the evaluations an interrupted fit left (FITTED.toml.evaluations.h5) and start again."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing FITTED.toml that is not the result of a fit (a machine file written by hand or by lump)."),
 ) -> None:
     """Calibrate MACHINE to MEASURED traces: fit the --param keys by weighted least squares.
 
     Each measured channel is weighted by 1/(its noise level); the simulation is
     interpolated at the measured times (time 0 = start of the first recorded cycle).
     Prints the fitted values with standard errors, 95 % intervals, correlations and
-    identifiability warnings, and writes FITTED.toml (-o). Exit 0 on a converged fit,
-    1 when the fit does not converge or a run fails (nothing written), 2 on bad input.
+    identifiability warnings, and writes FITTED.toml (-o). Exit 0 on a converged fit
+    that matches; 1 when the fit does not converge, a run fails, or the fitted machine
+    does not match (a --target missed by more than its sigma, a residual variance above
+    2 for traces; unless --accept-misfit): nothing written then; 2 on bad input.
     """
     from camsim.analyses.fit import fit, write_fitted
     from camsim.io.atomic import check_writable
@@ -114,13 +175,19 @@ def fit_command(
     show = err_console.print if err_console.is_terminal else None
     with user_errors():
         target_path = output if output is not None else _default_output(machine)
-        check_writable(target_path)
-        if report is not None:
-            from camsim.figures.fit import REPORT_FORMATS
+        from camsim.io.outputs import FIGURES, HDF5, TOML, check_journal, check_output, output_format
+        from camsim.io.rowstore import journal_path_for
 
-            if report.suffix.lstrip(".").lower() not in REPORT_FORMATS:
-                raise fail(f"--report {report}: unknown figure format '{report.suffix}' (use .png, .svg or .pdf)")
-            check_writable(report)
+        inputs = [("machine file", machine), ("measured file", measured)]
+        check_output(target_path, output_format(target_path, TOML), owner="fit", force=force, inputs=inputs)
+        store = evaluation_store_for(target_path)
+        # the store has no file_kind (a row-store view); only its kind and the inputs are checked
+        check_output(store, output_format(store, HDF5), owner="fit", inputs=inputs, option="-o (its evaluation store)",
+                     force=True)
+        check_journal(target_path, journal_path_for(store), resume=resume, fresh=fresh, what="fit")
+        if report is not None:
+            check_output(report, output_format(report, FIGURES, "--report"), owner="figure", inputs=inputs,
+                         option="--report")
         result = fit(
             machine,
             measured,
@@ -144,12 +211,19 @@ def fit_command(
             evaluations=evaluation_store_for(target_path),
             resume=resume,
         )
+        written_in = written_units(param, target)
         if json_:
             print_json(result.to_json())
         else:
-            _render(result, err_console)
+            _render(result, err_console, written_in)
         if not result.converged:
             raise fail("the fit did not converge (above: what it reached); nothing was written", 1)
+        misfit = misfit_lines(result, written_in)
+        if misfit and not accept_misfit:
+            raise fail("the fit did not match: " + "; ".join(misfit)
+                       + "; nothing was written (--accept-misfit writes it anyway)", 1)
+        for line in misfit:
+            err_console.print(f"warning: did not match: {line}", markup=False)
         from camsim.analyses.fit import fitted_text
         from camsim.machine.loader import read_machine_text
 

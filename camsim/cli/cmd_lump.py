@@ -36,6 +36,7 @@ def lump_command(
     json_out: bool = typer.Option(
         False, "--json", help="Print the lumped values and parts in SI (kg, N/m, N) with their provenance, as JSON on stdout."
     ),
+    force: bool = typer.Option(False, "--force", help="Replace an existing machine file that `camsim lump` did not write."),
 ) -> None:
     """Lump components (masses, inertias about pivots, helical springs, rods, series and
     parallel springs, lever ratios) into the masses and elements of a machine file."""
@@ -46,7 +47,9 @@ def lump_command(
         if units not in UNIT_SYSTEMS:
             raise fail(f"--units: expected one of {', '.join(UNIT_SYSTEMS)}, got {units!r}", 2)
         if output is not None:
-            check_writable(output)
+            from camsim.io.outputs import TOML, check_output, output_format
+
+            check_output(output, output_format(output, TOML), owner="lump", force=force, inputs=[("parts file", parts)])
         result = load_parts(parts, units=units)
         if output is not None:
             write_machine(result, output)

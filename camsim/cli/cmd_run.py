@@ -11,7 +11,9 @@ from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm.h5`` (next to the input)."""
-    return machine_path.with_name(machine_path.stem + suffix + ".h5")
+    from camsim.io.outputs import beside
+
+    return beside(machine_path, suffix + ".h5")
 
 
 @app.command("run")
@@ -35,6 +37,7 @@ def run_command(
     compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
@@ -75,7 +78,10 @@ def run_command(
         if record_last is not None and loaded.cam is None:
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")
         target = output if output is not None else default_output(machine)
-        check_writable(target)
+        from camsim.io.outputs import HDF5, check_output, output_format
+
+        check_output(target, output_format(target, HDF5), owner="run", force=force,
+                     inputs=[("machine file", machine), ("golden file", check_against)])
         from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
 
         check_machine(loaded, cs)

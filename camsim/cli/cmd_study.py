@@ -55,6 +55,9 @@ def _render(result, err, system: str = "si") -> None:
         )
     err.print(table)
     for lim in result.limits:
+        if lim.get("reason"):
+            err.print(f"P({lim['expr']}): not determined: {lim['reason']}", markup=False)
+            continue
         lo, hi = lim["ci95"]
         err.print(
             f"P({lim['expr']}) = {_fmt(lim['probability'])} ({lim['crossed']} of {lim['n']} runs; 95 % Clopper-Pearson "
@@ -116,6 +119,8 @@ def study_command(
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted study (same command): only the missing runs are made."),
     plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Write a figure: histograms with limits, most influential input against each output, Sobol' indices."),
     json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
 ) -> None:
@@ -126,8 +131,9 @@ def study_command(
     reductions, in SI. Statistics: mean, std, percentiles 1/5/50/95/99, min/max with
     95 % bootstrap intervals; --limit gives the probability of crossing each limit;
     --sensitivity the Sobol' indices. Rows are kept as they finish; after Ctrl-C or a
-    kill, run the same command with --resume. Exit 0 when the study ran (failed runs
-    are rows with their reason), 2 on bad input, 130 after Ctrl-C or SIGTERM.
+    kill, run the same command with --resume. Exit 0 when every run ran; 1 when a run
+    failed (its row holds the reason; incomplete = True in the file and the JSON, and no
+    limit probability is concluded), 2 on bad input, 130 after Ctrl-C or SIGTERM.
     """
     from camsim.cli.progress import Bar
     from camsim.errors import InputError
@@ -157,13 +163,21 @@ def study_command(
                 rate = to_si(rate_text if isinstance(rate_text, str) else float(rate_text), "frequency")
             except QuantityError as exc:
                 raise InputError(f"--sample-rate: {exc}") from None
-        target = out if out is not None else machine.with_name(machine.stem + "_study.h5")
-        check_writable(target)
-        check_writable(csv_path_for(target))
+        from camsim.io.outputs import beside
+
+        target = out if out is not None else beside(machine, "_study.h5")
+        from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
+        from camsim.io.rowstore import journal_path_for
+
+        inputs = [("machine file", machine), ("config file", config)]
+        check_output(target, output_format(target, HDF5), owner="study", force=force, inputs=inputs)
+        check_output(csv_path_for(target), output_format(csv_path_for(target), CSV), owner="csv", inputs=inputs,
+                     option="-o (the CSV beside it)")
+        check_journal(target, journal_path_for(target), resume=resume, fresh=fresh, what="study")
         if plot is not None:
-            if plot.suffix.lower() not in (".png", ".svg", ".pdf"):
-                raise InputError(f"--plot {plot}: unknown format '{plot.suffix.lstrip('.')}' (png, svg or pdf)")
-            check_writable(plot)
+            from camsim.io.outputs import FIGURES
+
+            check_output(plot, output_format(plot, FIGURES, "--plot"), owner="figure", inputs=inputs, option="--plot")
         n = samples if samples is not None else cfg.get("samples", 256)
         if samples is not None and samples < 1:
             raise InputError(f"--samples {samples}: needs at least 1")
@@ -212,8 +226,10 @@ def study_command(
             ) from None
         finally:
             bar.close()
+        from camsim.reports.display import in_system
+
         for w in result.warnings:
-            err_console.print(f"warning: {w}", markup=False)
+            err_console.print(f"warning: {in_system(w, units)}", markup=False)
         if plot is not None:
             from camsim.figures.study import save_study_plot
 
@@ -223,3 +239,6 @@ def study_command(
         else:
             _render(result, err_console, units)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
+        if result.failed:
+            raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
+                       "'status'); no probability is concluded from the others", 1)

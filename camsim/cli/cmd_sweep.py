@@ -12,7 +12,9 @@ from camsim.cli.app import app, err_console, fail, print_json, user_errors
 
 def _default_output(machine: Path) -> Path:
     """``machines/cdtm.toml`` → ``machines/cdtm_sweep.h5``."""
-    return machine.with_name(machine.stem + "_sweep.h5")
+    from camsim.io.outputs import beside
+
+    return beside(machine, "_sweep.h5")
 
 
 def _render(result, err, system: str = "si") -> None:
@@ -33,9 +35,24 @@ def _render(result, err, system: str = "si") -> None:
         for name in columns:
             unit = display[name][0]
             table.add_column(Text(f"{name.removeprefix('param:')}" + (f" [{unit}]" if unit else "")), overflow="fold")
+        from camsim.run.result import missing_reason
+
+        notes: dict[str, str] = {}  # column -> why it has no value in some row (issue 26)
         for row in rows:
-            table.add_row(*[Text(_cell(_scaled(row[name], display[name][1]))) for name in columns])
+            cells = []
+            for name in columns:
+                value = row[name]
+                if isinstance(value, float) and math.isnan(value) and row["status"] == "ok":
+                    notes.setdefault(name, missing_reason(result.machine, name, row) or "not computed")
+                    cells.append(Text("n/a"))
+                elif isinstance(value, float) and math.isnan(value):
+                    cells.append(Text("not run"))
+                else:
+                    cells.append(Text(_cell(_scaled(value, display[name][1]))))
+            table.add_row(*cells)
         err.print(table)
+        for name, why in notes.items():
+            err.print(f"n/a in {name.removeprefix('param:')}: {why}", markup=False)
     ok = sum(r["status"] == "ok" for r in rows)
     cancelled = sum(r["status"] == "cancelled" for r in rows)
     failed = len(rows) - ok - cancelled
@@ -46,7 +63,9 @@ def _render(result, err, system: str = "si") -> None:
         line += f", {cancelled} cancelled"
     err.print(line, markup=False)
     if "param:cam.speed" in params:
-        if result.first_jump_rpm is None:
+        if result.first_jump_rpm is None and result.incomplete:
+            pass  # no conclusion from rows that did not run: the note says why (issue 26)
+        elif result.first_jump_rpm is None:
             err.print("the follower does not jump at any swept speed", markup=False)
         else:
             err.print(f"lowest swept speed at which the follower jumps: {result.first_jump_rpm:.6g} rpm", markup=False)
@@ -109,6 +128,8 @@ def sweep_command(
     warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first (overrides simulation.warmup_cycles)."),
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare number: Hz). Default: the machine file\'s. Peaks are taken over the samples.'),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted sweep into the same output: run only the variants missing from <output>.journal (same machine, ranges, --set and settings, else exit 2). Without a journal: a fresh sweep."),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human table: si (N, m) or us (lbf, in). Files and --json are always SI."),
 ) -> None:
@@ -122,8 +143,10 @@ def sweep_command(
     speed at which the follower jumps is reported. Each row is stored as its variant
     finishes (<output>.journal, and the HDF5 file, readable while the sweep runs), so a
     killed sweep keeps its finished rows: rerun with --resume. Exit 0 when the sweep
-    ran (failed variants are in the table), 2 on bad input, 130 after Ctrl-C or
-    SIGTERM (finished rows are written, the rest marked "cancelled").
+    ran every variant to a result; 1 when a variant failed or did not run (a worker
+    process died: --resume runs it), the file then has incomplete = True and no jump
+    onset is concluded across rows that did not run; 2 on bad input; 130 after Ctrl-C
+    or SIGTERM (finished rows are written, the rest marked "cancelled").
     """
     from camsim.cli.app import parse_sample_rate
     from camsim.io.atomic import check_writable
@@ -137,8 +160,14 @@ def sweep_command(
     with user_errors(), sigterm_as_interrupt():
         check_unit_system(units)
         target = output if output is not None else _default_output(machine)
-        check_writable(target)
-        check_writable(csv_path_for(target))
+        from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
+        from camsim.io.rowstore import journal_path_for
+
+        inputs = [("machine file", machine)]
+        check_output(target, output_format(target, HDF5), owner="sweep", force=force, inputs=inputs)
+        check_output(csv_path_for(target), output_format(csv_path_for(target), CSV), owner="csv", inputs=inputs,
+                     option="-o (the CSV beside it)")
+        check_journal(target, journal_path_for(target), resume=resume, fresh=fresh, what="sweep")
         try:
             result = run_sweep(
                 machine,
@@ -169,6 +198,10 @@ def sweep_command(
                     "rows": jsonable_rows(result),
                     "jump_onset_rpm": result.jump_onset_rpm,
                     "first_jump_rpm": result.first_jump_rpm,
+                    "interrupted": result.stopped,
+                    "incomplete": result.incomplete,
+                    "not_run": result.not_run,
+                    "notes": list(result.notes),
                     "output": str(h5_path),
                     "csv": str(csv_path),
                 }
@@ -178,16 +211,21 @@ def sweep_command(
                 err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
             _render(result, err_console, units)
             err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
-        if result.executor_failures and not result.interrupted:
-            err_console.print(
-                f"warning: {result.executor_failures} variants did not run (a worker process failed); "
-                "rerun with --resume to run them",
-                style="yellow",
-                markup=False,
-            )
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
             raise fail(
                 f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled'); rerun with --resume to complete it",
                 130,
+            )
+        if result.executor_failures:
+            raise fail(
+                f"incomplete: {result.executor_failures} variants did not run (a worker process failed); "
+                f"{h5_path} keeps the others; rerun the same command with --resume to run them",
+                1,
+            )
+        if result.incomplete:
+            raise fail(
+                f"incomplete: {len(result.failed)} of {len(result.rows)} variants failed (their status column "
+                "holds the reason); no conclusion is drawn from them",
+                1,
             )

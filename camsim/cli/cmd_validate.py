@@ -82,7 +82,7 @@ def _print_machine(machine: Machine) -> None:
     """Human summary on stderr: cam, masses, elements (with damping coefficients), settings."""
     from camsim.machine.loader import damping_coefficients, reference_mass_of
 
-    err_console.print(f"[bold]{escape(machine.name)}[/bold]  ({escape(machine.source)}): valid")
+    err_console.print(f"{machine.name}  ({machine.source}): valid", markup=False, style="bold")
     cam = machine.cam
     if cam is None:
         err_console.print("cam: none (the cam node stays at x = 0)")

@@ -610,6 +610,10 @@ def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fm
     if not (dpi > 0 and np.isfinite(dpi)):
         raise InputError(f"--dpi: must be positive, got {dpi:g}")
     d = prepare_output_dir(out_dir)
+    from camsim.io.outputs import check_output
+
+    for name in figures:  # every image is checked before the first is written (docs/results.md)
+        check_output(d / f"{name}.{fmt}", fmt, owner="figure", option="-o")
     written = []
     for name, fig in figures.items():
         target = d / f"{name}.{fmt}"

@@ -57,3 +57,32 @@ def shown(si_unit: str, system: str = "si") -> tuple[str, float]:
 def header(name: str, unit: str) -> str:
     """A column header with its unit in brackets (``"force [N]"``; no brackets for numbers)."""
     return f"{name} [{unit}]" if unit else name
+
+
+_QUANTITY_IN_TEXT = None
+
+
+def in_system(text: str, system: str = "si") -> str:
+    """A message with its SI quantities shown in ``system`` (issue 26: warnings in --units).
+
+    Numbers followed by an SI unit (``-12.5 N``, ``0.3 m/s``, ``9.8 m/s^2``, ``0.002 m``) are
+    rewritten as ``-2.81 lbf (-12.5 N)`` under ``us``; the SI value stays in parentheses so
+    the message still matches the file. Under ``si`` the text is returned unchanged.
+    """
+    global _QUANTITY_IN_TEXT
+    if system != "us":
+        return text
+    import re
+
+    if _QUANTITY_IN_TEXT is None:
+        _QUANTITY_IN_TEXT = re.compile(
+            r"(?<![\w.])(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?) (?P<unit>m/s\^2|m/s²|m/s|N/m|N|mm|m)(?![\w/^])"
+        )
+
+    def convert(m) -> str:
+        unit, factor = shown(m.group("unit"), "us")
+        if unit == m.group("unit"):
+            return m.group(0)
+        return f"{float(m.group('num')) * factor:.4g} {unit} ({m.group(0)})"
+
+    return _QUANTITY_IN_TEXT.sub(convert, text)

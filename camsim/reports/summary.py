@@ -97,8 +97,10 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
         "periodicity residual (state one revolution apart, relative to peak): "
         + ("not computed" if math.isnan(residual) else f"{residual:.3g}")
     )
+    from camsim.reports.display import in_system
+
     for warning in result.warnings:
-        console.print(f"warning: {warning}", style="yellow")
+        console.print(f"warning: {in_system(warning, system)}", style="yellow", markup=False)
 
 
 def _at(value, fmt=".4g", unit="deg") -> str:
@@ -146,8 +148,24 @@ def render_design_dynamics(summary: dict, console: Console) -> None:
         ("work per revolution", summary["cycle_work"], "J", None),
         ("energy fluctuation ΔE", summary["energy_fluctuation"], "J", None),
     )
-    for name, value, unit, when in rows:
-        table.add_row(name, _fmt(value), unit, _fmt(when, ".5f"))
+    keys = ("peak_normal_force", "peak_hertz_stress", "peak_torque", "rms_torque", "cycle_work", "energy_fluctuation")
+    reasons = summary.get("reasons", {})
+    notes = []
+    for key, (name, value, unit, when) in zip(keys, rows):
+        why = reasons.get(key)
+        if value is None and why:
+            notes.append(f"{name}: {why}")
+            table.add_row(name, f"n/a ({len(notes)})", unit, "")
+        else:
+            table.add_row(name, _fmt(value), unit, _fmt(when, ".5f") if when is not None else "")
     if summary.get("cs") is not None:
-        table.add_row(f"flywheel inertia (Cs = {summary['cs']:g})", _fmt(summary["flywheel_inertia"]), "kg·m²", "–")
+        value = summary["flywheel_inertia"]
+        name = f"flywheel inertia (Cs = {summary['cs']:g})"
+        if value is None and reasons.get("flywheel_inertia"):
+            notes.append(f"{name}: {reasons['flywheel_inertia']}")
+            table.add_row(name, f"n/a ({len(notes)})", "kg·m²", "")
+        else:
+            table.add_row(name, _fmt(value), "kg·m²", "")
     console.print(table)
+    for k, note in enumerate(notes, 1):
+        console.print(f"  ({k}) {note}", markup=False)

@@ -37,6 +37,8 @@ FIXED_SCALARS: tuple[tuple[str, str], ...] = (
     ("max_cam_contact_force", "N"),
     ("min_cam_contact_force", "N"),
     ("jump", ""),
+    ("cam_separation", "m"),
+    ("cam_separation_angle", "deg"),
     ("impacts", ""),
     ("max_impact_velocity", "m/s"),
     ("periodicity_residual", ""),
@@ -66,6 +68,56 @@ def missing_scalar(name: str):
     """The value a table shows for a scalar a run did not produce (a failed or cancelled
     run): no jump, no impacts, NaN for every number."""
     return {"jump": False, "impacts": 0}.get(name, float("nan"))
+
+
+def missing_reason(machine: Machine, name: str, row: dict[str, Any]) -> str | None:
+    """Why scalar ``name`` of a run's row (:meth:`RunResult.scalars`, a sweep or study row)
+    has no value, or None when it has one (issue 26: never a bare "–" or NaN).
+
+    ``row`` holds the run's other scalars and its ``status`` (a sweep row); the reasons
+    depend on the machine (no transducer, no cam force) and on the run (no impact).
+    """
+    value = row.get(name)
+    if not (isinstance(value, float) and math.isnan(value)) and value is not None:
+        return None
+    status = row.get("status", "ok")
+    if status != "ok":
+        return "the run did not complete (" + ("cancelled" if status == "cancelled" else "failed: see status") + ")"
+    if name == "peak_transducer_force":
+        return "no element of the machine has transducer = true"
+    if name in ("max_cam_contact_force", "min_cam_contact_force"):
+        return "the machine has no cam force (no cam.drives mass and no contact with the cam)"
+    if name == "max_impact_velocity":
+        return "no impact in the run"
+    if name in ("cam_separation", "cam_separation_angle"):
+        if machine.cam is not None and machine.cam.drives:
+            return (f"the cam drives {machine.cam.drives} (x = s): it never leaves the cam; its jump is "
+                    "min_cam_contact_force < 0 (and jump)")
+        return "the machine has no contact with the cam"
+    if name == "periodicity_residual":
+        return "needs a warm-up revolution or two recorded ones (the state one revolution apart)"
+    if name.startswith("peak_"):
+        return "no samples"
+    return "not computed for this run (see the run's summary)"
+
+
+def unreachable_limit(machine: Machine, quantity: str, op: str, threshold: float) -> str | None:
+    """A warning when a limit on ``quantity`` can never be crossed for this machine, naming
+    the quantity to use instead; None when it can (issue 26).
+
+    For a cam acting through a contact element (``between = ["cam", ...]``, no driven mass)
+    the cam contact force is a contact's force, never below 0: ``min_cam_contact_force < 0``
+    never fires, however often the follower jumps. Sweeps, studies and optimisations call
+    this on each limit or constraint they are given.
+    """
+    below = op in ("<", "<=") and (threshold < 0 or (threshold == 0 and op == "<"))
+    if quantity in ("min_cam_contact_force", "max_cam_contact_force") and below:
+        cam = machine.cam
+        if cam is not None and not cam.drives:
+            return (f"{quantity} {op} {threshold:g} N never happens for this machine: its cam acts through a "
+                    "contact element, whose force is never below 0; the follower leaves the cam when "
+                    "cam_separation > 0 (or jump is true): use --limit \"cam_separation>0m\" or \"jump>0\"")
+    return None
 
 
 def scalar_columns(masses: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
@@ -121,6 +173,10 @@ class RunResult:
     no_impact: bool = False
     boundaries_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sample_rate: float = 0.0
+    #: The exact state's cam force and torque at the end of the first recorded revolution
+    #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
+    #: the cam design's energy quantities (issue 26).
+    period_end: dict | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -241,6 +297,7 @@ class RunResult:
             (cf is not None and cf.size and float(np.min(cf)) < 0)
             or any(ev.kind == EventKind.RELEASE and ev.element in cam_contacts for ev in self.events)
         )
+        out["cam_separation"], out["cam_separation_angle"] = self._cam_separation()
         impacts = self.impacts()
         out["impacts"] = len(impacts)
         speeds = np.abs(np.array([e.relative_velocity for e in impacts], dtype=float))
@@ -250,6 +307,71 @@ class RunResult:
 
         out.update(design_row(self))
         return out
+
+    def missing_reasons(self) -> dict[str, str]:
+        """Why each scalar without a value (NaN in :meth:`scalars`) is absent (issue 26)."""
+        scalars = self._scalars
+        out = {}
+        design = None
+        for name in scalars:
+            why = missing_reason(self.machine, name, {**scalars, "status": "ok"})
+            if why is None:
+                continue
+            if why.startswith("not computed"):
+                if design is None:
+                    design = (self.design_summary() or {}).get("reasons", {})
+                why = design.get(name, why)
+            out[name] = why
+        return out
+
+    def _cam_separation(self) -> tuple[float, float]:
+        """(largest gap between the follower and the cam [m], largest cam-angle span off the
+        cam [deg]) of a cam acting through contact elements; NaN for a driven mass (it never
+        leaves the cam: its jump is a negative contact force) or without a cam.
+
+        The gap is the contact's opening −δ = d − gap over the samples (its largest sample);
+        the span runs from each release of a cam contact to its next closing, at the exact
+        event times (to the end of the record when it does not close again).
+        """
+        nan = float("nan")
+        names = {e.name for e in self._cam_contacts}
+        if not names or self.machine.cam is None:
+            return nan, nan
+        gap = 0.0
+        if self.time.size:
+            from camsim.model.assembly import Model
+
+            model = Model(self.machine, no_impact=self.no_impact)
+            x = (np.column_stack([self.masses[n]["displacement"] for n in model.free_names]) if model.n
+                 else np.zeros((self.time.size, 0)))
+            s = self.cam["displacement"]
+            for i, element in enumerate(model.elements):
+                if element.name in names:
+                    geo = model.geometry[i]
+                    d = x @ geo.G + geo.g_s * s
+                    gap = max(gap, float(np.max(-np.asarray(element.penetration(d), dtype=float))))
+        return gap, self.separation_span(float(self.time[-1]) if self.time.size else None)
+
+    def separation_span(self, end: float | None) -> float:
+        """Largest cam-angle span off the cam [deg] from the events (a release of a cam
+        contact to its next closing; to ``end`` [s] when it does not close again); NaN
+        without a cam contact."""
+        names = {e.name for e in self._cam_contacts}
+        if not names or self.machine.cam is None:
+            return float("nan")
+        span = 0.0
+        opened: dict[str, float] = {}
+        for ev in self.events:
+            if ev.element not in names:
+                continue
+            if ev.kind == EventKind.RELEASE:
+                opened.setdefault(ev.element, ev.time)
+            elif ev.kind == EventKind.IMPACT and ev.element in opened:
+                span = max(span, ev.time - opened.pop(ev.element))
+        if end is not None:
+            for t in opened.values():
+                span = max(span, end - t)
+        return math.degrees(span * abs(float(self.machine.cam.speed)))
 
     def design_summary(self, cs: float | None = None) -> dict | None:
         """Cam design checks, stress, torque and flywheel (:func:`camsim.cam.design.design_summary`).
@@ -278,6 +400,7 @@ class RunResult:
         out["events"] = len(self.events)
         out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
         out["warnings"] = list(self.warnings)
+        out["reasons"] = self.missing_reasons()  # issue 26: why a value is null
         design = self.design_summary()  # issue 14: with [cam.geometry]
         if design is not None:
             out["design"] = design

@@ -25,6 +25,8 @@ from camsim.run.result import RunResult
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
 SAMPLES_PER_PERIOD = 12
+#: Internal steps per output sample beyond which a machine is refused as input (issue 26).
+MAX_STEPS_PER_SAMPLE = 1e7
 #: A linear static equilibrium whose stiffness matrix is worse conditioned than this has
 #: no unique solution (a mass held by nothing stiff): ask for an [initial] state instead.
 #: 1e14 leaves two digits of a double for the positions.
@@ -320,7 +322,15 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             f"sample rate {sim.sample_rate:g} Hz is below twice the highest natural frequency "
             f"({f_max:.4g} Hz): the traces alias (events are still located exactly)"
         )
-    substeps = max(1, math.ceil(h_out * f_max * SAMPLES_PER_PERIOD))
+    steps_per_sample = h_out * f_max * SAMPLES_PER_PERIOD
+    if not math.isfinite(steps_per_sample) or steps_per_sample > MAX_STEPS_PER_SAMPLE:
+        # e.g. --set element.k12.stiffness="1e300 N/m": no run can resolve that (issue 26)
+        raise InputError(
+            f"{machine.source}: the highest natural frequency, {f_max:.3g} Hz, needs {steps_per_sample:.3g} internal "
+            f"steps per output sample (at most {MAX_STEPS_PER_SAMPLE:.0e}): a stiffness or a mass is out of any "
+            "physical range"
+        )
+    substeps = max(1, math.ceil(steps_per_sample))
     integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
@@ -338,12 +348,26 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     def on_stop(st: State) -> None:
         saved[round(st.t, 9)] = st
 
+    # The cam design's energy quantities are taken over exactly one revolution, closed at its
+    # end with the state the integrator stops at there, not with the samples around it
+    # (issue 26: the last sample of one revolution falls short of the period unless the
+    # period is a multiple of the sample spacing).
+    t_period_end = None
+    if has_cam and getattr(machine.cam, "geometry", None) is not None and t_end >= t_rec + period * (1 - 1e-12):
+        t_period_end = t_rec + period
+    all_stops = tuple(stops) + ((t_period_end,) if t_period_end is not None and t_period_end not in stops else ())
+
     total = t_end
     report = (lambda t: progress(min(1.0, t / total))) if progress else None
     t_final = t_end + 0.5 * h_out
     # Warm-up cycles are not recorded: integrate them on a coarser grid, just dense
     # enough to see every guard and to carry the cam input exactly (warmup_step).
     h_warm = warmup_step(machine, f_max, integrator.h)
+    # A nonlinear (power-law) contact has no natural frequency in f_max: a coarser warm-up
+    # grid hands its contact phases to DOP853, and a warm-up revolution cost several recorded
+    # ones (issue 26). Such machines warm up on the recording grid: the same cost per revolution.
+    if any(e.is_nonlinear(b) for e in model.elements for b in Branch):
+        h_warm = integrator.h
     with numerical_failure(machine):
         if t_rec > 0 and h_warm > 1.5 * integrator.h:
             warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
@@ -352,13 +376,19 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             # with no jump row the continuous run does not have (issue 25)
             integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
-            _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report)
+            _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report)
             result = _assemble(run, stretches)
             peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
         else:
-            integrator.run(state, t_final, record_from=t_rec, stops=stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
+            integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
             result = consumer.finish()
             peak = result.peak
+    if t_period_end is not None and round(t_period_end, 9) in saved:
+        end = period_end(run, saved[round(t_period_end, 9)])
+        result.period_end = end
+        design = getattr(result, "_design", None)  # a streamed run's accumulator (camsim.run.stream)
+        if design is not None and end is not None:
+            design.period_end = (end["time"], end["torque"])
     result.periodicity_residual = _residual(model, saved, stops, peak)
     result.sample_rate = sim.sample_rate
     if consumer is not None:
@@ -491,6 +521,30 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
     return {"time": time, "cam": cam_traces, "masses": masses, "elements": elements,
             "cam_contact_force": cam_force, "transducer_force": transducer}
+
+
+def period_end(run: RunSetup, state: State) -> dict | None:
+    """The cam force and camshaft torque at the exact state ``state`` (the end of the first
+    recorded revolution): ``{"time": t [s, recorded clock], "cam_force": Fc [N], "torque": T
+    [N*m]}``, through the same force code as the samples; None without a cam force."""
+    from camsim.cam.design import camshaft_torque
+
+    model, integrator = run.model, run.integrator
+    t = np.array([state.t])
+    u = integrator.inputs(t)
+    config = model.configuration(state.branches)
+    z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])[None, :]
+    fn = integrator.nonlinear_forces(config, z, u, state.v_impacts)
+    x, v, a = config.x(z, u, fn), config.v(z, u, fn), config.a(z, u, fn)
+    lam = config.lam(z, u, fn)
+    forces = model.element_forces(state.branches, x, v, u[:, 0], u[:, 1], lam, config, state.v_impacts)
+    kw = sample_traces(run, t - run.t_rec, x, v, a, u, forces)
+    probe = RunResult(machine=run.machine, events=[], periodicity_residual=float("nan"), **kw)
+    force = probe.cam_force
+    if force is None:
+        return None
+    torque = camshaft_torque(force, u[:, 1], run.cam.speed)
+    return {"time": float(state.t - run.t_rec), "cam_force": float(force[0]), "torque": float(torque[0])}
 
 
 def boundaries_deg(run: RunSetup) -> np.ndarray:

@@ -164,6 +164,19 @@ class StreamedRun:
         :meth:`RunResult.design_summary`); None without ``[cam.geometry]``."""
         return None if self._design is None else self._design.summary(cs)
 
+    def missing_reasons(self) -> dict[str, str]:
+        """Why each scalar without a value is absent (as :meth:`RunResult.missing_reasons`)."""
+        from camsim.run.result import missing_reason
+
+        scalars = self.scalars()
+        design = (self.design_summary() or {}).get("reasons", {})
+        out = {}
+        for name in scalars:
+            why = missing_reason(self.machine, name, {**scalars, "status": "ok"})
+            if why is not None:
+                out[name] = design.get(name, why) if why.startswith("not computed") else why
+        return out
+
     def peak(self, name: str, quantity: str) -> float:
         """Largest |sample| of a mass's displacement, velocity or acceleration [SI]."""
         return float(self._scalars[f"peak_{quantity}:{name}"])
@@ -194,6 +207,7 @@ class StreamedRun:
         out["events"] = len(self.events)
         out["periodicity_residual"] = None if math.isnan(self.periodicity_residual) else float(self.periodicity_residual)
         out["warnings"] = list(self.warnings)
+        out["reasons"] = self.missing_reasons()  # issue 26: why a value is null
         design = self.design_summary()
         if design is not None:
             out["design"] = design
@@ -403,7 +417,7 @@ class StreamAssembler:
             if value is not None and (self._extremes[key] is None or better(value["value"], self._extremes[key]["value"])):
                 self._extremes[key] = value
         for key, value in scalars.items():
-            if key.startswith("peak_") or key == "max_cam_contact_force":
+            if key.startswith("peak_") or key in ("max_cam_contact_force", "cam_separation"):
                 old = self._scalars.get(key)
                 self._scalars[key] = value if old is None or math.isnan(old) or value > old else old
             elif key == "min_cam_contact_force":
@@ -437,6 +451,8 @@ class StreamAssembler:
         scalars["jump"] = bool(self._jump_samples or from_events["jump"])
         scalars["impacts"] = from_events["impacts"]
         scalars["max_impact_velocity"] = from_events["max_impact_velocity"]
+        # the span off the cam runs between events, to the end of the record when still open
+        scalars["cam_separation_angle"] = _empty_result(run, events).separation_span(run.t_end - run.t_rec)
         masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
         return StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
                            dict(self._extremes), self._samples, design=self._design)

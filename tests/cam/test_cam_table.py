@@ -34,6 +34,11 @@ def lift_d3(th):
     return -A1 * np.sin(th) - 8 * A2 * np.cos(2 * th) - 27 * A3 * np.sin(3 * th)
 
 
+def _column_warnings(program) -> list[str]:
+    """The warnings other than the lift going below the base circle (issue 26)."""
+    return [w for w in program.warnings if "below the base circle" not in w]
+
+
 def table_cam(points=720, first_deg=10.0, velocity=None, acceleration=None) -> Cam:
     angle = np.radians(first_deg) + np.arange(points) * 2 * np.pi / points
     return Cam(
@@ -56,7 +61,8 @@ def test_table_reproduces_the_analytic_cam():
     when written: s 4e-16, a 4e-10 (a quintic spline on a smooth cam); v and j also checked
     (1e-4 of their peaks)."""
     program = CamProgram(table_cam())
-    assert program.kind == "table" and program.warnings == []
+    # the synthetic lift dips 0.22 mm below 0 near 347 deg: issue 26's base-circle warning, by construction
+    assert program.kind == "table" and _column_warnings(program) == []
     angle = np.radians(10.0) + np.arange(720) * 2 * np.pi / 720
     t_samples = (angle - program.start_angle) / SPEED
     s = program.svaj(t_samples)[0]
@@ -88,9 +94,9 @@ def test_consistent_columns_do_not_warn_and_wrong_ones_do():
     """Columns that match (the exact derivatives at 120 rpm) give no warning; a velocity
     column 2 % too large exceeds the 1 % tolerance and is reported with the file name."""
     good = table_cam(velocity=lambda th: SPEED * lift_d1(th), acceleration=lambda th: SPEED**2 * lift_d2(th))
-    assert CamProgram(good).warnings == []
+    assert _column_warnings(CamProgram(good)) == []
     bad = table_cam(velocity=lambda th: 1.02 * SPEED * lift_d1(th))
-    (message,) = CamProgram(bad).warnings
+    (message,) = _column_warnings(CamProgram(bad))
     assert message.startswith("cam.csv: velocity column differs from the spline")
     assert "(2 % of its peak)" in message
 

@@ -121,7 +121,7 @@ def test_bad_output_type_and_no_cam(machine_file, tmp_path):
     out = tmp_path / "svaj.txt"
     result = run(machine_file, "-o", out)
     assert result.exit_code == 2
-    assert "unknown output type '.txt'" in result.stderr
+    assert "unknown output format '.txt'" in result.stderr
     assert not out.exists()
     no_cam = tmp_path / "nocam.toml"
     no_cam.write_text(

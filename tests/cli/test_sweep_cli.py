@@ -27,7 +27,7 @@ FAST = ["--cycles", "1", "--warmup", "0", "--sample-rate", "2 kHz"]
 COLUMNS = [
     "param:cam.speed", "peak_displacement:F", "peak_velocity:F", "peak_acceleration:F",
     "peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force",
-    "jump", "impacts", "max_impact_velocity", "periodicity_residual", "status",
+    "jump", "cam_separation", "cam_separation_angle", "impacts", "max_impact_velocity", "periodicity_residual", "status",
 ]  # fmt: skip
 runner = CliRunner()
 
@@ -65,9 +65,10 @@ def test_sweep_json_documented_keys(tmp_path):
     assert {"rows", "jump_onset_rpm"} <= set(payload)
     assert payload["jump_onset_rpm"] is None  # not refined
     assert payload["first_jump_rpm"] == pytest.approx(460.0)
-    assert [list(r) for r in payload["rows"]] == [COLUMNS, COLUMNS]
+    assert [list(r) for r in payload["rows"]] == [COLUMNS + ["reasons"], COLUMNS + ["reasons"]]
     assert payload["rows"][0]["jump"] is False and payload["rows"][1]["jump"] is True
     assert payload["rows"][0]["max_impact_velocity"] is None  # NaN -> null
+    assert payload["rows"][0]["reasons"]["max_impact_velocity"] == "no impact in the run"  # issue 26: null says why
     with h5py.File(out) as f:
         table = read_table(f["sweep/summary"])
     assert [r["peak_velocity:F"] for r in payload["rows"]] == table["peak_velocity:F"].tolist()

@@ -92,7 +92,8 @@ def test_cli_json_schema_report_bytes_and_files(oscillator, osc_data, tmp_path):
     res = runner.invoke(app, args + ["--report", str(png)])
     assert res.exit_code == 0, res.stderr
     payload = json.loads(res.stdout)
-    assert list(payload) == ["parameters", "correlation", "cost", "rms_residual", "n_evaluations", "converged", "warnings"]
+    assert list(payload) == ["parameters", "correlation", "cost", "rms_residual", "n_evaluations", "converged",
+                             "residual_variance", "targets", "matched", "misfits", "warnings"]  # issue 26: matched, misfits
     entry = payload["parameters"]["element.K.stiffness"]
     assert list(entry) == ["value", "unit", "stderr", "ci95", "initial"]
     assert entry["unit"] == "N/m" and entry["initial"] == 20000.0 and entry["ci95"][0] < entry["value"] < entry["ci95"][1]

@@ -39,7 +39,7 @@ GOOD = "element.closure.preload=tol:20:3N"
         (["--dist", GOOD, "--dist", GOOD], "--dist: key element.closure.preload is given twice"),
         (["--dist", GOOD, "--set", "element.closure.preload=21N"], "also fixed by --set"),
         (["--dist", GOOD, "--tol-sigma", "0"], "--tol-sigma 0.0: must be a positive number"),
-        (["--dist", GOOD, "--plot", "x.bmp"], "--plot x.bmp: unknown format 'bmp'"),
+        (["--dist", GOOD, "--plot", "x.bmp"], "--plot: unknown figure format '.bmp'"),
         (["--dist", GOOD, "--sample-rate", "3 m"], "--sample-rate"),
         ([], "give at least one --dist KEY=SPEC"),
         (["--dist", GOOD, "--units", "metric"], "--units metric: expected one of si, us"),

@@ -225,7 +225,7 @@ def fit(
         u = best.u
         x = problem.x(u)
         (r,) = problem.residuals_at([x])
-        jac_u = jacobian(problem, u, r, central=True, step=CD_STEP)
+        jac_u = jacobian(problem, u, r, central=True, step=max(CD_STEP, problem.fd_step))
         (run,) = evaluator.runs([x[: len(parameters)]])
     except BaseException:
         evaluator.abort()
@@ -297,6 +297,8 @@ def fit(
         channels=list(zip(objective.paths, objective.times, objective.values, objective.simulated(run.time, run.traces, shift))),
         shift=shift,
         overrides=[override_text(p.key, float(v)) for p, v in zip(parameters, x)],
+        targets={t.name: {"value": float(t.value), "sigma": float(t.sigma), "unit": t.unit,
+                          "achieved": float(run.scalars.get(t.name, math.nan))} for t in objective.targets},
     )
 
 

@@ -185,6 +185,18 @@ def resolve_params(source, fixed: Sequence[str], specs: Sequence[str], log_keys:
             raise InputError(f"{where}: key {key} is given twice")
         keys.append(key)
         current = machine_value(base, key)
+        if current is None and key.startswith("initial.") and key.count(".") == 2:
+            # A free mass without an [initial.<mass>] entry starts in static equilibrium, at
+            # rest (docs/machine-file.md): its velocity is 0 there; a displacement has no
+            # number to start from, so it needs START (issue 26: documented as fittable).
+            _si_value(source, fixed, key, values[0], where)  # the loader checks the key and mass
+            if len(values) == 3:
+                current = _si_value(source, fixed, key, values[2], where)
+            elif key.endswith(".velocity"):
+                current = 0.0
+            else:
+                raise InputError(f"{where}: {key}: the machine starts this mass in static equilibrium (no number); "
+                                 "give a start: KEY=LOW:HIGH:START[UNIT]")
         if current is None:
             # let the loader name the problem (unknown key, no such element, with a suggestion)
             _si_value(source, fixed, key, values[0], where)

@@ -13,6 +13,10 @@ JSON schema (every number SI; non-finite numbers are written as null)::
                                                       # channel [its SI unit]; |error| of each target
       "n_evaluations": int,          # simulations run (all starts, Jacobians included)
       "converged": bool,
+      "residual_variance": float,    # s² of the weighted residuals
+      "targets": {NAME: {"value", "sigma", "unit", "achieved"}},  # each --target [SI]
+      "matched": bool,               # no misfit (else exit 1 unless --accept-misfit)
+      "misfits": [str, ...],         # a --target missed by > sigma; s² > MISFIT_VARIANCE
       "warnings": [str, ...]         # identifiability and data warnings, one line each
     }
 """
@@ -25,7 +29,12 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["FitResult"]
+__all__ = ["FitResult", "MISFIT_VARIANCE"]
+
+#: Residual variance s² above which a fit to measured traces "did not match": the weighted
+#: residuals are then on average more than sqrt(2) = 1.41 times the noise level. With the right
+#: noise levels and a model that fits, s² is 1 within sqrt(2/dof) (docs/fitting.md).
+MISFIT_VARIANCE = 2.0
 
 
 @dataclass
@@ -112,6 +121,28 @@ class FitResult:
     channels: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
     shift: float = 0.0
     overrides: list[str] = field(default_factory=list)
+    targets: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def misfits(self) -> list[str]:
+        """Why the fitted machine does not match (empty when it does): one line per missed
+        ``--target`` (|achieved - target| > its sigma) and, for a fit to measured traces, a
+        residual variance above :data:`MISFIT_VARIANCE`, each with its figures [SI]."""
+        out = []
+        for name, t in self.targets.items():
+            error = t["achieved"] - t["value"]
+            if not math.isfinite(error) or abs(error) > t["sigma"]:
+                unit = f" {t['unit']}" if t["unit"] else ""
+                out.append(
+                    f"{name}: fitted {t['achieved']:.6g}{unit}, target {t['value']:.6g}{unit} ± {t['sigma']:.3g} "
+                    f"(missed by {abs(error) / t['sigma']:.3g} sigma)"
+                )
+        if self.channels and math.isfinite(self.residual_variance) and self.residual_variance > MISFIT_VARIANCE:
+            out.append(
+                f"residual variance {self.residual_variance:.4g} > {MISFIT_VARIANCE:g}: the residuals are "
+                f"{math.sqrt(self.residual_variance):.3g} times the noise level (RMS); the model does not fit the traces"
+            )
+        return out
 
     def parameter(self, key: str) -> dict[str, Any]:
         """One parameter's entry of :meth:`to_json`."""
@@ -133,5 +164,9 @@ class FitResult:
             "rms_residual": {k: float(v) for k, v in self.rms_residual.items()},
             "n_evaluations": int(self.n_evaluations),
             "converged": bool(self.converged),
+            "residual_variance": float(self.residual_variance),
+            "targets": {k: dict(v) for k, v in self.targets.items()},
+            "matched": not self.misfits,
+            "misfits": self.misfits,
             "warnings": list(self.warnings),
         }

@@ -33,6 +33,12 @@ __all__ = ["FD_STEP", "Evaluator", "Solution", "solve", "jacobian"]
 
 #: Forward-difference step of the Jacobian, in the coordinates scaled to the bounds.
 FD_STEP = 1e-4
+#: Forward-difference step of a fit with scalar ``--target`` values. A peak is the largest
+#: of the samples, so it moves in steps as the peak slides between samples: over a step of
+#: 1e-4 of the bounds the jitter can outweigh (even reverse) the trend, and the solver then
+#: stopped short of a reachable target (issue 26: ended at 981.8 m/s² where 400 was within
+#: the bounds; with this step it reaches it). 1 % of the bounds spans many sample spacings.
+TARGET_FD_STEP = 1e-2
 #: Stopping tolerances of least_squares (relative change of cost, of u, and gradient norm).
 FTOL = 1e-8
 XTOL = 1e-8
@@ -174,6 +180,11 @@ class Problem:
     def x(self, u: np.ndarray) -> np.ndarray:
         return np.array([p.from_unit(float(ui)) for p, ui in zip(self.params, u)])
 
+    @property
+    def fd_step(self) -> float:
+        """The finite-difference step in u: :data:`TARGET_FD_STEP` with scalar targets, else :data:`FD_STEP`."""
+        return TARGET_FD_STEP if getattr(self.objective, "targets", None) else FD_STEP
+
     def residuals_at(self, xs: Sequence[np.ndarray]) -> list[np.ndarray]:
         runs = self.evaluator.runs([x[: self.n_sim] for x in xs])
         out = []
@@ -183,12 +194,14 @@ class Problem:
         return out
 
 
-def jacobian(problem: Problem, u: np.ndarray, r0: np.ndarray | None = None, central: bool = False, step: float = FD_STEP) -> np.ndarray:
+def jacobian(problem: Problem, u: np.ndarray, r0: np.ndarray | None = None, central: bool = False, step: float | None = None) -> np.ndarray:
     """d r / d u by finite differences; the perturbed runs are simulated together.
 
     Forward differences (step inward at the upper bound), or central ones where both
-    sides lie within [0, 1] when ``central``.
+    sides lie within [0, 1] when ``central``. ``step`` defaults to :attr:`Problem.fd_step`.
     """
+    if step is None:
+        step = problem.fd_step
     n = u.size
     points, plan = [], []
     for i in range(n):

@@ -52,6 +52,14 @@ def _locate(doc, key: str):
         row = next(r for r in rows if r.get("name") == parts[1][0])
         return row, parts[2][0], False
     if head == "initial":
+        # a mass that starts in static equilibrium has no [initial.<mass>] table: make it
+        # (issue 26: initial.<mass>.velocity is fittable as documented)
+        import tomlkit
+
+        if "initial" not in doc:
+            doc["initial"] = tomlkit.table(is_super_table=True)
+        if parts[1][0] not in doc["initial"]:
+            doc["initial"][parts[1][0]] = tomlkit.table()
         return doc["initial"][parts[1][0]], parts[2][0], False
     raise InputError(f"{key}: cannot be written into the machine file")
 

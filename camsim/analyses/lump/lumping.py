@@ -63,6 +63,12 @@ def load_parts(path: str | Path, *, units: str = "us") -> LumpResult:
         raise InputError(f"{name}: no such file") from None
     except OSError as exc:
         raise InputError(f"{name}: cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        from camsim.io.outputs import sniff_kind
+
+        kind = sniff_kind(path)
+        what = f"an {kind.upper()} file" if kind == "hdf5" else "not UTF-8 text"
+        raise InputError(f"{name}: {what}, not a parts file (TOML)") from None
     return lump_text(text, file=name, units=units, base_dir=Path(path).parent)
 
 

@@ -84,6 +84,7 @@ def write_study(result, path: str | os.PathLike[str], csv_path: str | os.PathLik
             group.attrs["seed"] = int(result.seed)
             group.attrs["n_samples"] = int(result.n_samples)
             group.attrs["n_runs"] = int(result.n_runs)
+            group.attrs["incomplete"] = bool(result.failed)  # issue 26: failed runs, no probabilities
             group.attrs["tol_sigma"] = float(result.dists[0].tol_sigma)
             group.attrs["sensitivity"] = result.sensitivity is not None
             group.attrs["cycles"] = -1 if s.cycles is None else int(s.cycles)

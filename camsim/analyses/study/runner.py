@@ -70,6 +70,10 @@ class RunSettings:
     sample_rate: float | None = None
 
 
+#: Seeds are stored as unsigned 64-bit attributes: 0 <= seed < 2**64.
+SEED_LIMIT = 2**64
+
+
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return f"{type(exc).__name__}: {text[0]}" if text and text[0] else type(exc).__name__
@@ -191,6 +195,7 @@ class StudyResult:
             "output": None if self.output is None else str(self.output),
             "csv": None if self.csv is None else str(self.csv),
             "failed": self.failed,
+            "incomplete": self.failed > 0,
             "outputs": self.stats,
             "limits": self.limits,
             "sensitivity": sens,
@@ -337,8 +342,9 @@ def study(
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError(f"--samples {samples}: needs a whole number of at least 1")
     samples = int(samples)
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"--seed {seed}: needs a whole number ≥ 0")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < SEED_LIMIT:
+        # checked before any run: the seed is stored as an unsigned 64-bit attribute (issue 26)
+        raise InputError(f"--seed {seed}: needs a whole number from 0 to 2^64 - 1 = {SEED_LIMIT - 1}")
     parsed = [d if isinstance(d, Distribution) else parse_dist(d, tol_sigma) for d in dists]
     if not parsed:
         raise InputError("study: give at least one --dist KEY=SPEC")
@@ -354,6 +360,11 @@ def study(
     corr = correlation_matrix(pairs, len(keys), list(correlate))
     if sensitivity and pairs:
         raise InputError("--sensitivity: Sobol' indices need independent inputs; drop --correlate")
+    if sensitivity and samples < 2:
+        raise InputError(
+            f"--samples {samples}: --sensitivity needs at least 2 samples (the indices are variances over the "
+            "samples, and their intervals a bootstrap of them), e.g. --samples 64"
+        )
     if sensitivity and not is_power_of_two(samples):
         raise InputError(
             f"--samples {samples}: --sensitivity needs a power of two (Saltelli's estimator on Sobol' points), "
@@ -402,9 +413,12 @@ def study(
     units = dict(columns)
     output_names = scalar_names + [e.text for e in exprs]
     parsed_limits = [parse_limit(text, {q: units[q] for q in output_names}) for text in limits]
+    from camsim.run.result import unreachable_limit
+
+    limit_warnings = [w for lim in parsed_limits if (w := unreachable_limit(base, lim.quantity, lim.op, lim.threshold))]
 
     # Every sample, drawn up front.
-    warn: list[str] = []
+    warn: list[str] = list(limit_warnings)
     d = len(parsed)
     if sensitivity:
         u = saltelli_design(samples, d, method, int(seed), warn)
@@ -584,6 +598,15 @@ def _analyse(frame, output_names, limits, keys, samples: int, sensitivity: bool,
     failed = int((~ok).sum())
     if failed:
         notes.append(f"{failed} of {len(ok)} runs failed (their rows hold the reason in 'status'; left out of the statistics)")
+        pool = np.arange(ok.size) < (2 * samples if sensitivity else ok.size)  # the rows the limits are taken over
+        counted, lost = int(pool.sum()), int((pool & ~ok).sum())
+        for row in limit_rows if lost else ():
+            # A failed run may be exactly one that crosses the limit: no probability is
+            # concluded from the runs that did not fail (issue 26); the bounds are exact.
+            low, high = row["crossed"] / counted, (row["crossed"] + lost) / counted
+            row.update(probability=None, per_million=None, ci95=[None, None],
+                       reason=f"{lost} of {counted} runs failed: P is between {low:.4g} and {high:.4g} "
+                              f"({row['crossed']} crossed among the {row['n']} that ran)")
     return stats, limit_rows, sens, ranking, notes
 
 

@@ -65,7 +65,8 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
             group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
             group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
             group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
-            group.attrs["interrupted"] = bool(result.interrupted)
+            group.attrs["interrupted"] = bool(result.stopped)
+            group.attrs["incomplete"] = bool(result.incomplete)  # a row did not run: no conclusion drawn
             cols = {name: (result.column(name), unit) for name, unit in result.columns}
             table = write_table(group, "summary", cols)
             table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
@@ -90,8 +91,16 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
 
 
 def jsonable_rows(result: "SweepResult") -> list[dict[str, Any]]:
-    """Rows with NaN as None (for ``--json``)."""
+    """Rows with NaN as None (for ``--json``), each with ``reasons``: why a value is null."""
+    from camsim.run.result import missing_reason
+
     out = []
     for row in result.rows:
-        out.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()})
+        entry = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+        reasons = {}
+        for k, v in entry.items():
+            if v is None and not k.startswith("param:"):
+                reasons[k] = missing_reason(result.machine, k, row) or "not computed"
+        entry["reasons"] = reasons
+        out.append(entry)
     return out

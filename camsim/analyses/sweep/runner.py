@@ -322,6 +322,22 @@ class SweepResult:
         """Row indices whose status is neither ok nor cancelled."""
         return [i for i, r in enumerate(self.rows) if r["status"] not in ("ok", "cancelled")]
 
+    @property
+    def not_run(self) -> int:
+        """Rows without a result: failed, cancelled or lost with a worker process."""
+        return sum(r["status"] != "ok" for r in self.rows)
+
+    @property
+    def incomplete(self) -> bool:
+        """True when any row did not run to a result (the sweep exits 1; issue 26)."""
+        return self.not_run > 0
+
+    @property
+    def stopped(self) -> bool:
+        """True when the sweep did not run every variant it was given: Ctrl-C, or a worker
+        process that died (its rows are not in the journal; ``--resume`` runs them)."""
+        return self.interrupted or self.executor_failures > 0
+
     def column(self, name: str) -> np.ndarray:
         """One column as an array (floats, bools, ints or strings)."""
         return _column_array(self.rows, name, dict(self.columns).get(name, ""))
@@ -527,7 +543,7 @@ def run_sweep(
             done += 1
             if progress is not None:
                 progress(done, len(grid))
-        first = _first_jump(raw, keys)
+        first, _ = _first_jump(raw, keys)
         if refine_jump and first is not None:
             onset, bracket, note = _refine(executor, source, fixed, settings, raw, first)
             if note:
@@ -555,7 +571,9 @@ def run_sweep(
             row = {**params, "status": "cancelled"}
         rows.append(_complete_row(row, columns))
     _unify_params(rows, grid, keys)
-    first = _first_jump(rows, keys)
+    first, note = _first_jump(rows, keys)
+    if note:
+        notes.append(note)
     return SweepResult(
         rows=rows,
         columns=columns,
@@ -621,10 +639,15 @@ def finish_sweep(result: SweepResult) -> None:
         Path(result.journal).unlink(missing_ok=True)
 
 
-def _first_jump(rows, keys) -> tuple[int, float] | None:
-    """(row index, speed [rad/s]) of the lowest swept speed whose variant jumps."""
+def _first_jump(rows, keys) -> tuple[tuple[int, float] | None, str | None]:
+    """(row index, speed [rad/s]) of the lowest swept speed whose variant jumps, and a note.
+
+    Only rows that ran decide, and only when every lower speed ran too: a failed or
+    cancelled row below the lowest jumping one could be the true onset, so then no speed
+    is claimed (None and the note says why; issue 26).
+    """
     if "cam.speed" not in keys:
-        return None
+        return None, None
     best = None
     for i, r in enumerate(rows):
         if r is None or r.get("status") != "ok" or not r.get("jump"):
@@ -634,7 +657,26 @@ def _first_jump(rows, keys) -> tuple[int, float] | None:
             continue
         if best is None or speed < best[1]:
             best = (i, speed)
-    return best
+    missing = []
+    for r in rows:
+        if r is not None and r.get("status") == "ok":
+            continue
+        speed = None if r is None else r.get("param:cam.speed")
+        missing.append(speed if isinstance(speed, float) else math.nan)
+    if best is not None:
+        below = [s for s in missing if not s >= best[1]]  # NaN: unknown speed, may be below
+        if below:
+            return None, (
+                f"no jump onset: the follower jumps at {best[1] * _RPM:.6g} rpm, but {len(below)} lower "
+                "speeds did not run (failed or cancelled), so the onset may lie below"
+            )
+        return best, None
+    if missing:
+        return None, (
+            f"no conclusion on a jump: {len(missing)} of {len(rows)} speeds did not run (failed or cancelled); "
+            "the follower does not jump at the speeds that ran"
+        )
+    return None, None
 
 
 def _refine(executor, source, fixed, settings, rows, first) -> tuple[float | None, tuple[float, float] | None, str | None]:

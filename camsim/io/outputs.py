@@ -1,0 +1,316 @@
+"""The output policy shared by every command that writes a file (docs/results.md).
+
+One place decides what a command may write, so that no command loses a user's work:
+
+* the **format comes from the suffix** (:func:`output_format`); an unknown suffix is bad
+  input (exit 2) naming the formats the command writes;
+* a command **never writes over one of its own inputs** (machine file, config, measured
+  CSV, a result it reads): paths are compared resolved and with ``os.path.samefile``;
+* a command **never writes over a file of another kind** (a TOML machine file, a CSV, a
+  figure, an unrelated HDF5 file): the existing file is sniffed by its bytes, not by its
+  name (:func:`sniff_kind`);
+* replacing an existing **result of another command** (an HDF5 file whose ``file_kind``
+  differs, a hand-written machine file under a TOML output) needs ``--force``;
+* **companion files** (the CSV beside a sweep's HDF5) get names distinct from the main
+  output and from the inputs (:func:`companion_path`);
+* a **journal left by an interrupted job** is never discarded silently: the same command
+  without ``--resume`` refuses, naming ``--resume`` and ``--fresh`` (:func:`check_journal`).
+
+Every check raises :class:`camsim.errors.InputError` (one line, exit 2) before anything
+is computed or written. The functions are plain library calls so that every analysis
+(sweep, study, fit, optimize) applies the same rules.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+
+from camsim.errors import InputError
+from camsim.io.atomic import check_writable
+
+__all__ = [
+    "HDF5",
+    "CSV",
+    "TOML",
+    "FIGURES",
+    "output_format",
+    "sniff_kind",
+    "result_owner",
+    "check_output",
+    "companion_path",
+    "check_journal",
+    "same_file",
+    "beside",
+]
+
+#: Suffix -> format of the outputs camsim writes.
+HDF5: Mapping[str, str] = {".h5": "hdf5", ".hdf5": "hdf5"}
+CSV: Mapping[str, str] = {".csv": "csv"}
+TOML: Mapping[str, str] = {".toml": "toml"}
+FIGURES: Mapping[str, str] = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_NAMES = {"hdf5": "an HDF5 file", "toml": "a TOML file", "csv": "a CSV file", "png": "a PNG image",
+          "pdf": "a PDF document", "svg": "an SVG image", "text": "a text file", "binary": "a binary file",
+          "dxf": "a DXF drawing"}
+
+
+def output_format(path: str | os.PathLike[str], formats: Mapping[str, str], option: str = "-o") -> str:
+    """The format of an output from its suffix (case-insensitive).
+
+    Parameters
+    ----------
+    path : path
+        The output the user named.
+    formats : mapping
+        Accepted suffixes (with the dot) -> format name, e.g. :data:`HDF5`.
+    option : str
+        The option that named the file (for the message).
+
+    Raises
+    ------
+    InputError
+        For a suffix not in ``formats``, naming the accepted ones.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix in formats:
+        return formats[suffix]
+    accepted = ", ".join(dict.fromkeys(formats))
+    noun = "figure" if set(formats.values()) <= {"png", "svg", "pdf"} else "output"
+    raise InputError(f"{path}: {option}: unknown {noun} format {Path(path).suffix or '(no suffix)'!r}; this command writes {accepted}")
+
+
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """True when ``a`` and ``b`` name the same file (resolved paths, or the same inode)."""
+    pa, pb = Path(a), Path(b)
+    try:
+        if pa.resolve() == pb.resolve():
+            return True
+    except OSError:
+        pass
+    try:
+        return pa.exists() and pb.exists() and os.path.samefile(pa, pb)
+    except OSError:
+        return False
+
+
+def sniff_kind(path: str | os.PathLike[str]) -> str | None:
+    """What an existing file holds, from its bytes: ``"hdf5"``, ``"toml"``, ``"csv"``,
+    ``"png"``, ``"pdf"``, ``"svg"``, ``"dxf"``, ``"text"``, ``"binary"``; None when it does
+    not exist or is empty (nothing to lose)."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as fh:
+            head = fh.read(65536)
+    except (FileNotFoundError, IsADirectoryError, NotADirectoryError):
+        return None
+    except OSError:
+        return "binary"
+    if not head.strip():
+        return None
+    if head.startswith(_HDF5_SIGNATURE):
+        return "hdf5"
+    if head.startswith(b"\x89PNG"):
+        return "png"
+    if head.startswith(b"%PDF"):
+        return "pdf"
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        # a multi-byte character cut at the end of the 64 KiB read is still text
+        try:
+            text = head[:-4].decode("utf-8")
+        except UnicodeDecodeError:
+            return "binary"
+    stripped = text.lstrip()
+    if stripped.startswith("<?xml") or stripped.startswith("<svg"):
+        return "svg"
+    if stripped.startswith("0\nSECTION") or stripped.startswith("  0\nSECTION") or "\nSECTION\n" in text[:200]:
+        return "dxf"
+    import tomllib
+
+    try:
+        with open(p, "rb") as fh:
+            doc = tomllib.load(fh)
+        if doc:
+            return "toml"
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError):
+        pass
+    first = stripped.splitlines()[0] if stripped else ""
+    if "," in first or "\t" in first or ";" in first:
+        return "csv"
+    return "text"
+
+
+def result_owner(path: str | os.PathLike[str], kind: str | None = None) -> str | None:
+    """Which camsim command wrote an existing result, or None when camsim did not.
+
+    HDF5: the root attribute ``file_kind`` (``run``, ``compare``, ``sweep``, ``study``,
+    ``cam``, ...). TOML: ``lump`` (its header line), ``fit`` (its ``# fitted:`` notes);
+    a machine file written by hand is None. CSV: ``csv`` (camsim writes CSVs beside its
+    results and from ``export``; a CSV is never a user's only copy of anything camsim
+    reads, except a measured file, which is an input and refused by :func:`check_output`).
+    """
+    kind = sniff_kind(path) if kind is None else kind
+    if kind == "hdf5":
+        try:
+            import h5py
+
+            with h5py.File(path, "r") as f:
+                value = f.attrs.get("file_kind")
+        except Exception:  # noqa: BLE001 - unreadable HDF5: not one of ours
+            return None
+        if value is None:
+            return None
+        return value.decode() if isinstance(value, bytes) else str(value)
+    if kind == "toml":
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            return None
+        if "written by `camsim lump" in text[:400]:
+            return "lump"
+        if "# fitted:" in text:
+            return "fit"
+        return None
+    if kind == "csv":
+        return "csv"
+    return None
+
+
+def check_output(
+    path: str | os.PathLike[str],
+    fmt: str,
+    *,
+    owner: str,
+    inputs: Iterable[tuple[str, str | os.PathLike[str] | None]] = (),
+    force: bool = False,
+    option: str = "-o",
+    owners: Sequence[str] = (),
+) -> Path:
+    """Raise :class:`InputError` unless ``path`` may receive this command's output.
+
+    Parameters
+    ----------
+    path : path
+        The output file.
+    fmt : str
+        Its format (:func:`output_format`), e.g. ``"hdf5"``, ``"csv"``, ``"toml"``, ``"png"``.
+    owner : str
+        What this command writes there: the HDF5 ``file_kind`` (``"run"``, ``"sweep"``...)
+        or ``"fit"``/``"lump"`` for a TOML file, ``"csv"`` for a CSV, ``"figure"``.
+    inputs : iterable of (label, path)
+        The command's inputs (``("machine file", "machines/cdtm.toml")``); None entries
+        are skipped. The output may not be any of them.
+    force : bool
+        Replace an existing result of another command (``--force``). A file of another
+        kind (by its bytes) and an input are never replaced.
+    option : str
+        The option naming the file, for the message.
+    owners : sequence of str
+        Further owners this command may replace without ``--force`` (e.g. the run view a
+        sweep leaves while it runs).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    target = Path(path)
+    for label, source in inputs:
+        if source is not None and same_file(target, source):
+            raise InputError(f"{target}: {option} would write over the {label} {source}; choose another output name")
+    check_writable(target)
+    kind = sniff_kind(target)
+    if kind is None:
+        return target
+    family = "figure" if fmt in ("png", "svg", "pdf") else fmt
+    kind_family = "figure" if kind in ("png", "svg", "pdf") else kind
+    if kind_family != family:
+        raise InputError(
+            f"{target}: {option}: the file exists and is {_NAMES.get(kind, kind)}, not {_NAMES.get(fmt, fmt)}; "
+            "camsim never writes over a file of another kind (choose another name or remove it)"
+        )
+    if fmt in ("hdf5", "toml"):
+        found = result_owner(target, kind)
+        if found != owner and found not in owners and not force:
+            what = "not a camsim result" if found is None else f"a result of `camsim {found}`"
+            if fmt == "toml" and found is None:
+                what = "a machine file not written by camsim"
+            raise InputError(f"{target}: {option}: the file exists and is {what}; pass --force to replace it")
+    return target
+
+
+def beside(path: str | os.PathLike[str], suffix: str) -> Path:
+    """The default output next to an input: ``machines/cdtm.toml`` + ``_sweep.h5`` ->
+    ``machines/cdtm_sweep.h5``; an input without a file name ("", ".", a directory) is bad input."""
+    p = Path(path)
+    if not p.name or p.is_dir():
+        raise InputError(f"{str(path)!r}: not a file (give the input file's name)")
+    return p.with_name(p.stem + suffix)
+
+
+def companion_path(path: str | os.PathLike[str], suffix: str, inputs: Iterable[str | os.PathLike[str] | None] = ()) -> Path:
+    """The name of a file written beside ``path`` (e.g. the CSV beside a sweep's HDF5).
+
+    ``<stem><suffix>``; when that is ``path`` itself or one of ``inputs``, ``<name><suffix>``
+    (``out.h5.csv``), so a companion never takes the main output's or an input's name.
+    """
+    p = Path(path)
+    candidate = p.with_suffix(suffix)
+    taken = [p, *[Path(i) for i in inputs if i is not None]]
+    if any(same_file(candidate, t) for t in taken):
+        candidate = p.with_name(p.name + suffix)
+    return candidate
+
+
+def check_journal(
+    output: str | os.PathLike[str],
+    journal: str | os.PathLike[str],
+    *,
+    resume: bool,
+    fresh: bool,
+    what: str,
+) -> bool:
+    """Apply the journal rule of an interrupted job writing ``output``.
+
+    A job that stores its progress in a journal (sweep, study, fit, optimize) must not
+    discard it silently when run again: with a journal present, the command needs
+    ``--resume`` (continue it) or ``--fresh`` (discard it and start again).
+
+    Parameters
+    ----------
+    output : path
+        The job's output (for the message).
+    journal : path
+        The journal an interrupted run of the job leaves.
+    resume, fresh : bool
+        The ``--resume`` and ``--fresh`` options.
+    what : str
+        The job's name, e.g. ``"sweep"``.
+
+    Returns
+    -------
+    bool
+        True when a journal is there to resume from.
+
+    Raises
+    ------
+    InputError
+        Both options; or a journal without either.
+    """
+    if resume and fresh:
+        raise InputError("--resume and --fresh: give one of them, not both")
+    journal = Path(journal)
+    exists = journal.exists()
+    if exists and fresh:
+        journal.unlink()
+        return False
+    if exists and not resume:
+        raise InputError(
+            f"{output}: an interrupted {what} left {journal}; run the same command with --resume to continue it, "
+            "or with --fresh to discard it and start again"
+        )
+    return exists and resume
