@@ -1,0 +1,205 @@
+"""The solvers: differential evolution, a local refinement, and the Pareto front of two objectives.
+
+All of them work on solver coordinates: each continuous variable mapped to [0, 1] between
+its bounds (logarithmically with ``--log``), each choice to an integer 0 … n − 1, so that
+every variable has the same scale. Constraints are the evaluator's scaled values g ≤ 0.
+
+* ``de``: :func:`scipy.optimize.differential_evolution`, seeded, ``updating="deferred"``
+  and ``vectorized=True`` so that a whole population is one batch for the executor (and
+  the result does not depend on the order in which the runs finish); constraints as a
+  :class:`~scipy.optimize.NonlinearConstraint` (Lampinen's feasibility rules), choices
+  through ``integrality``; no polish (its trust-constr step would cost more runs than the
+  budget allows). The population is 10 per variable (at least 10); the number of
+  generations follows from ``--budget``.
+* ``local``: from the file's values (or START), a gradient-free method: bounded Brent
+  (:func:`scipy.optimize.minimize_scalar`) for one unconstrained variable, otherwise
+  COBYLA (:func:`scipy.optimize.minimize`, ``method="COBYLA"``, Powell's linear
+  approximations of the objective and constraints built from the runs themselves: no
+  finite differences, whose steps would be lost in the noise of event times). COBYQA was
+  tried and dropped: on a one-variable problem with one linear constraint (the closure
+  preload of the tests) it stopped at an infeasible point; COBYLA lands on the bound in 8
+  evaluations. Trust region from :data:`RHOBEG` down to :data:`RHOEND` in coordinates.
+* ``pareto``: an ε-constraint sweep (Haimes et al. 1971): the two anchors (each objective
+  alone), then for ``points`` levels ε between them, minimise the second objective subject
+  to the first ≤ ε, each from the previous solution with the local method; the
+  non-dominated candidates of everything evaluated are the front. Why this and not
+  NSGA-II: ``docs/optimize.md`` ("Pareto fronts") and ``bench/bench_pareto.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from camsim.analyses.optimize.evaluate import BudgetExhausted, Evaluator
+
+__all__ = ["solve_de", "solve_local", "solve_pareto", "pareto_front", "POPSIZE"]
+
+#: Population per variable of the differential evolution (scipy's ``popsize``).
+POPSIZE = 10
+#: Smallest population.
+MIN_POPULATION = 10
+#: Initial and final trust-region radius of COBYLA, in coordinates scaled to the bounds.
+RHOBEG = 0.25
+RHOEND = 1e-9
+
+
+def _senses(ev: Evaluator) -> list[str]:
+    return [g.sense for g in ev.problem.goals]
+
+
+def _bounds(ev: Evaluator):
+    lo = [0.0] * len(ev.problem.variables)
+    hi = [v.high if v.is_choice else 1.0 for v in ev.problem.variables]
+    return lo, hi
+
+
+def _start(ev: Evaluator) -> np.ndarray:
+    return np.array([v.to_unit(v.start) for v in ev.problem.variables], dtype=float)
+
+
+def solve_de(ev: Evaluator, seed: int, budget: int, goal: int = 0, notes: list[str] | None = None) -> None:
+    """Differential evolution over the variables (see the module docstring)."""
+    from scipy.optimize import NonlinearConstraint, differential_evolution
+
+    n = len(ev.problem.variables)
+    pop = max(MIN_POPULATION, POPSIZE * n)
+    popsize = max(1, math.ceil(pop / n))
+    pop = popsize * n
+    maxiter = max(1, budget // pop - 1)
+    lo, hi = _bounds(ev)
+    senses = _senses(ev)
+    integrality = [v.is_choice for v in ev.problem.variables]
+
+    def objective(xt):
+        xs = np.atleast_2d(np.asarray(xt).T)
+        cands = ev.evaluate([tuple(x) for x in xs])
+        return np.array([c.f(senses)[goal] for c in cands])
+
+    def constraint(xt):
+        xs = np.atleast_2d(np.asarray(xt).T)
+        cands = ev.evaluate([tuple(x) for x in xs])
+        return np.array([c.g for c in cands]).T
+
+    constraints = ()
+    if ev.n_constraints():
+        constraints = (NonlinearConstraint(constraint, -np.inf, 0.0),)
+    x0 = _start(ev)
+    try:
+        differential_evolution(
+            objective,
+            list(zip(lo, hi)),
+            constraints=constraints,
+            rng=np.random.default_rng(seed),
+            popsize=popsize,
+            maxiter=maxiter,
+            tol=0.0,
+            atol=0.0,
+            polish=False,
+            init="latinhypercube",
+            updating="deferred",
+            vectorized=True,
+            integrality=integrality if any(integrality) else None,
+            x0=x0 if np.all((x0 >= np.array(lo)) & (x0 <= np.array(hi))) else None,
+        )
+    except BudgetExhausted:
+        if notes is not None:
+            notes.append(f"stopped at the budget of {budget} evaluations")
+
+
+def solve_local(ev: Evaluator, budget: int, x0=None, goal: int = 0, extra=None, notes: list[str] | None = None):
+    """Local refinement from ``x0`` (default: the file's values); returns the last point."""
+    from scipy.optimize import NonlinearConstraint, minimize, minimize_scalar
+
+    senses = _senses(ev)
+    x0 = _start(ev) if x0 is None else np.asarray(x0, dtype=float)
+    x0 = np.clip(x0, 0.0, 1.0)
+    n = len(x0)
+    limit = len(ev.candidates) + budget
+
+    def f(x):
+        if len(ev.candidates) >= limit and ev._key(ev.values_of(x)) not in ev.by_key:
+            raise BudgetExhausted()
+        c = ev.evaluate([tuple(np.atleast_1d(x))])[0]
+        v = c.f(senses)[goal]
+        if not math.isfinite(v):  # a failed run or an infeasible absorb: a large value the model can use
+            return 1e30
+        return v
+
+    def g(x):
+        if len(ev.candidates) >= limit and ev._key(ev.values_of(x)) not in ev.by_key:
+            raise BudgetExhausted()
+        c = ev.evaluate([tuple(np.atleast_1d(x))])[0]
+        out = -np.asarray(c.g, dtype=float)  # COBYQA: lb <= g; here -g >= 0
+        if extra is not None:
+            out = np.concatenate([out, [extra(c)]])
+        return out
+
+    has_constraints = ev.n_constraints() > 0 or extra is not None
+    try:
+        if n == 1 and not has_constraints:
+            res = minimize_scalar(lambda u: f([u]), bounds=(0.0, 1.0), method="bounded",
+                                  options={"xatol": 1e-9, "maxiter": max(1, budget)})
+            return np.array([res.x])
+        cons = [NonlinearConstraint(g, 0.0, np.inf)] if has_constraints else []
+        res = minimize(f, x0, method="COBYLA", bounds=[(0.0, 1.0)] * n, constraints=cons,
+                       options={"maxiter": max(n + 2, budget), "rhobeg": RHOBEG, "tol": RHOEND})
+        return np.asarray(res.x)
+    except BudgetExhausted:
+        if notes is not None:
+            notes.append(f"stopped at the budget of {budget} evaluations")
+        return None
+
+
+def pareto_front(cands, senses) -> list:
+    """The non-dominated feasible candidates, by the first objective."""
+    feas = [c for c in cands if c.feasible]
+    pts = [(c, c.f(senses)) for c in feas]
+    front = []
+    for c, f in pts:
+        dominated = any(all(a <= b for a, b in zip(h, f)) and any(a < b for a, b in zip(h, f)) for _, h in pts)
+        if not dominated and not any(o.values == c.values for o in front):
+            front.append(c)
+    return sorted(front, key=lambda c: c.f(senses)[0])
+
+
+def solve_pareto(ev: Evaluator, budget: int, points: int, notes: list[str] | None = None) -> list:
+    """ε-constraint sweep (module docstring); returns the front."""
+    senses = _senses(ev)
+    if len(senses) != 2:
+        from camsim.errors import InputError
+
+        raise InputError("--method pareto: needs two objectives (--minimize A --minimize B, or --maximize)")
+    each = max(4, budget // (points + 2))
+    start = ev.budget
+    try:
+        xa = solve_local(ev, each, goal=0)
+        ca = ev.best(0)
+        xb = solve_local(ev, each, goal=1)
+        cb = ev.best(1)
+        if ca is None or cb is None:
+            return pareto_front(ev.candidates, senses)
+        fa, fb = ca.f(senses)[0], cb.f(senses)[0]
+        x = np.array(cb.x, dtype=float)
+        for k in range(1, points - 1):
+            eps = fb + (fa - fb) * k / (points - 1)
+
+            def extra(c, eps=eps):
+                v = c.f(senses)[0]
+                span = abs(fa - fb) or 1.0
+                return (eps - v) / span if math.isfinite(v) else -1e6
+
+            x_new = _eps_step(ev, each, x, extra, notes)
+            if x_new is None:
+                break
+            x = x_new
+        del xa, xb
+    except BudgetExhausted:
+        if notes is not None:
+            notes.append(f"stopped at the budget of {start} evaluations")
+    return pareto_front(ev.candidates, senses)
+
+
+def _eps_step(ev: Evaluator, budget: int, x0, extra, notes):
+    return solve_local(ev, budget, x0=x0, goal=1, extra=extra, notes=notes)
