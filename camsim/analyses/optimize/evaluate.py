@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from camsim.analyses.optimize.problem import Problem
+from camsim.analyses.optimize.problem import Problem, assignment
 from camsim.analyses.optimize.robust import is_binary, quantile_margin, violation_probability
 from camsim.analyses.study.outputs import OutputExpr, ParamExpr
 
@@ -167,7 +167,7 @@ class Evaluator:
                 value = float(value) + dev[v.key]
             out.append(v.assignment(value))
         if self.problem.absorb is not None:
-            out.append(f"{self.problem.absorb}={float(values[self.problem.absorb])!r}")
+            out.append(assignment(self.problem.absorb, float(values[self.problem.absorb])))
         if speed is not None:
             out.append(f"cam.speed={float(speed)!r}")
         if self.problem.robust:

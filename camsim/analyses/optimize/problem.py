@@ -106,7 +106,7 @@ class Variable:
         """The ``KEY=VALUE`` override of ``value`` (SI floats written exactly)."""
         if self.choices is not None:
             return f'{self.key}="{value}"'
-        return f"{self.key}={float(value)!r}"
+        return assignment(self.key, float(value), self.unit)
 
 
 @dataclass(frozen=True)
@@ -169,6 +169,14 @@ class Problem:
         return 2.0 * math.pi - total
 
 
+def assignment(key: str, value: float, unit: str = "") -> str:
+    """``KEY=VALUE`` for an SI value: a bare number, except angles (a bare segment duration is
+    read in degrees), which carry ``rad``."""
+    if unit == "rad" or re.match(r"^cam\.segments\[\d+\]\.duration$", key):
+        return f'{key}="{float(value)!r} rad"'
+    return f"{key}={float(value)!r}"
+
+
 # --------------------------------------------------------------------------------------
 # Parsing
 # --------------------------------------------------------------------------------------
@@ -180,12 +188,35 @@ def _load_error(exc: MachineFileError, where: str) -> InputError:
     return InputError(f"{where}: {exc.file}: {exc.key}: {message}")
 
 
-def parse_var(source, fixed: Sequence[str], text: str, log: bool, base) -> Variable:
-    """``KEY=LOW:HIGH[:START][UNIT]`` checked against the machine (see the module docstring)."""
-    from camsim.analyses.fit.params import _si_value, parse_param, si_unit
+def parse_var(source, fixed: Sequence[str], text: str, log: bool, base, absorb: str | None = None) -> Variable:
+    """``KEY=LOW:HIGH[:START][UNIT]`` checked against the machine (see the module docstring).
+
+    With ``absorb``, a segment duration is checked with the absorbing segment taking up the
+    difference (alone it would break the 360° total).
+    """
+    from camsim.analyses.fit.params import _si_value as _fit_si_value
+    from camsim.analyses.fit.params import parse_param, si_unit
     from camsim.analyses.sweep.runner import machine_value
 
     where = f"--var {text}"
+
+    def _si_value(source, fixed, key, value_text, where):
+        if absorb is None or not re.match(r"^cam\.segments\[\d+\]\.duration$", key):
+            return _fit_si_value(source, fixed, key, value_text, where)
+        from camsim.analyses.study.distributions import _to_si
+
+        n = _NUMBER.match(value_text)
+        if not n:
+            raise InputError(f"{where}: '{value_text}' is not a number (with an optional unit)")
+        value = _to_si(float(n.group(1)), n.group(2).replace(" ", ""), "rad", where)
+        old, rest = float(machine_value(base, key)), float(machine_value(base, absorb))
+        if rest + old - value > 0:
+            try:
+                source.load(list(fixed) + [assignment(key, value), assignment(absorb, rest + old - value)])
+            except MachineFileError as exc:
+                raise _load_error(exc, where) from None
+        return value
+
     try:
         key, values = parse_param(text)
     except InputError as exc:
@@ -205,7 +236,7 @@ def parse_var(source, fixed: Sequence[str], text: str, log: bool, base) -> Varia
         start = _si_value(source, fixed, key, values[2], where)
         if not low <= start <= high:
             raise InputError(f"{where}: START ({start:.6g}) lies outside the bounds [{low:.6g}, {high:.6g}] (SI)")
-    probe = _si_value(source, fixed, key, repr(start), where)
+    probe = _si_value(source, fixed, key, repr(start), where) if not key.startswith("cam.segments") else start
     if not math.isclose(probe, start, rel_tol=1e-12, abs_tol=1e-300):
         raise InputError(f"{where}: {key}: a bare number is not read in SI for this key; it cannot be optimised")
     if log and low <= 0:
@@ -324,9 +355,18 @@ def build_problem(
     for k in log_keys:
         if k not in var_keys:
             raise InputError(f"--log {k}: not one of the --var keys ({', '.join(var_keys) or 'none'})")
+    absorb_key = None
+    if absorb is not None:
+        absorb_key = absorb.strip()
+        m = re.match(r"^cam\.segments\[(\d+)\]\.duration$", absorb_key)
+        n_seg = len(base.cam.segments) if base.cam is not None and base.cam.segments else 0
+        if not m:
+            raise InputError(f"--absorb {absorb}: must be a segment duration, cam.segments[i].duration")
+        if int(m.group(1)) >= n_seg:
+            raise InputError(f"--absorb {absorb}: no segment {m.group(1)}: the machine has {n_seg} (indices start at 0)")
     out: list[Variable] = []
     for text in variables:
-        out.append(parse_var(source, fixed, text, parse_param_key(text) in log_keys, base))
+        out.append(parse_var(source, fixed, text, parse_param_key(text) in log_keys, base, absorb_key))
     for text in choices:
         out.append(parse_choice(source, fixed, text, base))
     keys = [v.key for v in out]

@@ -91,6 +91,7 @@ class OptimizeResult:
     history: Path | None = None
     source_text: str = ""
     source_name: str = ""
+    fixed: list[str] = field(default_factory=list)
 
     @property
     def feasible(self) -> bool:
@@ -114,9 +115,9 @@ class OptimizeResult:
                 e = next((x for x in s["constraints"] if x["expr"] == c.text), None)
                 if e is None:
                     continue
-                scale = max(abs(c.limit), abs(e["value"]) if math.isfinite(e["value"]) else 0.0, 1e-300)
+                scale = max(abs(c.limit), abs(e["value"]) if math.isfinite(e["value"]) else 0.0)
                 margin = e.get("quantile_margin", e["margin"])
-                if math.isfinite(margin) and abs(margin) <= ACTIVE_TOLERANCE * scale:
+                if scale > 0 and math.isfinite(margin) and abs(margin) <= ACTIVE_TOLERANCE * scale:
                     out.append(c.text)
                     break
         return out
@@ -479,6 +480,7 @@ def optimize(
         budget=budget, executor=executor.name, units=units, p_max=max_probability,
         samples=int(samples) if robust else 0, notes=notes,
         history=None if history is None else Path(history), source_text=source.text, source_name=source.source,
+        fixed=list(fixed),
     )
     from camsim.analyses.optimize.files import write_history, write_optimised
 
