@@ -25,7 +25,7 @@ from camsim.errors import InputError, SimulationError
 from camsim.units import QuantityError, to_si
 
 #: Human output: stderr, colours only on a terminal; wide enough for the tables in logs.
-err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+err_console = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)  # ":100:" in a range is not 💯
 if not err_console.is_terminal:
     err_console.width = 140
 

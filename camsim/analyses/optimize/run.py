@@ -345,6 +345,10 @@ def optimize(
         raise InputError(f"--choice: needs --method de (a local method cannot search a categorical key)")
     if method == "pareto" and points < 3:
         raise InputError(f"--points {points}: the front needs at least 3")
+    x_file = [v.to_unit(v.start) for v in problem.variables]
+    inside = all(0.0 <= u <= (v.high if v.is_choice else 1.0) for u, v in zip(x_file, problem.variables))
+    if not inside and method == "local":
+        raise InputError("--method local: the file's values lie outside the --var bounds; give START (KEY=LOW:HIGH:START)")
     from camsim.io.rowstore import journal_path_for
 
     journal = journal_path_for(history) if history is not None else None
@@ -431,14 +435,10 @@ def optimize(
             on_start(budget, len(cache), executor.name)
         from camsim.analyses.optimize import solvers
 
-        # The file's values first (the reference the report compares with), when inside the bounds.
-        x_file = [v.to_unit(v.start) for v in problem.variables]
-        inside = all(0.0 <= u <= (v.high if v.is_choice else 1.0) for u, v in zip(x_file, problem.variables))
+        # The file's values (or START) first: the reference the report compares with.
         ev.budget = budget
         if inside:
             initial = ev.evaluate([tuple(x_file)])[0]
-        elif method == "local":
-            raise InputError("--method local: the file's values lie outside the --var bounds; give START (KEY=LOW:HIGH:START)")
         remaining = budget - len(ev.candidates)
         if method == "de":
             solvers.solve_de(ev, int(seed), budget, notes=notes)
