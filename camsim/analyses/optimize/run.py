@@ -463,6 +463,7 @@ def optimize(
             store.close()
         raise OptimizeInterrupted(len(ev.candidates), ev.runs_made + len(cache), None if history is None else Path(history), ev.lost)
 
+    notes = list(dict.fromkeys(notes))
     best = ev.best(0)
     status = "optimal"
     if method == "pareto":

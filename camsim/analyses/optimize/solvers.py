@@ -20,7 +20,7 @@ every variable has the same scale. Constraints are the evaluator's scaled values
   preload of the tests) it stopped at an infeasible point; COBYLA lands on the bound in 8
   evaluations. Trust region from :data:`RHOBEG` down to :data:`RHOEND` in coordinates.
 * ``pareto``: an ε-constraint sweep (Haimes et al. 1971): the two anchors (each objective
-  alone), then for ``points`` levels ε between them, minimise the second objective subject
+  alone, then the other objective at that best value: lexicographic), then for ``points`` levels ε between them, minimise the second objective subject
   to the first ≤ ε, each from the previous solution with the local method; the
   non-dominated candidates of everything evaluated are the front. Why this and not
   NSGA-II: ``docs/optimize.md`` ("Pareto fronts") and ``bench/bench_pareto.py``.
@@ -147,8 +147,8 @@ def solve_local(ev: Evaluator, budget: int, x0=None, goal: int = 0, extra=None, 
                        options={"maxiter": max(n + 2, budget), "rhobeg": RHOBEG, "tol": RHOEND})
         return np.asarray(res.x)
     except BudgetExhausted:
-        if notes is not None:
-            notes.append(f"stopped at the budget of {budget} evaluations")
+        if notes is not None and ev.budget is not None and len(ev.candidates) >= ev.budget:
+            notes.append(f"stopped at the budget of {ev.budget} evaluations")
         return None
 
 
@@ -171,15 +171,24 @@ def solve_pareto(ev: Evaluator, budget: int, points: int, notes: list[str] | Non
         from camsim.errors import InputError
 
         raise InputError("--method pareto: needs two objectives (--minimize A --minimize B, or --maximize)")
-    each = max(4, budget // (points + 2))
+    each = max(4, budget // (points + 4))
     start = ev.budget
     try:
-        xa = solve_local(ev, each, goal=0)
+        solve_local(ev, each, goal=0)
         ca = ev.best(0)
-        xb = solve_local(ev, each, goal=1)
+        solve_local(ev, each, goal=1)
         cb = ev.best(1)
         if ca is None or cb is None:
             return pareto_front(ev.candidates, senses)
+        # Lexicographic anchors: the best of one objective may be reached by many points;
+        # of those, the one best in the other objective is on the front.
+        span0 = abs(ca.f(senses)[0] - cb.f(senses)[0]) or 1.0
+        span1 = abs(ca.f(senses)[1] - cb.f(senses)[1]) or 1.0
+        limit_a, limit_b = ca.f(senses)[0], cb.f(senses)[1]
+        solve_local(ev, each, x0=np.array(ca.x), goal=1, notes=notes,
+                    extra=lambda c: (limit_a - c.f(senses)[0]) / span0 if math.isfinite(c.f(senses)[0]) else -1e6)
+        solve_local(ev, each, x0=np.array(cb.x), goal=0, notes=notes,
+                    extra=lambda c: (limit_b - c.f(senses)[1]) / span1 if math.isfinite(c.f(senses)[1]) else -1e6)
         fa, fb = ca.f(senses)[0], cb.f(senses)[0]
         x = np.array(cb.x, dtype=float)
         for k in range(1, points - 1):
@@ -187,14 +196,12 @@ def solve_pareto(ev: Evaluator, budget: int, points: int, notes: list[str] | Non
 
             def extra(c, eps=eps):
                 v = c.f(senses)[0]
-                span = abs(fa - fb) or 1.0
-                return (eps - v) / span if math.isfinite(v) else -1e6
+                return (eps - v) / span0 if math.isfinite(v) else -1e6
 
             x_new = _eps_step(ev, each, x, extra, notes)
             if x_new is None:
                 break
             x = x_new
-        del xa, xb
     except BudgetExhausted:
         if notes is not None:
             notes.append(f"stopped at the budget of {start} evaluations")
