@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from camsim.errors import InputError, SimulationError
-from camsim.analyses.optimize.evaluate import Candidate, Evaluator, RunSpec
+from camsim.analyses.optimize.evaluate import BudgetExhausted, Candidate, Evaluator, RunSpec
 from camsim.analyses.optimize.problem import Problem, build_problem, expression_units
 
 __all__ = ["optimize", "OptimizeResult", "OptimizeInterrupted", "METHODS", "DEFAULT_BUDGET"]
@@ -440,12 +440,15 @@ def optimize(
         if inside:
             initial = ev.evaluate([tuple(x_file)])[0]
         remaining = budget - len(ev.candidates)
-        if method == "de":
-            solvers.solve_de(ev, int(seed), budget, notes=notes)
-        elif method == "local":
-            solvers.solve_local(ev, remaining, notes=notes)
-        else:
-            front = solvers.solve_pareto(ev, remaining, int(points), notes=notes)
+        try:
+            if method == "de":
+                solvers.solve_de(ev, int(seed), budget, notes=notes)
+            elif method == "local":
+                solvers.solve_local(ev, remaining, notes=notes)
+            else:
+                front = solvers.solve_pareto(ev, remaining, int(points), notes=notes)
+        except BudgetExhausted:
+            notes.append(f"stopped at the budget of {budget} evaluations")
     except KeyboardInterrupt:
         interrupted = True
         try:
