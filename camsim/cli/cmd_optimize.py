@@ -67,7 +67,7 @@ def _render(result) -> None:
         err.print(f"  {p.absorb} = {_fmt(math.degrees(result.best.values[p.absorb]))} deg (absorbs the rest of 360 deg; "
                   f"file: {_fmt(math.degrees(p.absorb_initial))} deg)", markup=False)
     for k, g in enumerate(p.goals):
-        init = "" if result.initial is None else f"   (file: {_fmt(result.initial.objectives[k])})"
+        init = "" if result.initial is None else f"   (file: {_fmt(result.initial.objectives[k])} {g.unit})".replace(" )", ")")
         err.print(f"  {g.sense}imise {g.text} = {_fmt(result.best.objectives[k])} {g.unit}{init}", markup=False)
     for s in result.best.per_speed:
         where = "" if s["speed"] is None else f" at {s['speed'] * 60 / (2 * math.pi):.6g} rpm"
