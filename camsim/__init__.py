@@ -28,7 +28,7 @@ _LAZY = {
     "plot_result": "camsim.figures.plots",
 }
 #: Subpackages that are also callables: ``camsim.analyses.fit(...)``.
-_LAZY_PACKAGES = {"fit": "camsim.analyses.fit", "study": "camsim.analyses.study"}
+_LAZY_PACKAGES = {"fit": "camsim.analyses.fit", "study": "camsim.analyses.study", "optimize": "camsim.analyses.optimize"}
 
 __all__ = [
     "__version__",

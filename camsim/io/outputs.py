@@ -148,7 +148,8 @@ def result_owner(path: str | os.PathLike[str], kind: str | None = None) -> str |
     """Which camsim command wrote an existing result, or None when camsim did not.
 
     HDF5: the root attribute ``file_kind`` (``run``, ``compare``, ``sweep``, ``study``,
-    ``cam``, ...). TOML: ``lump`` (its header line), ``fit`` (its ``# fitted:`` notes);
+    ``cam``, ...). TOML: ``lump`` (its header line), ``fit`` (its ``# fitted:`` notes),
+    ``optimize`` (its ``# optimised:`` notes);
     a machine file written by hand is None. CSV: ``csv`` (camsim writes CSVs beside its
     results and from ``export``; a CSV is never a user's only copy of anything camsim
     reads, except a measured file, which is an input and refused by :func:`check_output`).
@@ -174,6 +175,8 @@ def result_owner(path: str | os.PathLike[str], kind: str | None = None) -> str |
             return "lump"
         if "# fitted:" in text:
             return "fit"
+        if "# optimised:" in text:
+            return "optimize"
         return None
     if kind == "csv":
         return "csv"

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from camsim.errors import InputError
 
-__all__ = ["fitted_text", "write_fitted", "VALUE_DIGITS"]
+__all__ = ["edited_text", "fitted_text", "write_fitted", "VALUE_DIGITS"]
 
 #: Significant digits of a fitted value written into the file.
 VALUE_DIGITS = 7
@@ -100,27 +100,61 @@ def fitted_text(text: str, result, source: str = "<string>") -> str:
     str
         The fitted machine file (same comments and layout; see the module docstring).
     """
+    entries = []
+    for i, key in enumerate(result.keys):
+        if key == "align.offset":
+            continue
+        lo, hi = (float(v) for v in result.ci95[i])
+
+        def note(was, shown, shown_unit, lo=lo, hi=hi):
+            if math.isfinite(lo) and math.isfinite(hi):
+                interval = f"95 % CI {shown(lo)} to {shown(hi)}{shown_unit}"
+            else:
+                interval = "95 % CI not determined by the data"
+            return f"fitted: {was}; {interval}"
+
+        entries.append((key, float(result.values[i]), result.units[i], float(result.file_values[i]), note))
+    return edited_text(text, entries, source, "fitted")
+
+
+def edited_text(text: str, entries, source: str = "<string>", what: str = "fitted") -> str:
+    """The machine file ``text`` with values written in place, each line commented.
+
+    Shared by ``fit`` (FITTED.toml) and ``optimize`` (OPTIMISED.toml).
+
+    Parameters
+    ----------
+    text : str
+        The machine file as read.
+    entries : sequence of (key, value, si_unit, file_value, note)
+        ``value`` an SI float (written in the unit the file used for it) or a string (a
+        choice such as a law, written as is); ``note(was, shown, shown_unit)`` returns the
+        comment, ``was`` being ``'was <old value as written>'``.
+    source : str
+        The file name (for messages).
+    what : str
+        What the values are, for messages.
+    """
     import tomlkit
 
     doc = tomlkit.parse(text)
     inline_notes: list[tuple[str, str, str]] = []
-    for i, key in enumerate(result.keys):
-        if key == "align.offset":
-            continue
-        value = float(result.values[i])
-        lo, hi = (float(v) for v in result.ci95[i])
-        si_unit = result.units[i]
+    for i, (key, value, si_unit, file_value, note_of) in enumerate(entries):
         try:
             table, leaf, inline = _locate(doc, key)
         except (KeyError, IndexError, StopIteration, TypeError):
-            raise InputError(f"{source}: {key}: not found in the machine file to write the fitted value") from None
+            raise InputError(f"{source}: {key}: not found in the machine file to write the {what} value") from None
         old = table.get(leaf)
         old_item = table.item(leaf) if leaf in table else None
         unit = ""
-        if isinstance(old, str):
+        if isinstance(old, str) and not isinstance(value, str):
             m = _NUMBER.match(old)
             unit = m.group(2) if m else ""
-        if unit and _in_unit(1.0, unit, si_unit) is not None:
+        if isinstance(value, str):
+            new_value = tomlkit.string(value)
+            shown = str
+            shown_unit = ""
+        elif unit and _in_unit(1.0, unit, si_unit) is not None:
             new_value = tomlkit.string(f"{_number(_in_unit(value, unit, si_unit))} {unit}")
             shown = lambda v: _number(_in_unit(v, unit, si_unit))  # noqa: E731
             shown_unit = f" {unit}"
@@ -128,14 +162,15 @@ def fitted_text(text: str, result, source: str = "<string>") -> str:
             new_value = tomlkit.item(float(_number(value)))
             shown = _number
             shown_unit = f" {si_unit}" if si_unit else ""
-        if math.isfinite(lo) and math.isfinite(hi):
-            interval = f"95 % CI {shown(lo)} to {shown(hi)}{shown_unit}"
+        if old is not None:
+            was = f"was {tomlkit.item(old).as_string()}"
+        elif isinstance(file_value, str):
+            was = f"was the default {file_value}"
         else:
-            interval = "95 % CI not determined by the data"
-        was = f"was {tomlkit.item(old).as_string()}" if old is not None else f"was the default {_number(float(result.file_values[i]))}{shown_unit}"
-        note = f"fitted: {was}; {interval}"
+            was = f"was the default {_number(float(file_value))}{shown_unit}"
+        note = note_of(was, shown, shown_unit)
         if inline:
-            marker = f"@@camsim-fit-{i}@@"
+            marker = f"@@camsim-{what}-{i}@@"
             inline_notes.append((marker, new_value.as_string(), note))
             table[leaf] = marker
             continue

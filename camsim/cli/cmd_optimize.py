@@ -1,0 +1,178 @@
+"""``camsim optimize``: the machine that minimises (or maximises) an objective under constraints."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import typer
+
+from camsim.cli.app import app, err_console, fail, print_json, user_errors
+
+
+class _Progress:
+    """Evaluations done / budget, the best feasible objective so far and an ETA, on stderr."""
+
+    def __init__(self, quiet: bool, unit: str = "") -> None:
+        self.enabled = not quiet and err_console.is_terminal
+        self.progress = None
+        self.task = None
+        self.t0 = time.monotonic()
+        self.unit = unit
+
+    def start(self, budget: int, stored: int, executor: str) -> None:
+        if stored:
+            err_console.print(f"resuming: {stored} runs already stored are reused", markup=False)
+        if not self.enabled:
+            return
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self.progress = Progress(TextColumn(f"optimize ({executor})"), BarColumn(), MofNCompleteColumn(),
+                                 TextColumn("evaluations"), TextColumn("{task.fields[best]}"), TextColumn("ETA"),
+                                 TimeRemainingColumn(), console=err_console, transient=True)
+        self.progress.start()
+        self.task = self.progress.add_task("optimize", total=budget, best="best: none feasible yet")
+
+    def __call__(self, done: int, budget: int | None, best: float | None) -> None:
+        if self.progress is None:
+            return
+        text = "best: none feasible yet" if best is None else f"best: {best:.6g} {self.unit}".rstrip()
+        self.progress.update(self.task, completed=done, total=budget, best=text)
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+            self.progress = None
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, str):
+        return v
+    return "—" if not math.isfinite(v) else f"{v:.6g}"
+
+
+def _render(result) -> None:
+    p = result.problem
+    err = err_console
+    head = {"optimal": "optimum", "infeasible": "NO FEASIBLE CANDIDATE; the least-violating one"}[result.status]
+    err.print(f"{head} after {len(result.candidates)} evaluations ({result.runs} runs, {result.method}, seed {result.seed}):", markup=False)
+    for v in p.variables:
+        new = result.best.values.get(v.key)
+        unit = f" {v.unit}" if v.unit and not v.is_choice else ""
+        err.print(f"  {v.key} = {_fmt(new)}{unit}   (file: {_fmt(v.initial)}{unit})", markup=False)
+    if p.absorb is not None:
+        err.print(f"  {p.absorb} = {_fmt(math.degrees(result.best.values[p.absorb]))} deg (absorbs the rest of 360 deg; "
+                  f"file: {_fmt(math.degrees(p.absorb_initial))} deg)", markup=False)
+    for k, g in enumerate(p.goals):
+        init = "" if result.initial is None else f"   (file: {_fmt(result.initial.objectives[k])} {g.unit})".replace(" )", ")")
+        err.print(f"  {g.sense}imise {g.text} = {_fmt(result.best.objectives[k])} {g.unit}{init}", markup=False)
+    for s in result.best.per_speed:
+        where = "" if s["speed"] is None else f" at {s['speed'] * 60 / (2 * math.pi):.6g} rpm"
+        for c in s["constraints"]:
+            line = f"  {c['expr']}{where}: {_fmt(c['value'])} ({'ok' if c['satisfied'] else 'VIOLATED'})"
+            if "probability" in c:
+                lo, hi = c["ci95"]
+                line += f", P(violation) = {_fmt(c['probability'])} (95 % {_fmt(lo)} … {_fmt(hi)}, {c['method']})"
+            err.print(line, markup=False)
+    if result.active():
+        err.print("  active: " + ", ".join(result.active()), markup=False)
+    if result.front:
+        err.print(f"Pareto front: {len(result.front)} points", markup=False)
+        for c in result.front:
+            err.print("  " + "  ".join(f"{g.text} = {_fmt(c.objectives[k])}" for k, g in enumerate(p.goals)), markup=False)
+    for n in result.notes:
+        err.print(f"note: {n}", markup=False)
+
+
+@app.command("optimize")
+def optimize_command(
+    machine: Path = typer.Argument(..., help="Machine file (TOML)."),
+    var: list[str] = typer.Option([], "--var", metavar="KEY=LOW:HIGH[:START][UNIT]", help="A continuous machine key and its bounds (repeatable), e.g. element.K23.preload=20:40lbf."),
+    log: list[str] = typer.Option([], "--log", metavar="KEY", help="Search this --var on a log scale (repeatable)."),
+    choice: list[str] = typer.Option([], "--choice", metavar="KEY=a,b,c", help="A categorical key and its options (repeatable; --method de), e.g. cam.segments[0].law=cycloidal,poly345."),
+    absorb: str = typer.Option(None, "--absorb", metavar="cam.segments[i].duration", help="This segment takes up whatever the other durations leave of 360 deg."),
+    minimize: list[str] = typer.Option([], "--minimize", metavar="EXPR", help="Objective to minimise: a run scalar, REDUCER:PATH[@FROM:TO] or param:KEY."),
+    maximize: list[str] = typer.Option([], "--maximize", metavar="EXPR", help="Objective to maximise (two objectives in all with --method pareto)."),
+    constraint: list[str] = typer.Option([], "--constraint", metavar="EXPR<=VALUE[UNIT]", help='A constraint (repeatable), e.g. "min_cam_contact_force>=50N", "jump<=0".'),
+    speeds: str = typer.Option(None, "--speeds", metavar="FROM:TO:STEP[UNIT]", help="Evaluate every candidate at each speed (default unit rpm); objective: worst over them; constraints: at each."),
+    robust: bool = typer.Option(False, "--robust", help="Constraints as violation probabilities over the --dist tolerances (common random numbers)."),
+    dist: list[str] = typer.Option([], "--dist", metavar="KEY=SPEC", help="A tolerance, as in camsim study (repeatable; with --robust). On an optimised key it is the deviation from the candidate."),
+    samples: int = typer.Option(32, "--samples", "-n", help="Robust samples N per candidate and speed (the same N draws for every candidate)."),
+    max_probability: float = typer.Option(1e-3, "--max-probability", help="Largest violation probability of each robust constraint."),
+    tol_sigma: float = typer.Option(3.0, "--tol-sigma", help="Standard deviations between a tol: nominal and its limits."),
+    method: str = typer.Option("de", "--method", help="de (differential evolution), local (COBYLA / Brent from the file's values) or pareto (two objectives, epsilon-constraint)."),
+    budget: int = typer.Option(None, "--budget", help="Largest number of candidate evaluations (default: de 300, local 60, pareto 120)."),
+    points: int = typer.Option(11, "--points", help="Points of the Pareto front's epsilon sweep."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the solver and of the robust samples."),
+    out: Path = typer.Option(None, "-o", "--out", metavar="OPTIMISED.toml", help="The machine file with the optimum written in place (not written when nothing is feasible)."),
+    history: Path = typer.Option(None, "-r", "--history", metavar="HISTORY.h5", help="Every evaluation (HDF5); its journal makes --resume possible."),
+    resume: bool = typer.Option(False, "--resume", help="Continue an interrupted optimisation (same command): stored runs are reused, none repeated."),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted optimisation left and start again."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
+    plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Convergence, the front, and the optimum's response against the file's."),
+    set_: list[str] = typer.Option([], "--set", help="Override a machine key for every run (repeatable)."),
+    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per run."),
+    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first."),
+    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz".'),
+    workers: int = typer.Option(None, "--workers", min=1, help="Local worker processes (default: the number of cores; 1 runs serially)."),
+    scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
+    dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers."),
+    json_: bool = typer.Option(False, "--json", help="Print the result as JSON on stdout (schema in docs/optimize.md)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Optimise MACHINE: the --var/--choice values that minimise or maximise the objective
+    while every --constraint holds at every --speeds speed (with --robust: for all but
+    --max-probability of the machines as built).
+
+    Exit 0 with a feasible optimum, 1 when no candidate is feasible (the least-violating one
+    is reported, no OPTIMISED.toml is written), 2 on bad input, 130 after Ctrl-C or SIGTERM
+    (every finished run is kept: the same command with --resume continues).
+    """
+    from camsim.analyses.optimize import OptimizeInterrupted, optimize
+    from camsim.analyses.optimize.policy import check_outputs
+    from camsim.errors import InputError
+    from camsim.run.lifecycle import sigterm_as_interrupt
+
+    bar = _Progress(quiet)
+    with user_errors(), sigterm_as_interrupt():
+        rate = None
+        if sample_rate is not None:
+            from camsim.units import QuantityError, to_si
+
+            try:
+                rate = to_si(sample_rate, "frequency")
+            except QuantityError as exc:
+                raise InputError(f"--sample-rate: {exc}") from None
+        check_outputs([machine], {"--plot": plot}, None, False, False, force)
+        try:
+            result = optimize(
+                machine, var, minimize=minimize, maximize=maximize, constraints=constraint, choices=choice, log=log,
+                absorb=absorb, speeds=speeds, robust=robust, dists=dist, samples=samples, max_probability=max_probability,
+                tol_sigma=tol_sigma, method=method, budget=budget, points=points, seed=seed, fixed=set_, cycles=cycles,
+                warmup_cycles=warmup, sample_rate=rate, workers=workers, scheduler=scheduler, dask_local=dask_local,
+                output=out, history=history, resume=resume, fresh=fresh, force=force, progress=bar, on_start=bar.start,
+            )
+        except OptimizeInterrupted as exc:
+            bar.close()
+            where = f" in {exc.history} (and its .journal)" if exc.history is not None else " nowhere (no -r HISTORY.h5)"
+            why = f"{exc.lost} run(s) lost with a worker process; " if exc.lost else ""
+            raise fail(f"interrupted: {why}{exc.runs} runs of {exc.evaluations} evaluations are kept{where}; "
+                       "run the same command with --resume to continue", 130) from None
+        finally:
+            bar.close()
+        if plot is not None:
+            from camsim.figures.optimize import save_optimize_plot
+
+            save_optimize_plot(result, plot)
+        if json_:
+            print_json(result.to_json())
+        else:
+            _render(result)
+            wrote = [str(p) for p in (result.output, result.history, plot) if p is not None]
+            if wrote:
+                err_console.print("wrote " + ", ".join(wrote), markup=False)
+        if not result.feasible:
+            raise fail("no candidate meets the constraints (the least-violating one is reported); OPTIMISED.toml not written", 1)
