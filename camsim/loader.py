@@ -185,6 +185,16 @@ def load_machine_text(
                 exc.file, exc.key, f"{exc.message} (value from --set {origin[exc.key]})"
             ) from None
         raise
+    if machine.cam is not None and machine.cam.compensation is not None:  # issue 27
+        from camsim.compensation import CompensationError, compensate
+
+        try:
+            machine = compensate(machine)
+        except CompensationError as exc:
+            message = exc.message
+            if exc.key in origin:
+                message += f" (value from --set {origin[exc.key]})"
+            raise MachineFileError(source, exc.key, message) from None
     if overrides:
         import tomli_w
 
