@@ -50,7 +50,7 @@ import numpy as np
 
 from camsim.cam.compensated import CompensatedProfile
 from camsim.cam.program import CamProgram
-from camsim.elements import CAM, GROUND, Contact, Element, PreloadedLink
+from camsim.elements import CAM, GROUND, Element
 from camsim.elements.base import Branch
 from camsim.machine import Cam, Machine
 
@@ -149,12 +149,17 @@ def _damping(machine: Machine, e: Element) -> dict[str, float]:
     return e.damping_coefficients(ref, lambda: reduced_mass(machine, e))
 
 
+def _two_sided(e: Element) -> bool:
+    """A clearance element (a lash): free inside its clearance, closed on either side."""
+    return len(getattr(e, "closed_branches", ())) > 1
+
+
 def _held_branch(e: Element):
-    if isinstance(e, PreloadedLink):
-        return Branch.JOINED
-    if isinstance(e, Contact):
-        return Branch.STUCK if e.is_constraint(Branch.STUCK) else Branch.CLOSED
-    return None
+    """The branch the design takes: a contact closed, a preloaded link joined (its first branch)."""
+    if e.unilateral:
+        return Branch.STUCK if e.is_constraint(Branch.STUCK) else getattr(e, "closed_branch", Branch.CLOSED)
+    branches = e.branches(False)
+    return branches[0] if branches else None
 
 
 def _element_key(machine: Machine, e: Element) -> str:
@@ -246,7 +251,8 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
                 sigma = 1.0 if e.lower == path[j - 1] else -1.0
                 laws[j].append((e, None, sigma * e.gap))
                 continue
-            law = e.linear_law(branch, _damping(machine, e)) if not e.is_nonlinear(branch) else None
+            nonlinear = _two_sided(e) or e.is_nonlinear(branch)
+            law = None if nonlinear else e.linear_law(branch, _damping(machine, e))
             if law is None:
                 raise CompensationError(key, f"{e.name} is on the path from {output} to the cam and its force law "
                                         "is nonlinear; compensation needs linear elements on the path (springs, "
@@ -277,7 +283,7 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
         known = reaction
         for e in others[node]:
             other = e.upper if e.lower == node else e.lower
-            if isinstance(e, Contact) or e.type_name == "lash":
+            if e.unilateral or _two_sided(e):
                 continue  # off the path: open
             key = _element_key(machine, e)
             if other != GROUND and other not in x:
