@@ -12,9 +12,14 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # issue 14: [cam.geometry]
     from camsim.cam.arrangement import CamGeometry
+    from camsim.cam.compensated import CompensatedProfile  # issue 27
 
 MOTIONS = ("rise", "fall", "dwell")
 LAWS = ("cycloidal", "harmonic", "modified-trapezoid", "modified-sine", "poly345", "poly4567")
+#: Laws written from conditions (issue 27, spec §2 "Motion synthesis").
+SYNTHESIS_LAWS = ("polynomial", "constant-velocity", "spline")
+#: Derivative keys of a ``start``/``end``/point table and their order (v = 1st …).
+DERIVATIVE_KEYS = {"v": 1, "a": 2, "j": 3, "d4": 4, "d5": 5, "d6": 6}
 
 
 @dataclass(frozen=True)
@@ -38,6 +43,48 @@ class Segment:
     law: str | None
     duration: float
     lift: float
+    # issue 27: motion synthesis (polynomial, constant-velocity, spline); SI, roller side.
+    continuity: int | None = None
+    start: tuple[tuple[int, float], ...] = ()
+    end: tuple[tuple[int, float], ...] = ()
+    points: tuple[SegmentPoint, ...] = ()
+    velocity: float | None = None
+    degree: int | None = None
+
+
+@dataclass(frozen=True)
+class SegmentPoint:
+    """An interior condition of a ``polynomial`` or ``spline`` segment (issue 27).
+
+    Attributes
+    ----------
+    at : float
+        Cam angle from the segment's start [rad], strictly inside the segment.
+    s : float or None
+        Roller lift there [m], measured like the program (from the base circle).
+    derivatives : tuple of (int, float)
+        (order, value) pairs: v [m/s], a [m/s^2] at the roller at ``cam.speed``.
+    """
+
+    at: float
+    s: float | None = None
+    derivatives: tuple[tuple[int, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class Compensation:
+    """``[cam.compensation]`` (issue 27): the written program is wanted at ``output``.
+
+    Attributes
+    ----------
+    output : str
+        The output mass whose motion the written program prescribes.
+    speed : float
+        Design speed ω [rad/s] of the compensation.
+    """
+
+    output: str
+    speed: float
 
 
 @dataclass(frozen=True)
@@ -96,6 +143,11 @@ class Cam:
     drives: str | None = None
     start_angle: float = 0.0
     geometry: CamGeometry | None = None  # issue 14: [cam.geometry]
+    # issue 27: [cam.compensation]; ``compensated`` is the computed cam profile and
+    # ``output_program`` the written (wanted output) program, both set by the loader.
+    compensation: Compensation | None = None
+    compensated: CompensatedProfile | None = None
+    output_program: Cam | None = None
 
     @property
     def period(self) -> float:

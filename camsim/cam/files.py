@@ -29,7 +29,9 @@ def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, p
     start angles [deg], segment cams only); with ``[cam.geometry]`` also
     ``/cam/pressure_angle`` [deg], ``/cam/pitch_radius_of_curvature``,
     ``/cam/surface_radius_of_curvature`` [m], ``/cam/pitch_curve``, ``/cam/surface``
-    (N, 2) [m]; root attributes as in a run file.
+    (N, 2) [m]; with ``[cam.compensation]`` (issue 27) ``/cam/...`` is the compensated cam and
+    ``/cam/output_program/{displacement,velocity,acceleration}`` the wanted output motion;
+    root attributes as in a run file.
     Written through :func:`camsim.io.atomic.atomic_path`.
     """
     data = sample_revolution(program, points)
@@ -48,6 +50,15 @@ def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, p
                     geometry, program, np.radians(data["angle"])
                 ).items():
                     write_trace(f, path_, values, units, long_name, time)
+            compensated = getattr(machine.cam, "compensated", None)
+            if compensated is not None:  # issue 27: the wanted output motion, same time base
+                from camsim.cam import CamProgram
+
+                out = CamProgram(machine.cam.output_program).svaj(data["time"])
+                for (name, units, _), values in zip(TRACES[:3], out[:3]):
+                    write_trace(f, f"cam/output_program/{name}", values, units,
+                                f"wanted {name} of {compensated.output} (the written program) on the model axis",
+                                time)
             if program.kind == "segments":
                 write_trace(
                     f, "cam/boundaries_deg", np.degrees(program.boundary_angles()), "deg", "cam angles of segment joins"

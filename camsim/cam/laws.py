@@ -40,7 +40,7 @@ import numpy as np
 
 from camsim.cam.description import LAWS
 
-__all__ = ["LAWS", "NORTON_PEAKS", "evaluate_law", "rise", "fall"]
+__all__ = ["LAWS", "NORTON_PEAKS", "evaluate_law", "rise", "rise_derivatives", "fall"]
 
 _PI = math.pi
 
@@ -115,6 +115,28 @@ class _PiecewiseAcceleration:
             y2 = np.full_like(u, p.b)
             y3 = np.zeros_like(u)
         return y * scale, y1 * scale, y2 * scale, y3 * scale
+
+    def derivatives(self, u: np.ndarray, order: int) -> np.ndarray:
+        """y and its derivatives up to ``order`` (rows), closed form on each piece."""
+        out = np.zeros((order + 1, u.size))
+        low = self(u)
+        for n in range(min(order, 3) + 1):
+            out[n] = low[n]
+        for i, (p, _) in enumerate(zip(self.pieces, self.consts)):
+            if order < 4 or not p.k:
+                continue
+            mask = self._mask(i, u)
+            arg = p.k * (u[mask] - p.c)
+            for n in range(4, order + 1):
+                # d^(n-2)/du^(n-2) of a·cos(k(u−c)) = a·k^(n−2)·cos(k(u−c) + (n−2)π/2)
+                out[n, mask] = self.scale * p.a * p.k ** (n - 2) * np.cos(arg + (n - 2) * _PI / 2)
+        return out
+
+    def _mask(self, i: int, u: np.ndarray) -> np.ndarray:
+        p = self.pieces[i]
+        if i == len(self.pieces) - 1:
+            return u >= p.u0
+        return (u >= p.u0) & (u < p.u1) if i else u < p.u1
 
     def __call__(self, u: np.ndarray):
         out = [np.empty_like(u) for _ in range(4)]
@@ -191,13 +213,15 @@ def _polynomial(coeffs: dict[int, float]):
     return law
 
 
+_POLY_COEFFS = {"poly345": {3: 10.0, 4: -15.0, 5: 6.0}, "poly4567": {4: 35.0, 5: -84.0, 6: 70.0, 7: -20.0}}
+
 _FUNCTIONS = {
     "cycloidal": _cycloidal,
     "harmonic": _harmonic,
     "modified-trapezoid": _MOD_TRAP,
     "modified-sine": _MOD_SINE,
-    "poly345": _polynomial({3: 10.0, 4: -15.0, 5: 6.0}),
-    "poly4567": _polynomial({4: 35.0, 5: -84.0, 6: 70.0, 7: -20.0}),
+    "poly345": _polynomial(_POLY_COEFFS["poly345"]),
+    "poly4567": _polynomial(_POLY_COEFFS["poly4567"]),
 }
 assert set(_FUNCTIONS) == set(LAWS)
 
@@ -230,6 +254,52 @@ def rise(name: str, u) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     shape = u_arr.shape
     values = func(u_arr.reshape(-1))
     return tuple(np.asarray(v, dtype=float).reshape(shape) for v in values)  # type: ignore[return-value]
+
+
+def rise_derivatives(name: str, u, order: int) -> np.ndarray:
+    """Normalised rise y(u) and its derivatives 0…``order`` with respect to u, in closed form.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`camsim.machine.description.LAWS`.
+    u : array_like
+        Normalised angle [-] (clipped to [0, 1]), 1-D.
+    order : int
+        Highest derivative wanted (≥ 0).
+
+    Returns
+    -------
+    ndarray
+        Shape (order + 1, len(u)): row n is dⁿy/duⁿ [-].
+    """
+    u_arr = np.clip(np.atleast_1d(np.asarray(u, dtype=float)), 0.0, 1.0).reshape(-1)
+    if name not in _FUNCTIONS:
+        raise ValueError(f"unknown cam law {name!r}; expected one of {', '.join(LAWS)}")
+    if name in ("modified-trapezoid", "modified-sine"):
+        return _FUNCTIONS[name].derivatives(u_arr, order)
+    out = np.zeros((order + 1, u_arr.size))
+    low = _FUNCTIONS[name](u_arr)
+    for n in range(min(order, 3) + 1):
+        out[n] = low[n]
+    if order < 4:
+        return out
+    if name == "cycloidal":  # y″ = w·sin(wu), w = 2π
+        w = 2 * _PI
+        for n in range(4, order + 1):
+            out[n] = w ** (n - 1) * np.sin(w * u_arr + (n - 2) * _PI / 2)
+    elif name == "harmonic":  # y = (1 − cos πu)/2
+        for n in range(4, order + 1):
+            out[n] = -0.5 * _PI**n * np.cos(_PI * u_arr + n * _PI / 2)
+    else:  # the two polynomials
+        coeffs = _POLY_COEFFS[name]
+        for n in range(4, order + 1):
+            acc = np.zeros_like(u_arr)
+            for p, c in coeffs.items():
+                if p >= n:
+                    acc = acc + c * math.prod(range(p - n + 1, p + 1)) * u_arr ** (p - n)
+            out[n] = acc
+    return out
 
 
 #: Alias of :func:`rise` (the name the rest of camsim uses).

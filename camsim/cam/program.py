@@ -28,7 +28,7 @@ from functools import lru_cache
 import numpy as np
 
 from camsim.cam.laws import rise
-from camsim.cam.description import Cam
+from camsim.cam.description import SYNTHESIS_LAWS, Cam
 
 __all__ = ["CamProgram", "law_peaks", "sample_revolution"]
 
@@ -144,6 +144,9 @@ class CamProgram:
             self._starts = np.zeros(0)
             self.warnings.extend(self._table.warnings)
             return
+        if getattr(cam, "compensated", None) is not None:  # issue 27: a compensated cam
+            self._init_compensated(cam)
+            return
         self.kind = "segments"
         segments = cam.segments
         if not segments:
@@ -161,7 +164,8 @@ class CamProgram:
             if seg.motion == "dwell":
                 laws.append(None)
             elif seg.motion in ("rise", "fall"):
-                rise(str(seg.law), 0.0)  # raises ValueError on an unknown law
+                if seg.law not in SYNTHESIS_LAWS:
+                    rise(str(seg.law), 0.0)  # raises ValueError on an unknown law
                 laws.append(seg.law)
                 signed[i] = seg.lift if seg.motion == "rise" else -seg.lift
             else:
@@ -171,10 +175,110 @@ class CamProgram:
         self._signed = signed
         self._h0 = np.concatenate(([0.0], np.cumsum(signed)[:-1]))
         self._laws = laws
-        self._law_names = sorted({law for law in laws if law is not None})
-        codes = [-1 if law is None else self._law_names.index(law) for law in laws]
+        # issue 27: every segment's shape; polynomial/spline ones solved together (synthesis.py)
+        from camsim.cam.synthesis import build_shapes
+
+        self._shapes, synthesis_warnings = build_shapes(cam, self.speed)
+        self._custom = [i for i, law in enumerate(laws) if law in SYNTHESIS_LAWS]
+        self._law_names = sorted({law for law in laws if law is not None and law not in SYNTHESIS_LAWS})
+        codes = [-1 if law is None or law in SYNTHESIS_LAWS else self._law_names.index(law) for law in laws]
         self._codes = np.array(codes, dtype=int)
+        self.warnings.extend(synthesis_warnings)
         self.warnings.extend(self._join_warnings())
+
+    def _init_compensated(self, cam: Cam) -> None:
+        """A cam whose profile was computed by dynamic compensation (issue 27)."""
+        comp = cam.compensated
+        self._comp = comp
+        self._written = CamProgram(comp.written)
+        self.warnings.extend(self._written.warnings)
+        w = self._written
+        if comp.kind == "algebraic":
+            # Same joins as the written program: the integrator must not step across them.
+            self.kind = "segments"
+            self._starts, self._betas = w._starts, w._betas
+        else:
+            self.kind = "table"
+            self._starts = np.zeros(0)
+        self._laws = w._laws if comp.kind == "algebraic" else []
+        self.warnings.extend(self._generic_join_warnings())
+
+    def _generic_join_warnings(self) -> list[str]:
+        """Jumps of lift, d/dθ, d²/dθ² at the written program's joins (compensated cam)."""
+        w = self._written
+        if w.kind != "segments":
+            return []
+        starts = w.boundary_angles()
+        left = np.array(self.lift(starts, side="left")[:3])
+        right = np.array(self.lift(starts, side="right")[:3])
+        theta = np.linspace(0.0, _TWO_PI, 7201)
+        scale = np.max(np.abs(np.array(self.lift(theta)[:3])), axis=1)
+        out = []
+        factors = (self.ratio, self.ratio * self.speed, self.ratio * self.speed**2)
+        for q, (name, unit) in enumerate(_QUANTITIES):
+            for k, th in enumerate(starts):
+                jump = right[q, k] - left[q, k]
+                if abs(jump) > 1e-6 * scale[q] and jump != 0.0:
+                    out.append(f"compensated cam: {name} jumps by {jump * factors[q]:.3g} {unit} at "
+                               f"{math.degrees(float(th)):g} deg")
+        return out
+
+    def _shape_values(self, i: int, u, order: int) -> np.ndarray:
+        """Normalised y and derivatives 0…order of segment ``i`` at u (array (order+1, n))."""
+        return self._shapes[i].evaluate(np.atleast_1d(np.asarray(u, dtype=float)), order)
+
+    def lift_derivatives(self, theta, order: int, side: str = "right") -> np.ndarray:
+        """Roller lift and its derivatives 0…``order`` with respect to cam angle, exact.
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angle [rad] (wrapped), 1-D.
+        order : int
+            Highest derivative wanted.
+        side : {"right", "left"}
+            Limit at a segment boundary (see :meth:`lift`).
+
+        Returns
+        -------
+        ndarray
+            Shape (order + 1, len(theta)): dⁿlift/dθⁿ [m/radⁿ]. Segment cams only (the
+            written program of a compensation); a table cam gives its spline's own
+            derivatives (zero above degree 5).
+        """
+        th = np.atleast_1d(np.asarray(theta, dtype=float)).reshape(-1)
+        if self.kind == "none":
+            return np.zeros((order + 1, th.size))
+        if self._table is not None:
+            sp = self._table._spline
+            phi = self._table.phase(th)
+            return np.array([sp(phi, nu=n) if n <= sp.k else np.zeros_like(phi) for n in range(order + 1)])
+        if getattr(self, "_comp", None) is not None:
+            return self._comp.lift_derivatives(self._written, th, order, side)
+        idx, u = self._locate(th, side)
+        out = np.zeros((order + 1, th.size))
+        for i in np.unique(idx):
+            mask = idx == i
+            y = self._shape_values(int(i), u[mask], order)
+            h, beta = self._signed[i], self._betas[i]
+            for n in range(order + 1):
+                out[n, mask] = h * y[n] / beta**n
+            out[0, mask] += self._h0[i]
+        return out
+
+    def _locate(self, th: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
+        """Segment index and normalised angle u of each cam angle (boundary rule of :meth:`lift`)."""
+        phi = np.mod(th, _TWO_PI)
+        tol = 64.0 * _EPS * np.maximum(np.abs(th), _TWO_PI)
+        if side == "left":
+            phi = np.where(phi < tol, phi + _TWO_PI, phi)
+            idx = np.searchsorted(self._starts, phi - tol, side="left") - 1
+        else:
+            phi = np.where(phi > _TWO_PI - tol, phi - _TWO_PI, phi)
+            idx = np.searchsorted(self._starts, phi + tol, side="right") - 1
+        np.clip(idx, 0, len(self._starts) - 1, out=idx)
+        u = np.clip((phi - self._starts[idx]) / self._betas[idx], 0.0, 1.0)
+        return idx, u
 
     # ------------------------------------------------------------------ evaluation
     def angle(self, t) -> np.ndarray:
@@ -207,6 +311,9 @@ class CamProgram:
             return z, z.copy(), z.copy(), z.copy()
         if self._table is not None:
             return self._table(theta)
+        if getattr(self, "_comp", None) is not None:  # issue 27
+            d = self._comp.lift_derivatives(self._written, theta.reshape(-1), 3, side)
+            return tuple(row.reshape(theta.shape) for row in d)  # type: ignore[return-value]
         shape = theta.shape
         th = theta.reshape(-1)
         phi = np.mod(th, _TWO_PI)
@@ -226,6 +333,10 @@ class CamProgram:
             mask = code == c
             if mask.any():
                 y[:, mask] = rise(law, u[mask])
+        for i in self._custom:  # issue 27: synthesised segments
+            mask = idx == i
+            if mask.any():
+                y[:, mask] = self._shape_values(i, u[mask], 3)
         h = self._signed[idx]
         inv_beta = 1.0 / self._betas[idx]
         out = (
@@ -301,7 +412,7 @@ class CamProgram:
         if law is None:
             y = (0.0, 0.0, 0.0)
         else:
-            y = tuple(float(v) for v in rise(law, u)[:3])
+            y = tuple(float(v) for v in self._shape_values(i, u, 2)[:, 0])
         k = self.speed / beta
         return self.ratio * np.array([h0 + h * y[0], h * y[1] * k, h * y[2] * k * k])
 
@@ -316,7 +427,7 @@ class CamProgram:
             if law is None:
                 continue
             k = self.speed / self._betas[i]
-            y = rise(law, u)
+            y = self._shape_values(i, u, 2)
             speed_peak = max(speed_peak, abs(self.ratio * self._signed[i]) * k * float(np.max(np.abs(y[1]))))
             accel_peak = max(accel_peak, abs(self.ratio * self._signed[i]) * k * k * float(np.max(np.abs(y[2]))))
         scale = np.array(
@@ -362,6 +473,8 @@ class CamProgram:
         if self.kind == "none":
             return []
         r, w = abs(self.ratio), self.speed
+        if getattr(self, "_comp", None) is not None:  # issue 27: sampled on the compensated cam
+            return self._sampled_peaks()
         if self._table is not None:
             spline = self._table
             n = max(7200, 16 * len(self.cam.table.angle))  # type: ignore[union-attr]
@@ -405,11 +518,42 @@ class CamProgram:
                     entry[f"peak_{key}"] = 0.0
                     entry[f"peak_{key}_deg"] = None
                     continue
-                coeff, u = law_peaks(law)[order - 1]
+                if law in SYNTHESIS_LAWS:
+                    coeff, u = _refine_peak(lambda x, i=i, o=order: self._shape_values(i, x, o)[o], 0.0, 1.0,
+                                            _PEAK_SAMPLES)
+                else:
+                    coeff, u = law_peaks(law)[order - 1]
                 entry[f"peak_{key}"] = r * h * coeff * (w / beta) ** order
                 entry[f"peak_{key}_deg"] = math.degrees(start + u * beta)
             out.append(entry)
         return out
+
+
+def _sampled_peaks_impl(program: CamProgram) -> list[dict]:
+    """Peaks of a compensated cam, per written segment (or one row for a table), sampled."""
+    r, w = abs(program.ratio), program.speed
+    written = program._written
+    rows = written.segment_peaks() if written.kind == "segments" else [{"index": 1, "motion": "table",
+                                                                        "law": "spline", "start_deg": 0.0,
+                                                                        "duration_deg": 360.0}]
+    out = []
+    for row in rows:
+        lo = math.radians(row["start_deg"])
+        hi = lo + math.radians(row["duration_deg"])
+        entry = {k: row[k] for k in ("index", "motion", "law", "start_deg", "duration_deg")}
+        entry["law"] = f"compensated {row['law']}" if row["law"] else "compensated"
+        theta = np.linspace(lo, hi, 2001)
+        lift = program.lift(theta, side="left")[0]
+        entry["lift_m"] = r * float(np.ptp(lift))
+        for order, key in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+            peak, where = _refine_peak(lambda x, o=order: program.lift(x, side="left")[o], lo, hi, 2001)
+            entry[f"peak_{key}"] = r * peak * w**order
+            entry[f"peak_{key}_deg"] = math.degrees(where) % 360.0
+        out.append(entry)
+    return out
+
+
+CamProgram._sampled_peaks = _sampled_peaks_impl  # type: ignore[attr-defined]
 
 
 def sample_revolution(program: CamProgram, points: int = 3600) -> dict[str, np.ndarray]:

@@ -38,10 +38,10 @@ def _num(value: float | None, fmt: str = ".4g") -> str:
     return "-" if value is None else format(value, fmt)
 
 
-def _print_table(machine, program: CamProgram, peaks: list[dict]) -> None:
+def _print_table(machine, program: CamProgram, peaks: list[dict], heading: str = "") -> None:
     rpm = program.speed * 60.0 / (2.0 * math.pi)
     title = (
-        f"{machine.name}: cam at {rpm:.6g} rpm, ratio {program.ratio:.6g}, "
+        f"{machine.name}{': ' + heading if heading else ''}: cam at {rpm:.6g} rpm, ratio {program.ratio:.6g}, "
         f"start angle {math.degrees(program.start_angle):.6g} deg; model axis, SI; "
         "@ = cam angle of the peak"
     )
@@ -109,8 +109,10 @@ def cam_command(
     ),
     plot: Path | None = typer.Option(
         None, "--plot", metavar="CAM.png",
-        help="Needs [cam.geometry]: draw SVAJ at the roller, pressure angle and radii of curvature against cam "
-        "angle, and the cam to scale with its follower (.png, .svg or .pdf).",
+        help="With [cam.geometry]: draw SVAJ at the roller, pressure angle and radii of curvature against cam "
+        "angle, and the cam to scale with its follower (.png, .svg or .pdf). Without it: s, v, a, j on the model "
+        "axis against cam angle. With [cam.compensation]: the wanted output motion and the compensated cam side "
+        "by side (the design figure, with geometry, goes to STEM-design.EXT).",
     ),
     profile: Path | None = typer.Option(
         None, "--profile", metavar="CAM.csv",
@@ -181,7 +183,7 @@ def cam_command(
             raise MachineFileError(str(machine_file), "cam", str(exc)) from None
         geometry = machine.cam.geometry
         if geometry is None:
-            for option, path in (("--plot", plot), ("--profile", profile), ("--dxf", dxf)):
+            for option, path in (("--profile", profile), ("--dxf", dxf)):
                 if path is not None:
                     raise MachineFileError(str(machine_file), "cam.geometry",
                                            f"{option} needs the cam's shape: add a [cam.geometry] table")
@@ -191,6 +193,9 @@ def cam_command(
 
             checks = check_followable(geometry, program, str(machine_file))  # exit 2 before any output
         peaks = program.segment_peaks()
+        output_program = None
+        if machine.cam.compensated is not None:  # issue 27: the wanted output motion too
+            output_program = CamProgram(machine.cam.output_program)
         if as_json:
             payload = {
                 "machine": machine.name,
@@ -202,9 +207,22 @@ def cam_command(
             }
             if checks is not None:
                 payload["geometry"] = {k: v for k, v in checks.items() if k != "defects"}
+            if output_program is not None:
+                comp = machine.cam.compensated
+                payload["compensation"] = {"output": comp.output, "speed_rad_s": comp.speed, "kind": comp.kind,
+                                           "path": list(comp.path),
+                                           "output_program": output_program.segment_peaks()}
             print_json(payload)
         else:
-            _print_table(machine, program, peaks)
+            if output_program is not None:
+                comp = machine.cam.compensated
+                _print_table(machine, output_program, output_program.segment_peaks(),
+                             heading=f"wanted motion of {comp.output} (the written program)")
+                rpm = comp.speed * 60.0 / (2.0 * math.pi)
+                _print_table(machine, program, peaks, heading=f"compensated cam ({comp.kind}, design speed "
+                             f"{rpm:.6g} rpm, path {' - '.join(comp.path)})")
+            else:
+                _print_table(machine, program, peaks)
             if checks is not None:
                 from camsim.reports.summary import render_geometry_checks
 
@@ -239,12 +257,29 @@ def cam_command(
             from camsim.figures.cam import plot_cam_design
             from camsim.io.atomic import atomic_path
 
-            fig = plot_cam_design(geometry, program, title=f"{machine.name}: cam design")
             fmt = plot.suffix.lower().lstrip(".")
             metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
-            with atomic_path(plot) as tmp:
-                fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
-            written.append(str(plot))
+            figures = []
+            if geometry is not None and output_program is None:
+                figures.append((plot, plot_cam_design(geometry, program, title=f"{machine.name}: cam design")))
+            else:
+                from camsim.figures.svaj import plot_svaj
+
+                if output_program is not None:
+                    name = machine.cam.compensated.output
+                    curves = [(f"wanted motion of {name}", output_program), ("compensated cam", program)]
+                else:
+                    curves = [("cam", program)]
+                figures.append((plot, plot_svaj(curves, title=f"{machine.name}: SVAJ on the model axis")))
+                if geometry is not None:
+                    design = plot.with_name(f"{plot.stem}-design{plot.suffix}")
+                    check_writable(design)
+                    figures.append((design, plot_cam_design(geometry, program, title=f"{machine.name}: "
+                                                                                      "compensated cam design")))
+            for path_, fig in figures:
+                with atomic_path(path_) as tmp:
+                    fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+                written.append(str(path_))
         if not as_json:
             for line in written:
                 err_console.print(f"wrote {line}", markup=False)

@@ -30,7 +30,17 @@ from camsim.elements import (  # noqa: E402,F401 - re-exported
 
 # The cam's own description lives with the cam (camsim/cam/description.py); re-exported here
 # because a Machine is made of it.
-from camsim.cam.description import LAWS, MOTIONS, Cam, CamTable, Segment  # noqa: E402,F401 - re-exported
+from camsim.cam.description import (  # noqa: E402,F401 - re-exported
+    DERIVATIVE_KEYS,
+    LAWS,
+    MOTIONS,
+    SYNTHESIS_LAWS,
+    Cam,
+    CamTable,
+    Compensation,
+    Segment,
+    SegmentPoint,
+)
 
 #: Standard gravity [m/s^2] (CGPM 1901), used for ``gravity = true``.
 STANDARD_GRAVITY = 9.80665
@@ -149,5 +159,6 @@ class Machine:
 __all__ = [
     "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
     "PreloadedLink", "RigidContact", "Spring", "Cam", "CamTable", "InitialCondition", "Machine", "Mass",
-    "Segment", "Simulation", "LAWS", "MOTIONS", "STANDARD_GRAVITY",
+    "Segment", "SegmentPoint", "Compensation", "Simulation", "LAWS", "SYNTHESIS_LAWS", "DERIVATIVE_KEYS",
+    "MOTIONS", "STANDARD_GRAVITY",
 ]

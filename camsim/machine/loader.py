@@ -190,6 +190,16 @@ def load_machine_text(
                 exc.file, exc.key, f"{exc.message} (value from --set {origin[exc.key]})"
             ) from None
         raise
+    if machine.cam is not None and machine.cam.compensation is not None:  # issue 27
+        from camsim.machine.compensation import CompensationError, compensate
+
+        try:
+            machine = compensate(machine)
+        except CompensationError as exc:
+            message = exc.message
+            if exc.key in origin:
+                message += f" (value from --set {origin[exc.key]})"
+            raise MachineFileError(source, exc.key, message) from None
     if overrides:
         import tomli_w
 
@@ -310,9 +320,16 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             "drives": cam.drives,
             "start_angle": cam.start_angle,
             "segments": [
-                {"motion": s.motion, "law": s.law, "duration": s.duration, "lift": s.lift}
+                {"motion": s.motion, "law": s.law, "duration": s.duration, "lift": s.lift,
+                 # issue 27: synthesised segments (None/empty for the standard laws)
+                 "continuity": s.continuity, "degree": s.degree, "velocity": s.velocity,
+                 "start": dict(s.start), "end": dict(s.end),
+                 "points": [{"at": p.at, "s": p.s, **{f"d{k}": v for k, v in p.derivatives}} for p in s.points]}
                 for s in cam.segments
             ],
+            "compensation": None if cam.compensation is None else {
+                "output": cam.compensation.output, "speed": cam.compensation.speed,
+                "kind": cam.compensated.kind if cam.compensated is not None else None},
             "table": None,
         }
         if cam.geometry is not None:  # issue 14

@@ -100,7 +100,12 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
                 raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
             cam[leaf] = value
             return f"cam.{leaf}"
+        if leaf == "compensation" and leaf_index is None:  # issue 27: cam.compensation.<key>
+            return _compensation_override(cam, key, rest, value, source)
         segments = cam.get("segments")
+        if leaf_index is not None and len(rest) == 2 and isinstance(segments, list) \
+                and leaf_index < len(segments):  # issue 27: cam.segments[i].end.v, .points[k].s
+            return _synthesis_override(segments, leaf_index, key, rest, value, source)
         if leaf_index is None or len(rest) != 1 or rest[0][1] is not None:
             raise MachineFileError(source, key, "address one segment key, e.g. cam.segments[2].lift")
         if not isinstance(segments, list) or leaf_index >= len(segments):
@@ -167,6 +172,53 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
         raise MachineFileError(source, f"initial.{mass_name}", "expected a table")
     entry[rest[0][0]] = value
     return f"initial.{mass_name}.{rest[0][0]}"
+
+
+def _compensation_override(cam: dict, key: str, rest: list, value: Any, source: str) -> str:
+    """``cam.compensation.output`` / ``cam.compensation.speed`` (issue 27)."""
+    from camsim.machine import schema
+
+    valid = schema.keys("cam.compensation")
+    if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in valid:
+        word = rest[0][0] if rest else ""
+        raise MachineFileError(source, key, f"unknown key; {_suggest(word, [f'cam.compensation.{k}' for k in valid])}")
+    table = cam.setdefault("compensation", {})
+    if not isinstance(table, dict):
+        raise MachineFileError(source, "cam.compensation", "expected a table")
+    table[rest[0][0]] = value
+    return f"cam.compensation.{rest[0][0]}"
+
+
+def _synthesis_override(segments: list, index: int, key: str, rest: list, value: Any, source: str) -> str:
+    """``cam.segments[i].start.v``, ``cam.segments[i].end.a``, ``cam.segments[i].points[k].s`` (issue 27)."""
+    from camsim.machine import schema
+
+    (table_name, table_index), (leaf, leaf_index) = rest
+    row = segments[index]
+    if not isinstance(row, dict):
+        raise MachineFileError(source, key, "that segment is not a table")
+    prefix = f"cam.segments[{index}]"
+    if table_name in ("start", "end") and table_index is None and leaf_index is None:
+        valid = schema.keys("cam.segments.end")
+        if leaf not in valid:
+            raise MachineFileError(source, key, f"unknown key; {_suggest(leaf, [f'{prefix}.{table_name}.{k}' for k in valid])}")
+        table = row.setdefault(table_name, {})
+        if not isinstance(table, dict):
+            raise MachineFileError(source, f"{prefix}.{table_name}", "expected a table")
+        table[leaf] = value
+        return f"{prefix}.{table_name}.{leaf}"
+    if table_name == "points" and table_index is not None and leaf_index is None:
+        valid = schema.keys("cam.segments.points")
+        points = row.get("points")
+        if not isinstance(points, list) or table_index >= len(points) or not isinstance(points[table_index], dict):
+            count = len(points) if isinstance(points, list) else 0
+            raise MachineFileError(source, key, f"no point {table_index}: the segment has {count} (indices start at 0)")
+        if leaf not in valid:
+            raise MachineFileError(source, key, f"unknown key; {_suggest(leaf, [f'{prefix}.points[{table_index}].{k}' for k in valid])}")
+        points[table_index][leaf] = value
+        return f"{prefix}.points[{table_index}].{leaf}"
+    raise MachineFileError(source, key, "address a segment key, e.g. cam.segments[2].lift, cam.segments[2].end.v "
+                           "or cam.segments[1].points[0].s")
 
 
 def _example(head: str) -> str:

@@ -47,6 +47,30 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("segments", "array of tables", "the segment table (below); exactly one of `segments` and `table`"),
         Param("table", "string", "path of a CSV profile, relative to the machine file (below)"),
         Param("geometry", "table", "the cam's shape, for the design checks (`[cam.geometry]`, below)"),
+        Param("compensation", "table", "dynamic compensation (`[cam.compensation]`, below): the segments are the "
+              "motion wanted at an output mass, and camsim computes the cam that produces it"),
+    ),
+    # issue 27: motion synthesis and dynamic compensation
+    "cam.compensation": (
+        Param("output", "mass name", "the mass whose motion the written program prescribes; not the driven mass",
+              required=True),
+        Param("speed", "angular_speed", "> 0; the design speed of the compensation (default: `cam.speed`); set it "
+              "to run a compensated cam off its design speed"),
+    ),
+    "cam.segments.end": (
+        Param("v", "velocity", "first derivative of the lift at this end, at `cam.speed` (roller side)"),
+        Param("a", "acceleration", "second derivative"),
+        Param("j", "jerk", "third derivative"),
+        Param("d4", "length/time^4", "fourth derivative"),
+        Param("d5", "length/time^5", "fifth derivative"),
+        Param("d6", "length/time^6", "sixth derivative"),
+    ),
+    "cam.segments.points": (
+        Param("at", "angle", "from the segment's start, strictly inside it; bare number = degrees", required=True),
+        Param("s", "length", "lift at the roller there, measured like the program (from the base circle); "
+              "required for a spline"),
+        Param("v", "velocity", "velocity there (polynomial only)"),
+        Param("a", "acceleration", "acceleration there (polynomial only)"),
     ),
     # issue 14: [cam.geometry] and its material tables (keys owned by camsim.cam.geometry)
     "cam.geometry": _geometry.GEOMETRY_PARAMS,
@@ -54,10 +78,23 @@ TABLES: dict[str, tuple[Param, ...]] = {
     "cam.segments": (
         Param("motion", "string", "`rise`, `fall` or `dwell`", required=True),
         Param("law", "string", "`cycloidal`, `harmonic`, `modified-trapezoid`, `modified-sine`, `poly345`, "
-              "`poly4567`; **not allowed** for a dwell"),
+              "`poly4567`, or written from conditions: `polynomial`, `constant-velocity`, `spline`; **not allowed** "
+              "for a dwell"),
         Param("duration", "angle", "> 0; bare number = degrees", required=True),
         Param("lift", "length", "at the roller; > 0 for a rise or fall (a fall's lift is how far it descends); "
-              "absent or 0 for a dwell. An angle becomes the arc length `arm·angle`. A bare number is metres"),
+              "absent or 0 for a dwell. An angle becomes the arc length `arm·angle`. A bare number is metres. "
+              "A constant-velocity segment given `velocity` takes no lift (it follows)"),
+        Param("continuity", "integer", "`polynomial`: ≥ 0; the end derivatives 1…continuity are conditions "
+              "(3: 4-5-6-7 between dwells, 2: 3-4-5)", default=3),
+        Param("start", "table", "`polynomial`/`spline`: end conditions at the segment's start, "
+              "`{ v = \"…\", a = …, j = …, d4 … d6 }` (table below); a derivative not given is the neighbour's "
+              "at the join"),
+        Param("end", "table", "the same at the segment's end"),
+        Param("points", "array of tables", "`polynomial`/`spline`: interior conditions "
+              "`[{ at = \"30 deg\", s = \"4 mm\" }, …]` (table below)"),
+        Param("velocity", "velocity", "`constant-velocity`: the roller speed at `cam.speed` (> 0, its sense is the "
+              "motion's); the lift is then velocity·duration/speed"),
+        Param("degree", "integer", "`spline`: odd, ≥ 3; end derivatives 1…(degree − 1)/2 are conditions", default=5),
     ),
     "mass": (
         Param("name", "string", "unique, non-empty, not `ground` or `cam`", required=True),
@@ -116,6 +153,10 @@ def key_param(key: str) -> Param | None:
         return ELEMENT_PARAMS.get(leaf)
     if head == "cam" and len(names) == 3 and names[1] == "segments":
         table = "cam.segments"
+    elif head == "cam" and len(names) == 4 and names[1] == "segments":  # issue 27
+        table = "cam.segments.points" if names[2] == "points" else "cam.segments.end"
+    elif head == "cam" and len(names) == 3 and names[1] == "compensation":  # issue 27
+        table = "cam.compensation"
     elif head == "cam" and len(names) >= 3 and names[1] == "geometry":  # issue 14
         table = "cam.geometry" if len(names) == 3 else "cam.geometry.material"
     elif head in ("mass", "initial"):

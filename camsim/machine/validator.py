@@ -21,7 +21,11 @@ from camsim.machine import schema
 from camsim.elements import CAM, FIXED_NODES, GROUND, Damping, Element, Param
 from camsim.errors import MachineFileError
 from camsim.machine.description import (
+    DERIVATIVE_KEYS,
     LAWS,
+    SYNTHESIS_LAWS,
+    Compensation,
+    SegmentPoint,
     MOTIONS,
     STANDARD_GRAVITY,
     Cam,
@@ -307,7 +311,7 @@ class _Validator:
         segments: tuple[Segment, ...] = ()
         profile = None
         if has_segments:
-            segments = self.segments(table["segments"], arm)
+            segments = self.segments(table["segments"], arm, speed)
         else:
             profile = self.cam_table(table["table"], arm)
         geometry = None
@@ -315,8 +319,21 @@ class _Validator:
             from camsim.cam.arrangement import parse_geometry
 
             geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm)
-        return Cam(speed=speed, segments=segments, table=profile, ratio=ratio, arm=arm,
-                   drives=drives, start_angle=start, geometry=geometry)
+        compensation = None
+        if "compensation" in table:  # issue 27
+            compensation = self.compensation(table["compensation"], speed, drives, mass_names)
+        cam = Cam(speed=speed, segments=segments, table=profile, ratio=ratio, arm=arm,
+                  drives=drives, start_angle=start, geometry=geometry, compensation=compensation)
+        if any(s.law in SYNTHESIS_LAWS for s in segments):  # issue 27: solve now, errors name the segment
+            from camsim.cam.program import CamProgram
+            from camsim.cam.synthesis import SynthesisError
+
+            try:
+                CamProgram(cam)
+            except SynthesisError as exc:
+                key = f"cam.segments[{exc.segment}]" + (f".{exc.key}" if exc.key else "")
+                raise self.error(key, exc.message) from None
+        return cam
 
     def lift(self, row: dict, path: str, arm: float | None) -> float:
         """A lift at the roller [m]: a length, or an angle times the follower arm."""
@@ -340,7 +357,79 @@ class _Validator:
                 message = message.replace("expected [length]", "expected [length] or [angle]", 1)
             raise self.error(where, message) from None
 
-    def segments(self, value: Any, arm: float | None) -> tuple[Segment, ...]:
+    # -- issue 27: motion synthesis ------------------------------------------------------
+    _SYNTHESIS_KEYS = {"continuity": ("polynomial",), "start": ("polynomial", "spline"),
+                       "end": ("polynomial", "spline"), "points": ("polynomial", "spline"),
+                       "velocity": ("constant-velocity",), "degree": ("spline",)}
+    _DERIVATIVE_DIMENSIONS = {1: "velocity", 2: "acceleration", 3: "jerk", 4: "length/time^4",
+                              5: "length/time^5", 6: "length/time^6"}
+
+    def synthesis_keys(self, row: dict, path: str, law: str | None, duration: float, speed: float) -> dict:
+        """The keys of a polynomial, constant-velocity or spline segment, in SI (Segment fields)."""
+        out: dict[str, Any] = {}
+        for key, laws in self._SYNTHESIS_KEYS.items():
+            if key in row and law not in laws:
+                takes = " or ".join(f'law = "{x}"' for x in laws)
+                raise self.error(f"{path}.{key}", f"only used with {takes}")
+        if "continuity" in row:
+            out["continuity"] = self.integer(row, "continuity", path, 3, 0)
+        if "degree" in row:
+            degree = self.integer(row, "degree", path, 5, 3)
+            if degree % 2 == 0:
+                raise self.error(f"{path}.degree", f"must be odd (3, 5, 7, …), got {degree}")
+            out["degree"] = degree
+        if "velocity" in row:
+            out["velocity"] = self.quantity(row, "velocity", path, "velocity", minimum=0.0, strict=True)
+        for side in ("start", "end"):
+            if side in row:
+                table = row[side]
+                where = f"{path}.{side}"
+                if not isinstance(table, dict):
+                    raise self.error(where, f"expected a table {{ v = ..., a = ... }}, got {_fmt(table)}")
+                self.check_keys(table, tuple(DERIVATIVE_KEYS), where)
+                out[side] = tuple(sorted(
+                    (order, self.quantity(table, key, where, self._DERIVATIVE_DIMENSIONS[order]))
+                    for key, order in DERIVATIVE_KEYS.items() if key in table))
+        if "points" in row:
+            points = row["points"]
+            if not isinstance(points, list) or not all(isinstance(p, dict) for p in points):
+                raise self.error(f"{path}.points", 'expected an array of tables [{ at = "30 deg", s = "4 mm" }, ...]')
+            result = []
+            for k, point in enumerate(points):
+                where = f"{path}.points[{k}]"
+                self.check_keys(point, schema.keys("cam.segments.points"), where)
+                at = self.quantity(point, "at", where, "angle", required=True, bare_unit="deg", example='"30 deg"')
+                if not 0.0 < at < duration:
+                    raise self.error(f"{where}.at", f"{math.degrees(at):.6g} deg is outside the segment "
+                                     f"(strictly between 0 and its duration {math.degrees(duration):.6g} deg)")
+                s = self.quantity(point, "s", where, "length")
+                derivs = tuple((order, self.quantity(point, key, where, self._DERIVATIVE_DIMENSIONS[order]))
+                               for key, order in (("v", 1), ("a", 2)) if key in point)
+                if law == "spline" and (s is None or derivs):
+                    raise self.error(where, "a spline point gives s only (the lift there)")
+                if s is None and not derivs:
+                    raise self.error(where, "gives no condition: add s (and/or v, a)")
+                if result and not at > result[-1].at:
+                    raise self.error(f"{where}.at", "points must be in increasing order of `at`")
+                result.append(SegmentPoint(at=at, s=s, derivatives=derivs))
+            out["points"] = tuple(result)
+        return out
+
+    def compensation(self, table: Any, speed: float, drives: str | None, mass_names: list[str]) -> Compensation:
+        """``[cam.compensation]`` (issue 27)."""
+        if not isinstance(table, dict):
+            raise self.error("cam.compensation", f"expected a table [cam.compensation], got {_fmt(table)}")
+        self.check_keys(table, schema.keys("cam.compensation"), "cam.compensation")
+        output = self.string(table, "output", "cam.compensation", required=True)
+        if output not in mass_names:
+            raise self.error("cam.compensation.output", f'"{output}" is not a mass; {_suggest(output, mass_names)}')
+        if output == drives:
+            raise self.error("cam.compensation.output", f"{output} is the driven mass (cam.drives): its motion is "
+                             "the cam's, there is nothing to compensate; name a mass the cam moves through elements")
+        design = self.quantity(table, "speed", "cam.compensation", "angular_speed", minimum=0.0, strict=True)
+        return Compensation(output=output, speed=speed if design is None else design)
+
+    def segments(self, value: Any, arm: float | None, speed: float = 1.0) -> tuple[Segment, ...]:
         if not isinstance(value, list) or not all(isinstance(r, dict) for r in value):
             raise self.error("cam.segments", "expected an array of tables "
                              '([{ motion = "rise", law = "cycloidal", duration = "90 deg", lift = "1 in" }, ...])')
@@ -356,10 +445,16 @@ class _Validator:
                     raise self.error(f"{path}.law", "a dwell has no law; remove it")
                 law = None
             else:
-                law = self.choice(row, "law", path, LAWS, required=True)
+                law = self.choice(row, "law", path, LAWS + SYNTHESIS_LAWS, required=True)
             duration = self.quantity(row, "duration", path, "angle", required=True, bare_unit="deg",
                                      minimum=0.0, strict=True, example='"50 deg"')
-            if "lift" in row:
+            extra = self.synthesis_keys(row, path, law, duration, speed)  # issue 27
+            if "velocity" in extra:
+                if "lift" in row:
+                    raise self.error(f"{path}.lift", "a constant-velocity segment given velocity takes no lift "
+                                     "(it follows: velocity·duration/speed); remove one of them")
+                lift = extra["velocity"] * duration / speed
+            elif "lift" in row:
                 lift = self.lift(row, path, arm)
             elif motion == "dwell":
                 lift = 0.0
@@ -370,7 +465,7 @@ class _Validator:
             if motion != "dwell" and not lift > 0.0:
                 raise self.error(f"{path}.lift", f"a {motion} needs a positive lift (a fall's lift is the "
                                  f"distance it descends), got {_fmt(row['lift'])}")
-            result.append(Segment(motion=motion, law=law, duration=duration, lift=lift))
+            result.append(Segment(motion=motion, law=law, duration=duration, lift=lift, **extra))
 
         total_deg = math.degrees(sum(s.duration for s in result))
         if abs(total_deg - 360.0) > DURATION_TOLERANCE_DEG:

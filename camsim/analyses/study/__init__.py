@@ -27,7 +27,7 @@ __all__ = ["study", "StudyResult", "StudyInterrupted"]
 
 
 class _CallableModule(types.ModuleType):
-    """Lets ``camsim.analyses.study(...)`` call :func:`study` while ``camsim.analyses.study`` stays the package."""
+    """Lets ``camsim.study(...)`` call :func:`study` while ``camsim.analyses.study`` stays the package."""
 
     def __call__(self, *args, **kwargs):
         return study(*args, **kwargs)
