@@ -21,6 +21,7 @@ _COMMANDS = (
     "lump",
     "fit",
     "study",
+    "report",
 )
 for _name in _COMMANDS:
     # Every command is part of camsim: an import error is a bug and must surface. (A

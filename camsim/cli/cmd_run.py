@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
+from camsim.cli.cmd_report import REPORT_HELP, check_report_target, write_report_page
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
@@ -35,6 +36,7 @@ def run_command(
     compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
     cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
@@ -74,6 +76,7 @@ def run_command(
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")
         target = output if output is not None else default_output(machine)
         check_writable(target)
+        check_report_target(report)
         from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
 
         check_machine(loaded, cs)
@@ -107,6 +110,7 @@ def run_command(
         else:
             render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
+        write_report_page([target], report, quiet=json_)
         if check_against is not None:
             from camsim.check import check_files, render_report
 

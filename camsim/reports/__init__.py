@@ -1,0 +1,10 @@
+"""Self-contained interactive HTML pages of camsim result files (``camsim report``).
+
+One page per result file: the page builder (:mod:`camsim.reports.page`) reads the file's
+kind and hands it to the section builder registered for that kind
+(:data:`camsim.reports.page.BUILDERS`); :mod:`camsim.reports.sections` holds the run,
+comparison, sweep, study and fit builders. Plots are Bokeh with its runtime inlined
+(:mod:`camsim.reports.figures`); long traces are reduced for display by a min/max
+envelope per screen column (:mod:`camsim.reports.envelope`), so peaks are never lost.
+:mod:`camsim.reports.browser` prints a page to PDF through a local Chromium.
+"""
