@@ -87,7 +87,7 @@ def fit_command(
     window: str = typer.Option(None, "--window", metavar="START:STOP[UNIT]", help="Compare only measured times in this window, e.g. 0.1:0.3 or 100:300ms (default unit s)."),
     drop_nan: bool = typer.Option(False, "--drop-nan", help="Leave out NaN or empty cells of the measured file (else they are an error)."),
     output: Path = typer.Option(None, "-o", "--output", help="Fitted machine file: the input with the fitted values in place, in the units written, with comments. Default: <machine>_fitted.toml."),
-    report: Path = typer.Option(None, "--report", help="Figure of measured vs fitted traces with residuals (.png, .svg or .pdf)."),
+    report: Path = typer.Option(None, "--report", help="Figure of measured vs fitted traces with residuals (.png, .svg or .pdf), or with .html the interactive report page (parameters, intervals, correlation, measured vs fitted; see docs/report.md)."),
     json_: bool = typer.Option(False, "--json", help="Print the fit as JSON on stdout (schema in docs/fitting.md)."),
     workers: int = typer.Option(1, "--workers", min=1, help="Processes running the simulations of one Jacobian in parallel (like sweep)."),
     starts: int = typer.Option(1, "--starts", min=1, help="Solver starts: the given start plus N-1 Latin-hypercube points in the bounds; the lowest cost wins."),
@@ -118,8 +118,12 @@ def fit_command(
         if report is not None:
             from camsim.fit.report import REPORT_FORMATS
 
-            if report.suffix.lstrip(".").lower() not in REPORT_FORMATS:
-                raise fail(f"--report {report}: unknown figure format '{report.suffix}' (use .png, .svg or .pdf)")
+            if report.suffix.lower() == ".html":
+                from camsim.cli.cmd_report import check_report_target
+
+                check_report_target(report)
+            elif report.suffix.lstrip(".").lower() not in REPORT_FORMATS:
+                raise fail(f"--report {report}: unknown figure format '{report.suffix}' (use .png, .svg, .pdf or .html)")
             check_writable(report)
         result = fit(
             machine,
@@ -155,7 +159,12 @@ def fit_command(
 
         text = read_machine_text(machine)
         fitted_text(text, result, source=str(machine))  # any problem shows before a file is written
-        if report is not None:
+        if report is not None and report.suffix.lower() == ".html":
+            from camsim.cli.cmd_report import command_line
+            from camsim.reports.page import build_report_from
+
+            build_report_from((result, machine, text), "fit", report, command=command_line(), title=f"{machine} — fit report")
+        elif report is not None:
             from camsim.fit.report import write_report
 
             write_report(report, result, title=str(machine))

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.cmd_report import REPORT_HELP, check_report_target, write_report_page
 
 
 class _Start:
@@ -118,6 +119,7 @@ def study_command(
     json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
@@ -160,6 +162,7 @@ def study_command(
         target = out if out is not None else machine.with_name(machine.stem + "_study.h5")
         check_writable(target)
         check_writable(csv_path_for(target))
+        check_report_target(report)
         if plot is not None:
             if plot.suffix.lower() not in (".png", ".svg", ".pdf"):
                 raise InputError(f"--plot {plot}: unknown format '{plot.suffix.lstrip('.')}' (png, svg or pdf)")
@@ -223,3 +226,4 @@ def study_command(
         else:
             _render(result, err_console, units)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
+        write_report_page([Path(result.output)], report, quiet=json_)

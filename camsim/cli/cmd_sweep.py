@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.cmd_report import REPORT_HELP, check_report_target, write_report_page
 
 
 def _default_output(machine: Path) -> Path:
@@ -111,6 +112,7 @@ def sweep_command(
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted sweep into the same output: run only the variants missing from <output>.journal (same machine, ranges, --set and settings, else exit 2). Without a journal: a fresh sweep."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human table: si (N, m) or us (lbf, in). Files and --json are always SI."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
 ) -> None:
     """Run MACHINE for every combination of the varied keys; one summary row per variant.
 
@@ -139,6 +141,7 @@ def sweep_command(
         target = output if output is not None else _default_output(machine)
         check_writable(target)
         check_writable(csv_path_for(target))
+        check_report_target(report)
         try:
             result = run_sweep(
                 machine,
@@ -178,6 +181,7 @@ def sweep_command(
                 err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
             _render(result, err_console, units)
             err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
+        write_report_page([h5_path], report, quiet=json_)
         if result.executor_failures and not result.interrupted:
             err_console.print(
                 f"warning: {result.executor_failures} variants did not run (a worker process failed); "

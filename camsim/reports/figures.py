@@ -138,6 +138,8 @@ def bar_figure(name: str, title: str, categories: list[str], groups: dict[str, l
                errors: dict[str, tuple[list[float], list[float]]] | None = None, height: int = 300):
     """Grouped bars (Sobol' indices): one bar per group and category, with optional intervals."""
     plotting, models = bokeh()
+    from bokeh.transform import factor_cmap, factor_hatch
+
     factors = [(c, g) for c in categories for g in groups]
     top = [float(groups[g][i]) for i, _ in enumerate(categories) for g in groups]
     hatch = (" ", "/", ".", "x", "-", "|")
@@ -145,8 +147,8 @@ def bar_figure(name: str, title: str, categories: list[str], groups: dict[str, l
     p = plotting.figure(name=name, title=title, x_range=models.FactorRange(*factors), height=height,
                         sizing_mode="stretch_width", tools="save", y_axis_label=y_label)
     p.vbar(x="x", top="top", width=0.85, source=src, line_color="#000000",
-           fill_color=models.factor_cmap("group", list(PALETTE[1:len(groups) + 1]), list(groups), start=1, end=2),
-           hatch_pattern=models.factor_mark("group", list(hatch[:len(groups)]), list(groups), start=1, end=2),
+           fill_color=factor_cmap("group", list(PALETTE[1:len(groups) + 1]), list(groups), start=1, end=2),
+           hatch_pattern=factor_hatch("group", list(hatch[:len(groups)]), list(groups), start=1, end=2),
            hatch_color="#ffffff")
     if errors:
         lo = [float(errors[g][0][i]) for i, _ in enumerate(categories) for g in groups]
@@ -192,7 +194,7 @@ def image_figure(name: str, title: str, labels: list[str], matrix: np.ndarray, h
     src = models.ColumnDataSource({"x": xs, "y": ys, "v": vals, "t": texts})
     mapper = models.LinearColorMapper(palette=_diverging(), low=-1, high=1)
     p = plotting.figure(name=name, title=title, x_range=labels, y_range=list(reversed(labels)), height=height,
-                        width=max(320, 120 * n + 120), tools="save", x_axis_label="parameter [-]", y_axis_label="parameter [-]")
+                        width=max(420, 150 * n + 320), tools="save", x_axis_label="parameter [-]", y_axis_label="parameter [-]")
     p.rect(x="x", y="y", width=1, height=1, source=src, fill_color={"field": "v", "transform": mapper}, line_color="#ffffff")
     p.text(x="x", y="y", text="t", source=src, text_align="center", text_baseline="middle", text_font_size="10pt")
     p.add_layout(models.ColorBar(color_mapper=mapper, title="correlation [-]"), "right")
