@@ -135,3 +135,37 @@ def cdtm_compare(tmp_path_factory):
     r = CliRunner().invoke(app, ["compare", str(CDTM), "-o", str(h5), "--report", str(html), "-q"])
     assert r.exit_code == 0, r.output
     return h5, html
+
+
+@pytest.fixture(scope="session")
+def cdtm_sweep(tmp_path_factory):
+    """A 3-point CDTM speed sweep across the jump (300 to 500 rpm, 5 kHz, no warm-up) and its page."""
+    pytest.importorskip("bokeh", reason="bokeh not installed (pip install 'camsim[report]')")
+    from typer.testing import CliRunner
+
+    from camsim.cli import app
+
+    d = tmp_path_factory.mktemp("report-sweep")
+    h5, html = d / "sweep.h5", d / "sweep.html"
+    r = CliRunner().invoke(app, ["sweep", str(CDTM), "--vary", "cam.speed=300:500:100rpm", "--sample-rate", "5 kHz", "--warmup", "0",
+                                 "--workers", "1", "-o", str(h5), "--report", str(html), "-q"])
+    assert r.exit_code == 0, r.output
+    return h5, html
+
+
+@pytest.fixture(scope="session")
+def cdtm_study(tmp_path_factory):
+    """A small CDTM tolerance study with Sobol' indices and a limit (4 samples, 5 kHz, no warm-up)."""
+    pytest.importorskip("bokeh", reason="bokeh not installed (pip install 'camsim[report]')")
+    from typer.testing import CliRunner
+
+    from camsim.cli import app
+
+    d = tmp_path_factory.mktemp("report-study")
+    h5, html = d / "study.h5", d / "study.html"
+    r = CliRunner().invoke(app, ["study", str(CDTM), "--dist", "element.K23.preload=tol:28.12:3lbf",
+                                 "--dist", "element.K23.push_stiffness=uniform:6000:9000lbf/in", "--sensitivity", "-n", "4", "--warmup", "0",
+                                 "--limit", "peak_transducer_force>230N", "--sample-rate", "5 kHz", "--workers", "1",
+                                 "-o", str(h5), "--report", str(html), "-q"])
+    assert r.exit_code == 0, r.output
+    return h5, html
