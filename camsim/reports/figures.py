@@ -23,7 +23,7 @@ PALETTE = ("#000000", "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#5
 #: Dash patterns cycled with the colours (greyscale printouts).
 DASHES = ("solid", "dashed", "dotted", "dotdash", "dashdot", (8, 3, 2, 3), (2, 2))
 #: Height of a trace plot [px].
-TRACE_HEIGHT = 230
+TRACE_HEIGHT = 270
 #: Colour of the impact markers (Okabe & Ito vermillion, light).
 IMPACT_COLOUR = "#D55E00"
 
@@ -56,6 +56,8 @@ def _base(name: str, title: str, x_label: str, y_label: str, x_range=None, heigh
         name=name, title=title, height=height, sizing_mode="stretch_width", tools=tools,
         x_axis_label=x_label, y_axis_label=y_label, output_backend="canvas", **kwargs,
     )
+    p.min_border_left = 80  # stacked plots line up their time axes
+    p.toolbar.autohide = True  # shown on hover; never on paper
     p.toolbar.active_scroll = tools[1]
     p.toolbar.active_drag = tools[2]
     p.title.text_font_size = "11pt"

@@ -285,7 +285,7 @@ def render_page(sections: list[Section], title: str) -> str:
         parts = []
         for b in s.blocks:
             if isinstance(b, Plot):
-                parts.append({"plot": b.model.name, "alt": b.alt})
+                parts.append({"plot": b.model.name, "alt": b.alt, "height": _stretch(b.model)})
             else:
                 parts.append({"html": b})
         blocks.append({"id": s.id, "title": s.title, "parts": parts})
@@ -298,6 +298,19 @@ def render_page(sections: list[Section], title: str) -> str:
 
         models = [Div(text="", name="empty", visible=False)]
     return file_html(models, INLINE, title=title, template=template, template_variables=variables)
+
+
+def _stretch(model) -> int | None:
+    """Let a full-width plot take its height from the page's CSS (lower when printed).
+
+    Returns the screen height [px] for the container, or None for plots that keep their
+    own size (fixed-size figures, layouts)."""
+    if getattr(model, "sizing_mode", None) != "stretch_width" or not getattr(model, "height", None) or not hasattr(model, "renderers"):
+        return None
+    height = int(model.height)
+    model.sizing_mode = "stretch_both"
+    model.height = None
+    return height
 
 
 def write_page(text: str, output: str | os.PathLike[str]) -> Path:

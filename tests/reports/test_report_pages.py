@@ -209,3 +209,43 @@ def test_page_has_its_sections(fixture, expected, request):
     for sid in expected:
         assert f'<section id="{sid}"' in text and f'id="{sid}-h"' in text, sid
     assert text.count('role="img" aria-label=') >= 3
+
+
+# ---------------------------------------------------------------------- print
+@pytest.mark.slow
+@pytest.mark.parametrize("fixture", ["cdtm_run", "cdtm_compare"])
+def test_printed_pdf_fits_its_sections_and_clips_no_table(fixture, request, browser, tmp_path):
+    """``--pdf`` through Chromium: the PDF has no more pages than the page has sections
+    (pages counted as /Type /Page objects of the PDF), and under print media no table is
+    wider than its box (nothing cut at the right edge)."""
+    import subprocess
+    import sys
+
+    from camsim.reports.browser import wait_rendered
+
+    h5, _ = request.getfixturevalue(fixture)
+    html, pdf = tmp_path / "page.html", tmp_path / "page.pdf"
+    # A process of its own: this one already drives the session's browser (Playwright's
+    # sync API runs one driver per thread).
+    r = subprocess.run([sys.executable, "-m", "camsim", "report", str(h5), "-o", str(html), "--pdf", str(pdf)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF")
+    pages = len(re.findall(rb"/Type\s*/Page[^s]", data))
+    sections = html.read_text(encoding="utf-8").count("<section id=")
+    assert 1 <= pages <= sections, (pages, sections)
+    ctx = browser.new_context(viewport={"width": 1047, "height": 718})  # A4 landscape, 10 mm margins, at 96 dpi
+    try:
+        page = ctx.new_page()
+        page.goto(html.resolve().as_uri())
+        wait_rendered(page)
+        page.emulate_media(media="print")
+        page.wait_for_timeout(300)
+        boxes = page.evaluate("""() => [...document.querySelectorAll('.table-wrap')].map(w => {
+            const t = w.querySelector('table'); return [t.id, t.scrollWidth, w.clientWidth, document.body.clientWidth]; })""")
+    finally:
+        ctx.close()
+    assert boxes
+    for table_id, table_width, box_width, body_width in boxes:
+        assert table_width <= box_width + 1 and box_width <= body_width + 1, table_id
