@@ -34,7 +34,7 @@ def make_pages(d: Path) -> dict[str, Path]:
     camsim("sweep", CDTM, "--vary", "cam.speed=100:600:50rpm", "--sample-rate", "10 kHz", "-o", str(d / "sweep.h5"), "-q",
            "--report", str(pages["sweep"]))
     camsim("study", CDTM, "--dist", "element.K23.preload=tol:28.12:3lbf", "--dist", "element.seat.stiffness=tol:8.6e6:1.3e6N/m",
-           "--sensitivity", "-n", "32", "--limit", "peak_transducer_force>230N", "--sample-rate", "10 kHz",
+           "--sensitivity", "-n", "16", "--limit", "peak_transducer_force>230N", "--sample-rate", "10 kHz",
            "-o", str(d / "study.h5"), "-q", "--report", str(pages["study"]))
     rig = d / "rig.csv"
     subprocess.run([sys.executable, str(ROOT / "examples" / "make_rig_trace.py"), "-o", str(rig)], check=True,

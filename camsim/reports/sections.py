@@ -117,7 +117,7 @@ def _speed_rpm(machine) -> float:
     return cam.speed * 60.0 / (2.0 * math.pi) if cam is not None else float("nan")
 
 
-def verdict_section(source: Source, view: RunView, design: dict | None, title: str = "Verdicts") -> Section:
+def verdict_section(source: Source, view: RunView, design: dict | None, title: str = "Verdicts", summary: bool = True) -> Section:
     """Jump, impacts against Johnson's bounds, stress/torque, periodicity: the run's answers."""
     s = Section(source.name("verdicts" + (f"-{view.label}" if view.label else "")), title)
     sm = view.summary
@@ -167,6 +167,8 @@ def verdict_section(source: Source, view: RunView, design: dict | None, title: s
                          f"<span class=value data-key=periodicity_residual>{fmt(res, '.3g')}</span> [-] "
                          "(below 1e-3: a steady state).", "periodicity"))
     s.add('<div class="verdicts">' + "".join(tiles) + "</div>")
+    if not summary:
+        return s
     # The flat summary of the run, every scalar with its unit.
     rows = []
     for name, value in sm.items():
@@ -318,7 +320,7 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     shown_src = models.ColumnDataSource(first)
     sel = models.Select(title="Impact shown at full resolution", value="0", options=labels, name=source.name("impact-select"))
     sel.js_on_change("value", models.CustomJS(args={"all": everything, "shown": shown_src, "offsets": offsets}, code="""
-        const k = parseInt(this.value), a = offsets[k], b = offsets[k + 1], d = {};
+        const k = parseInt(cb_obj.value), a = offsets[k], b = offsets[k + 1], d = {};
         for (const c of Object.keys(all.data)) d[c] = all.data[c].slice(a, b);
         shown.data = d;
     """))
@@ -448,7 +450,7 @@ def compare_sections(source: Source) -> list[Section]:
                 id=source.name("difference-table"), numeric=[False, True, True, True, False],
                 caption="Summary values of both runs; change = 100·(impact − no impact)/|no impact|"))
     out.append(s)
-    out.append(verdict_section(source, imp, None, "Verdicts: run with impact"))
+    out.append(verdict_section(source, imp, None, "Verdicts: run with impact", summary=False))
     out.append(event_section(source, imp, None, "Impacts and events (run with impact)"))
     traces, x_range = trace_section(source, [imp, non], title="Both runs overlaid")
     out.append(traces)
