@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
-from camsim.cli.cmd_report import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 
 _SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 

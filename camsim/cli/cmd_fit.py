@@ -119,7 +119,7 @@ def fit_command(
             from camsim.fit.report import REPORT_FORMATS
 
             if report.suffix.lower() == ".html":
-                from camsim.cli.cmd_report import check_report_target
+                from camsim.cli.report_option import check_report_target
 
                 check_report_target(report)
             elif report.suffix.lstrip(".").lower() not in REPORT_FORMATS:
@@ -160,7 +160,7 @@ def fit_command(
         text = read_machine_text(machine)
         fitted_text(text, result, source=str(machine))  # any problem shows before a file is written
         if report is not None and report.suffix.lower() == ".html":
-            from camsim.cli.cmd_report import command_line
+            from camsim.cli.report_option import command_line
             from camsim.reports.page import build_report_from
 
             build_report_from((result, machine, text), "fit", report, command=command_line(), title=f"{machine} — fit report")

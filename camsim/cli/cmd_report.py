@@ -2,44 +2,11 @@
 
 from __future__ import annotations
 
-import shlex
-import sys
 from pathlib import Path
 
 import typer
 
 from camsim.cli.app import app, err_console, user_errors
-
-
-def command_line() -> str:
-    """The command being run, as a shell would read it (shown in the page header)."""
-    return shlex.join(["camsim", *sys.argv[1:]])
-
-
-#: Help of the ``--report`` option of run, compare, sweep and study.
-REPORT_HELP = "Also write the HTML report page of the result here (as camsim report; see docs/report.md)."
-
-
-def check_report_target(page: Path | None) -> None:
-    """Before a command computes: the page can be written and Bokeh is installed (exit 2 otherwise)."""
-    if page is None:
-        return
-    from camsim.extras import require
-    from camsim.io.atomic import check_writable
-
-    check_writable(page)
-    require("bokeh", "report")
-
-
-def write_report_page(results: list[Path], page: Path | None, quiet: bool = False) -> None:
-    """The page of ``results`` at the end of another command (``--report``); one line when written."""
-    if page is None:
-        return
-    from camsim.reports.page import build_report
-
-    build_report(results, page, command=command_line())
-    if not quiet:
-        err_console.print(f"wrote {page}", markup=False)
 
 
 @app.command("report")

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
-from camsim.cli.cmd_report import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 
 
 class _Start:
