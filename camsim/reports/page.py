@@ -292,8 +292,8 @@ def render_page(sections: list[Section], title: str) -> str:
     template = resources.files("camsim.reports").joinpath("page.html.jinja").read_text(encoding="utf-8")
     css = resources.files("camsim.reports").joinpath("page.css").read_text(encoding="utf-8")
     toc = "".join(f'<li><a href="#{esc(s.id)}">{esc(s.title)}</a></li>' for s in sections)
-    variables = {"sections": blocks, "css": css, "page_title": title, "toc": toc, "esc": esc}
-    if not models:  # a page without plots still needs a document for file_html
+    variables = {"sections": blocks, "css": css, "page_title": title, "toc": toc, "esc": esc, "empty_root": not models}
+    if not models:  # a page without plots still needs a document (and its root placed) for file_html
         from bokeh.models import Div
 
         models = [Div(text="", name="empty", visible=False)]

@@ -286,8 +286,10 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     """Any impact at full resolution: the impacting element's force and the masses' accelerations."""
     _, models = bokeh()
     rows = view.impact_rows()
-    if not rows or view.time.size < 2:
-        return None, {}
+    has_force = any(p.startswith("elements/") for p in view.traces)
+    has_acc = any(p.startswith("masses/") and p.endswith("/acceleration") for p in view.traces)
+    if not rows or view.time.size < 2 or not (has_force or has_acc):
+        return None, {}  # nothing stored to show at full resolution (--record, --summary-only)
     speeds = np.array([abs(float(view.event(i, "relative_velocity"))) for i in rows])
     order = np.argsort(-np.nan_to_num(speeds, nan=-1.0), kind="stable")[:MAX_DETAIL_IMPACTS]
     chosen = sorted(rows[k] for k in order)
@@ -326,13 +328,19 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     """))
     plotting, _ = bokeh()
     f_unit, _ = unit_label("N")
-    pf = trace_figure(source.name("impact-detail-force"), "Impacting element force (full resolution)", f"force [{f_unit}]", [])
-    pf.line("t", "force", source=shown_src, legend_label="element force", line_width=1.6, line_color=PALETTE[0])
-    pa = trace_figure(source.name("impact-detail-acceleration"), "Accelerations of the impacting masses (full resolution)",
-                      f"acceleration [{a_unit}]", [], x_range=pf.x_range)
-    pa.line("t", "acc_a", source=shown_src, legend_label="first mass", line_width=1.6, line_color=PALETTE[1])
-    pa.line("t", "acc_b", source=shown_src, legend_label="second mass", line_width=1.6, line_color=PALETTE[2], line_dash="dashed")
-    for p in (pf, pa):
+    figures, x_range = [], None
+    if has_force:
+        pf = trace_figure(source.name("impact-detail-force"), "Impacting element force (full resolution)", f"force [{f_unit}]", [])
+        pf.line("t", "force", source=shown_src, legend_label="element force", line_width=1.6, line_color=PALETTE[0])
+        figures.append(pf)
+        x_range = pf.x_range
+    if has_acc:
+        pa = trace_figure(source.name("impact-detail-acceleration"), "Accelerations of the impacting masses (full resolution)",
+                          f"acceleration [{a_unit}]", [], x_range=x_range)
+        pa.line("t", "acc_a", source=shown_src, legend_label="first mass", line_width=1.6, line_color=PALETTE[1])
+        pa.line("t", "acc_b", source=shown_src, legend_label="second mass", line_width=1.6, line_color=PALETTE[2], line_dash="dashed")
+        figures.append(pa)
+    for p in figures:
         p.legend.location = "top_right"
     from bokeh.layouts import column
 
@@ -340,7 +348,7 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     note = "" if len(rows) <= MAX_DETAIL_IMPACTS else f" The {MAX_DETAIL_IMPACTS} impacts with the largest approach speeds of {len(rows)} are offered."
     s.add(f"<p class=note>Every sample around the chosen impact, {dt * 1e6:.3g} µs apart (no envelope).{note} "
           "Choose an impact in the list or with the detail button of the event table.</p>")
-    box = column(sel, pf, pa, sizing_mode="stretch_width", name=source.name("impact-detail"))
+    box = column(sel, *figures, sizing_mode="stretch_width", name=source.name("impact-detail"))
     s.add(Plot(box, "The force of the impacting element [N] and the accelerations of the masses it joins [m/s²] "
                     "against time [s], every sample around the chosen impact."))
     return s, names

@@ -249,3 +249,33 @@ def test_printed_pdf_fits_its_sections_and_clips_no_table(fixture, request, brow
     assert boxes
     for table_id, table_width, box_width, body_width in boxes:
         assert table_width <= box_width + 1 and box_width <= body_width + 1, table_id
+
+
+def test_partial_runs_on_one_page(tmp_path, open_page):
+    """A run stored with --record (some traces) and one with --summary-only (none) on one
+    page: it loads without console error, the --record file's plots are drawn, and the
+    summary-only file's summary table equals its /summary (the hub's scalars over every
+    revolution)."""
+    from typer.testing import CliRunner
+
+    from camsim.cli import app
+    from conftest import CDTM
+
+    fast = ["--warmup", "0", "--sample-rate", "5 kHz", "-q"]
+    rec, summ, html = tmp_path / "rec.h5", tmp_path / "summ.h5", tmp_path / "both.html"
+    for extra, out in ((["--record", "transducer/*,masses/M3/*"], rec), (["--summary-only"], summ)):
+        r = CliRunner().invoke(app, ["run", str(CDTM), "-o", str(out), *fast, *extra])
+        assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(app, ["report", str(rec), str(summ), "-o", str(html)])
+    assert r.exit_code == 0, r.output
+    loaded = open_page(html)
+    assert loaded.errors == [] and loaded.failed == [] and loaded.blocked == []
+    names = loaded.page.eval_on_selector_all("[data-plot]", "els => els.map(e => e.dataset.plot)")
+    assert "f0-trace-acceleration" in names and not any(n.startswith("f1-") for n in names)
+    _, rows = table_cells(loaded.page, "f1-summary-table")
+    with h5py.File(summ, "r") as f:
+        attrs = dict(f["summary"].attrs)
+    for name, value, unit in rows:
+        if isinstance(attrs[name.strip()], (bool, np.bool_)):
+            continue
+        assert close(to_si(number(value), unit.strip(), attrs[f"units:{name.strip()}"] or "-"), float(attrs[name.strip()])), name
