@@ -22,6 +22,7 @@ _COMMANDS = (
     "fit",
     "study",
     "optimize",
+    "report",
 )
 for _name in _COMMANDS:
     # Every command is part of camsim: an import error is a bug and must surface. (A

@@ -9,6 +9,7 @@ import typer
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 
 _SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
@@ -61,6 +62,7 @@ def compare_command(
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human table: si (mm, m/s) or us (in, in/s). Files and --json are always SI."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP + " Of the comparison file; of both run files when two are compared without -o."),
 ) -> None:
     """Compare the machine with impact and over-travel against its no-impact variant (thesis §8.4).
 
@@ -78,6 +80,7 @@ def compare_command(
 
     with user_errors(), sigterm_as_interrupt():
         check_unit_system(units)
+        check_report_target(report, [(f"input {i + 1}", p) for i, p in enumerate(inputs)], force)
         if len(inputs) == 2:
             if set_ or cycles or warmup is not None or sample_rate:
                 raise fail("--set, --cycles, --warmup and --sample-rate apply to a machine file, not to two result files")
@@ -135,3 +138,4 @@ def compare_command(
                 render_design_comparison(design_rows, err_console)
             if output is not None:
                 err_console.print(f"wrote {output}")
+        write_report_page([output] if output is not None else list(inputs), report, quiet=json_)

@@ -143,7 +143,7 @@ def fit_command(
     window: str = typer.Option(None, "--window", metavar="START:STOP[UNIT]", help="Compare only measured times in this window, e.g. 0.1:0.3 or 100:300ms (default unit s)."),
     drop_nan: bool = typer.Option(False, "--drop-nan", help="Leave out NaN or empty cells of the measured file (else they are an error)."),
     output: Path = typer.Option(None, "-o", "--output", help="Fitted machine file: the input with the fitted values in place, in the units written, with comments. Default: <machine>_fitted.toml."),
-    report: Path = typer.Option(None, "--report", help="Figure of measured vs fitted traces with residuals (.png, .svg or .pdf)."),
+    report: Path = typer.Option(None, "--report", help="Figure of measured vs fitted traces with residuals (.png, .svg or .pdf), or with .html the interactive report page (parameters, intervals, correlation, measured vs fitted; see docs/report.md)."),
     json_: bool = typer.Option(False, "--json", help="Print the fit as JSON on stdout (schema in docs/fitting.md)."),
     workers: int = typer.Option(1, "--workers", min=1, help="Processes running the simulations of one Jacobian in parallel (like sweep)."),
     starts: int = typer.Option(1, "--starts", min=1, help="Solver starts: the given start plus N-1 Latin-hypercube points in the bounds; the lowest cost wins."),
@@ -185,9 +185,13 @@ def fit_command(
         check_output(store, output_format(store, HDF5), owner="fit", inputs=inputs, option="-o (its evaluation store)",
                      force=True)
         check_journal(target_path, journal_path_for(store), resume=resume, fresh=fresh, what="fit")
-        if report is not None:
-            check_output(report, output_format(report, FIGURES, "--report"), owner="figure", inputs=inputs,
-                         option="--report")
+        if report is not None and report.suffix.lower() in (".html", ".htm"):
+            from camsim.cli.report_option import check_report_target
+
+            check_report_target(report, inputs, force)
+        elif report is not None:
+            check_output(report, output_format(report, {**FIGURES, ".html": "html"}, "--report"), owner="figure",
+                         inputs=inputs, option="--report")
         result = fit(
             machine,
             measured,
@@ -229,7 +233,12 @@ def fit_command(
 
         text = read_machine_text(machine)
         fitted_text(text, result, source=str(machine))  # any problem shows before a file is written
-        if report is not None:
+        if report is not None and report.suffix.lower() in (".html", ".htm"):
+            from camsim.cli.report_option import command_line
+            from camsim.reports.page import build_report_from
+
+            build_report_from((result, machine, text), "fit", report, command=command_line(), title=f"{machine} — fit report")
+        elif report is not None:
             from camsim.figures.fit import write_report
 
             write_report(report, result, title=str(machine))

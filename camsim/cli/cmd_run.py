@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
+from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
@@ -38,6 +39,7 @@ def run_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
     cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
@@ -82,6 +84,7 @@ def run_command(
 
         check_output(target, output_format(target, HDF5), owner="run", force=force,
                      inputs=[("machine file", machine), ("golden file", check_against)])
+        check_report_target(report, [("machine file", machine), ("golden file", check_against)], force)
         from camsim.cam.design import check_machine  # issue 14: undercut/cusp and --cs checks
 
         check_machine(loaded, cs)
@@ -115,6 +118,7 @@ def run_command(
         else:
             render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
+        write_report_page([target], report, quiet=json_)
         if check_against is not None:
             from camsim.analyses.check import check_files, render_report
 

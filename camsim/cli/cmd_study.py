@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 
 
 class _Start:
@@ -123,6 +124,7 @@ def study_command(
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
@@ -174,6 +176,7 @@ def study_command(
         check_output(csv_path_for(target), output_format(csv_path_for(target), CSV), owner="csv", inputs=inputs,
                      option="-o (the CSV beside it)")
         check_journal(target, journal_path_for(target), resume=resume, fresh=fresh, what="study")
+        check_report_target(report, inputs, force)
         if plot is not None:
             from camsim.io.outputs import FIGURES
 
@@ -239,6 +242,7 @@ def study_command(
         else:
             _render(result, err_console, units)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
+        write_report_page([Path(result.output)], report, quiet=json_)
         if result.failed:
             raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
                        "'status'); no probability is concluded from the others", 1)

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 
 
 def _default_output(machine: Path) -> Path:
@@ -132,6 +133,7 @@ def sweep_command(
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human table: si (N, m) or us (lbf, in). Files and --json are always SI."),
+    report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
 ) -> None:
     """Run MACHINE for every combination of the varied keys; one summary row per variant.
 
@@ -168,6 +170,7 @@ def sweep_command(
         check_output(csv_path_for(target), output_format(csv_path_for(target), CSV), owner="csv", inputs=inputs,
                      option="-o (the CSV beside it)")
         check_journal(target, journal_path_for(target), resume=resume, fresh=fresh, what="sweep")
+        check_report_target(report, inputs, force)
         try:
             result = run_sweep(
                 machine,
@@ -211,6 +214,7 @@ def sweep_command(
                 err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
             _render(result, err_console, units)
             err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
+        write_report_page([h5_path], report, quiet=json_)
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
             raise fail(

@@ -35,6 +35,7 @@ __all__ = [
     "CSV",
     "TOML",
     "FIGURES",
+    "HTML",
     "output_format",
     "sniff_kind",
     "result_owner",
@@ -50,11 +51,12 @@ HDF5: Mapping[str, str] = {".h5": "hdf5", ".hdf5": "hdf5"}
 CSV: Mapping[str, str] = {".csv": "csv"}
 TOML: Mapping[str, str] = {".toml": "toml"}
 FIGURES: Mapping[str, str] = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+HTML: Mapping[str, str] = {".html": "html", ".htm": "html"}
 
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _NAMES = {"hdf5": "an HDF5 file", "toml": "a TOML file", "csv": "a CSV file", "png": "a PNG image",
           "pdf": "a PDF document", "svg": "an SVG image", "text": "a text file", "binary": "a binary file",
-          "dxf": "a DXF drawing"}
+          "dxf": "a DXF drawing", "html": "an HTML page"}
 
 
 def output_format(path: str | os.PathLike[str], formats: Mapping[str, str], option: str = "-o") -> str:
@@ -98,7 +100,7 @@ def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
 
 def sniff_kind(path: str | os.PathLike[str]) -> str | None:
     """What an existing file holds, from its bytes: ``"hdf5"``, ``"toml"``, ``"csv"``,
-    ``"png"``, ``"pdf"``, ``"svg"``, ``"dxf"``, ``"text"``, ``"binary"``; None when it does
+    ``"png"``, ``"pdf"``, ``"svg"``, ``"dxf"``, ``"html"``, ``"text"``, ``"binary"``; None when it does
     not exist or is empty (nothing to lose)."""
     p = Path(path)
     try:
@@ -125,6 +127,8 @@ def sniff_kind(path: str | os.PathLike[str]) -> str | None:
         except UnicodeDecodeError:
             return "binary"
     stripped = text.lstrip()
+    if stripped[:15].lower().startswith(("<!doctype html", "<html")):
+        return "html"
     if stripped.startswith("<?xml") or stripped.startswith("<svg"):
         return "svg"
     if stripped.startswith("0\nSECTION") or stripped.startswith("  0\nSECTION") or "\nSECTION\n" in text[:200]:
@@ -180,6 +184,12 @@ def result_owner(path: str | os.PathLike[str], kind: str | None = None) -> str |
         return None
     if kind == "csv":
         return "csv"
+    if kind == "html":
+        try:
+            head = Path(path).read_text(encoding="utf-8", errors="replace")[:2000]
+        except OSError:
+            return None
+        return "report" if '<meta name="generator" content="camsim report">' in head else None
     return None
 
 
@@ -236,12 +246,14 @@ def check_output(
             f"{target}: {option}: the file exists and is {_NAMES.get(kind, kind)}, not {_NAMES.get(fmt, fmt)}; "
             "camsim never writes over a file of another kind (choose another name or remove it)"
         )
-    if fmt in ("hdf5", "toml"):
+    if fmt in ("hdf5", "toml", "html"):
         found = result_owner(target, kind)
         if found != owner and found not in owners and not force:
             what = "not a camsim result" if found is None else f"a result of `camsim {found}`"
             if fmt == "toml" and found is None:
                 what = "a machine file not written by camsim"
+            if fmt == "html" and found is None:
+                what = "an HTML page not written by camsim"
             raise InputError(f"{target}: {option}: the file exists and is {what}; pass --force to replace it")
     return target
 

@@ -1,0 +1,29 @@
+"""``camsim report``: one self-contained, interactive HTML page of result files (camsim.reports)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from camsim.cli.app import app, err_console, user_errors
+
+
+@app.command("report")
+def report_command(
+    results: list[Path] = typer.Argument(..., metavar="RESULT.h5...", help="camsim result files: run, compare, sweep or study (several give one page)."),
+    output: Path = typer.Option(None, "-o", "--output", help="The HTML page. Default: the first result's name with .html."),
+    pdf: Path = typer.Option(None, "--pdf", help="Also print the page to this PDF through the local Chromium (see docs/report.md)."),
+) -> None:
+    """Write one self-contained, interactive HTML page of RESULT.h5: verdicts, tables, zoomable traces.
+
+    The page opens from disk with no network (JavaScript and CSS inlined) and prints
+    tidily. Exit 0 when written, 2 on bad input (not a camsim result, a kind without a
+    page, an unwritable output, no browser for --pdf); nothing is written then.
+    """
+    with user_errors():
+        target = output if output is not None else results[0].with_suffix(".html")
+        from camsim.reports.page import build_report
+
+        build_report(results, target, pdf=pdf)
+    err_console.print(f"wrote {target}" + (f" and {pdf}" if pdf is not None else ""), markup=False)

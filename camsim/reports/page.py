@@ -1,0 +1,350 @@
+"""Build one self-contained HTML page from result files: the kind registry and the renderer.
+
+:func:`build_report` opens each result file, reads its kind and calls the section builder
+registered for it in :data:`BUILDERS` (``kind -> builder(source) -> [Section]``). Adding a
+page for a new kind (an optimisation) is one builder function and one
+:func:`register` call; nothing else compares kind names. The sections are rendered into
+``page.html.jinja`` (package data) with Bokeh's runtime and the page's CSS inlined, and
+the file is written atomically.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import html
+import math
+import os
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from camsim.errors import ResultFileError
+
+__all__ = ["Plot", "Section", "Source", "BUILDERS", "register", "build_report", "render_page", "write_page"]
+
+
+# ---------------------------------------------------------------------- page model
+@dataclass
+class Plot:
+    """A Bokeh model placed on the page, with its accessible description.
+
+    Attributes
+    ----------
+    model : bokeh Model
+        Given a unique ``name`` (tests and scripts find it by that name).
+    alt : str
+        What the plot shows, for screen readers (``aria-label``) and the caption.
+    """
+
+    model: Any
+    alt: str
+
+
+@dataclass
+class Section:
+    """One titled part of a page (a printed page holds one or more sections).
+
+    ``blocks`` are HTML strings (already escaped) and :class:`Plot` objects, in order.
+    """
+
+    id: str
+    title: str
+    blocks: list = field(default_factory=list)
+
+    def add(self, *blocks) -> "Section":
+        self.blocks.extend(blocks)
+        return self
+
+
+@dataclass
+class Source:
+    """What a section builder reads: one result file (open) or an in-memory result.
+
+    Attributes
+    ----------
+    path : Path or None
+        The result file (None for a result that was never written, e.g. a fit).
+    kind : str
+        The registry key.
+    h5 : h5py.File or None
+        The file, open read-only while the builder runs.
+    obj : object
+        An in-memory result (:class:`~camsim.analyses.fit.FitResult`) when there is no file.
+    command : str
+        The command line that produced the result, when known.
+    prefix : str
+        Prefix of section ids and model names (several files on one page).
+    """
+
+    path: Path | None
+    kind: str
+    h5: Any = None
+    obj: Any = None
+    command: str = ""
+    prefix: str = ""
+
+    def name(self, text: str) -> str:
+        return f"{self.prefix}{text}"
+
+
+Builder = Callable[[Source], list[Section]]
+#: kind -> section builder; filled by :mod:`camsim.reports.sections` (and by any later kind).
+BUILDERS: dict[str, Builder] = {}
+
+
+def register(kind: str) -> Callable[[Builder], Builder]:
+    """Decorator registering the section builder of a result kind."""
+
+    def wrap(fn: Builder) -> Builder:
+        BUILDERS[kind] = fn
+        return fn
+
+    return wrap
+
+
+# ---------------------------------------------------------------------- HTML helpers
+def esc(text: object) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def fmt(value: Any, spec: str = ".4g") -> str:
+    """A number as the page shows it: 4 significant digits, – for NaN/None, ∞."""
+    if value is None:
+        return "–"
+    if isinstance(value, (bool,)):
+        return "yes" if value else "no"
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return esc(value)
+    if math.isnan(v):
+        return "–"
+    if math.isinf(v):
+        return "∞" if v > 0 else "−∞"
+    return format(v, spec)
+
+
+def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], *, cls: str = "", id: str = "", caption: str = "",
+          numeric: Sequence[bool] | None = None) -> str:
+    """An HTML table; ``rows`` hold ready HTML (use :func:`fmt`/:func:`esc`)."""
+    numeric = numeric or [False] * len(headers)
+    head = "".join(f'<th scope="col"{" class=num" if n else ""}>{esc(h)}</th>' for h, n in zip(headers, numeric))
+    body = "".join(
+        "<tr>" + "".join(f'<td{" class=num" if n else ""}>{c}</td>' for c, n in zip(row, numeric)) + "</tr>"
+        for row in rows
+    )
+    cap = f"<caption>{esc(caption)}</caption>" if caption else ""
+    return (f'<div class="table-wrap"><table{f" id={esc(id)}" if id else ""} class="{esc(cls)}">{cap}'
+            f"<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>")
+
+
+def definition_list(items: Sequence[tuple[str, str]], cls: str = "facts") -> str:
+    """``<dl>`` of (label, ready HTML) pairs."""
+    return f'<dl class="{cls}">' + "".join(f"<dt>{esc(k)}</dt><dd>{v}</dd>" for k, v in items) + "</dl>"
+
+
+def verdict(label: str, state: str, detail: str, key: str) -> str:
+    """One verdict tile: ``state`` is ``ok``, ``warn`` or ``fail`` (said in words too, not by colour)."""
+    word = {"ok": "OK", "warn": "CHECK", "fail": "FAIL", "info": "INFO"}[state]
+    return (f'<div class="verdict {state}" data-verdict="{esc(key)}"><span class="state">{word}</span>'
+            f"<h3>{esc(label)}</h3><p>{detail}</p></div>")
+
+
+# ---------------------------------------------------------------------- building
+def _kind_of(f, path: Path) -> str:
+    """The kind of an open result file: its ``file_kind`` attribute, else recognised by layout."""
+    from camsim.io.results import attr_text, file_kind
+
+    kind = attr_text(f, "file_kind")
+    if not kind:
+        kind = file_kind(f)
+    if kind not in BUILDERS:
+        known = ", ".join(sorted(BUILDERS))
+        raise ResultFileError(f"{path}: file_kind: no report page for a {kind!r} result (pages exist for: {known})")
+    return kind
+
+
+def sections_for(source: Source) -> list[Section]:
+    """The sections of one source through the registry."""
+    return BUILDERS[source.kind](source)
+
+
+def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathLike[str], *, command: str = "",
+                 pdf: str | os.PathLike[str] | None = None, title: str | None = None) -> Path:
+    """Write the HTML page of one or more result files (and optionally its PDF).
+
+    Parameters
+    ----------
+    paths : sequence of path
+        camsim result files (run, compare, sweep, study); several files give one page
+        with the sections of each in turn.
+    output : path
+        The ``.html`` file, written atomically; never one of the inputs.
+    command : str
+        The command that produced the results, shown in the header when known.
+    pdf : path, optional
+        Also print the page to this PDF through the local Chromium
+        (:func:`camsim.reports.browser.print_pdf`).
+    title : str, optional
+        Page title (default: the machine name or the file name).
+
+    Returns
+    -------
+    Path
+        The written HTML file.
+
+    Raises
+    ------
+    ResultFileError, InputError
+        Not a camsim result, a kind without a page, an unwritable output, no browser for
+        ``pdf``, or bokeh missing; nothing is written then.
+    """
+    from camsim.io.atomic import check_writable
+    from camsim.io.results import open_h5
+
+    from camsim.reports import sections as _sections  # noqa: F401  (registers the builders)
+
+    out = Path(output)
+    inputs = [Path(p) for p in paths]
+    if not inputs:
+        raise ResultFileError("camsim report: give at least one result file")
+    for p in inputs:
+        if p.exists() and out.exists() and os.path.samefile(p, out):
+            raise ResultFileError(f"{out}: is an input result file; choose another output name")
+    check_writable(out)
+    if pdf is not None:
+        from camsim.reports.browser import find_browser
+
+        check_writable(pdf)
+        find_browser(required=True)
+    all_sections: list[Section] = []
+    names = []
+    opened = []
+    try:
+        for p in inputs:
+            f = open_h5(p)
+            opened.append(f)
+            kind = _kind_of(f, p)
+            names.append((p, kind, f))
+        for i, (p, kind, f) in enumerate(names):
+            prefix = f"f{i}-" if len(names) > 1 else ""
+            all_sections += sections_for(Source(p, kind, h5=f, command=command, prefix=prefix))
+        if title is None:
+            from camsim.io.results import attr_text
+
+            first = names[0]
+            title = f"{attr_text(first[2], 'machine_name', first[0].name)} — {first[1]} report"
+    finally:
+        for f in opened:
+            f.close()
+    text = render_page(all_sections, title)
+    write_page(text, out)
+    if pdf is not None:
+        from camsim.reports.browser import print_pdf
+
+        print_pdf(out, pdf)
+    return out
+
+
+def build_report_from(obj: Any, kind: str, output: str | os.PathLike[str], *, command: str = "",
+                      pdf: str | os.PathLike[str] | None = None, title: str = "") -> Path:
+    """The page of an in-memory result that has no result file (a fit)."""
+    from camsim.io.atomic import check_writable
+
+    from camsim.reports import sections as _sections  # noqa: F401
+
+    check_writable(output)
+    if pdf is not None:
+        from camsim.reports.browser import find_browser
+
+        check_writable(pdf)
+        find_browser(required=True)
+    text = render_page(sections_for(Source(None, kind, obj=obj, command=command)), title or f"{kind} report")
+    out = write_page(text, output)
+    if pdf is not None:
+        from camsim.reports.browser import print_pdf
+
+        print_pdf(out, pdf)
+    return out
+
+
+def render_page(sections: list[Section], title: str) -> str:
+    """The page as HTML text: sections, Bokeh runtime and CSS inline, no external resource."""
+    from camsim.reports.figures import bokeh
+
+    bokeh()
+    from bokeh.embed import file_html
+    from bokeh.resources import INLINE
+
+    models = [b.model for s in sections for b in s.blocks if isinstance(b, Plot)]
+    blocks = []
+    for s in sections:
+        parts = []
+        for b in s.blocks:
+            if isinstance(b, Plot):
+                parts.append({"plot": b.model.name, "alt": b.alt, "height": _stretch(b.model)})
+            else:
+                parts.append({"html": b})
+        blocks.append({"id": s.id, "title": s.title, "parts": parts})
+    template = resources.files("camsim.reports").joinpath("page.html.jinja").read_text(encoding="utf-8")
+    css = resources.files("camsim.reports").joinpath("page.css").read_text(encoding="utf-8")
+    toc = "".join(f'<li><a href="#{esc(s.id)}">{esc(s.title)}</a></li>' for s in sections)
+    variables = {"sections": blocks, "css": css, "page_title": title, "toc": toc, "esc": esc, "empty_root": not models}
+    if not models:  # a page without plots still needs a document (and its root placed) for file_html
+        from bokeh.models import Div
+
+        models = [Div(text="", name="empty", visible=False)]
+    return file_html(models, INLINE, title=title, template=template, template_variables=variables)
+
+
+def _stretch(model) -> int | None:
+    """Let a full-width plot take its height from the page's CSS (lower when printed).
+
+    Returns the screen height [px] for the container, or None for plots that keep their
+    own size (fixed-size figures, layouts)."""
+    if getattr(model, "sizing_mode", None) != "stretch_width" or not getattr(model, "height", None) or not hasattr(model, "renderers"):
+        return None
+    height = int(model.height)
+    model.sizing_mode = "stretch_both"
+    model.height = None
+    return height
+
+
+def write_page(text: str, output: str | os.PathLike[str]) -> Path:
+    """Write the page atomically (camsim.io.atomic)."""
+    from camsim.io.atomic import atomic_path
+
+    out = Path(output)
+    with atomic_path(out) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return out
+
+
+# ---------------------------------------------------------------------- shared header
+def provenance(source: Source, machine_name: str) -> list[tuple[str, str]]:
+    """Header facts of a result file: where it comes from and what computed it."""
+    from camsim import __version__
+    from camsim.io.results import attr_text
+
+    import numpy
+    import scipy
+
+    f = source.h5
+    items = [("machine", esc(machine_name))]
+    if f is not None:
+        items.append(("result file", f"<code>{esc(source.path)}</code> ({esc(source.kind)})"))
+        items.append(("machine file sha256", f"<code>{esc(attr_text(f, 'machine_sha256', '–'))}</code>"))
+        items.append(("written by camsim", esc(attr_text(f, "camsim_version", "–"))))
+        mtime = _dt.datetime.fromtimestamp(Path(source.path).stat().st_mtime, _dt.timezone.utc)
+        items.append(("result date (file time, UTC)", esc(mtime.strftime("%Y-%m-%d %H:%M:%S"))))
+    items.append(("command", f"<code>{esc(source.command)}</code>" if source.command else "not recorded in the file"))
+    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+    import bokeh as _bokeh
+
+    items.append(("page built (UTC)", esc(now)))
+    items.append(("page built with", esc(f"camsim {__version__}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
+                                          f"bokeh {_bokeh.__version__}, Python {sys.version.split()[0]}")))
+    return items
