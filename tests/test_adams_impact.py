@@ -74,6 +74,13 @@ def reference():
     return t0, v0, t_out, -sol.y_events[0][0][1], sol
 
 
+@pytest.mark.xfail(
+    int(np.__version__.split(".")[0]) < 2,
+    strict=True,
+    reason="reference not converged: with numpy 1.x this DOP853 run takes another step sequence "
+    "through the force's re-engagement just before exit and its rebound moves 9e-6 relative "
+    "(camsim's numbers are the same on numpy 1 and 2; see issue 30's report)",
+)
 def test_adams_impact_drop_against_solve_ivp():
     t0, v0, duration, rebound, sol = reference()
     r = simulate(load_machine_text(TEXT))
