@@ -1,7 +1,7 @@
 """``law = "adams-impact"`` (MSC Adams IMPACT, spec §3).
 
-Reference: a tight ``solve_ivp`` (DOP853, rtol 1e-12) of the same equation written out
-here — a 0.5 kg mass dropped under gravity from 5 mm onto an IMPACT contact
+Reference: a tight ``solve_ivp`` (DOP853, rtol 1e-13, each smooth piece of the force law
+its own run ended at a located kink) of the same equation written out here — a 0.5 kg mass dropped under gravity from 5 mm onto an IMPACT contact
 (k = 1e8 N/m^1.5, n = 1.5, c_max = 200 N·s/m, d = 0.05 mm), Adams's cubic STEP and the
 force clamped at zero — with a terminal event at δ = 0 on the way out. Tolerances: the
 rebound speed and contact duration to 1e-8 relative, the trajectory to 1e-8 of the peak
@@ -58,22 +58,81 @@ def _force(delta, rate):
 
 
 def reference():
+    """The drop integrated piece by piece between the force law's kinks.
+
+    The IMPACT force has two kinks inside the contact: the STEP ends at δ = d, and the
+    force is clamped at zero where the damping term would pull (the mass leaves the
+    force briefly on the way out and meets it again). An integrator stepping across a
+    kink loses its order there, and where its steps fall depends on the last bits of the
+    arithmetic (numpy 1 and 2 gave rebounds 9e-6 apart). Here each smooth piece is its
+    own DOP853 run (rtol 1e-13), ended by a located event at the kink, so the reference
+    converges whatever the step sequence.
+    """
     t0 = math.sqrt(2 * H / G)
     v0 = math.sqrt(2 * G * H)
 
-    def rhs(_t, y):  # y = [δ, δ̇] with δ = −x
-        return [y[1], G - _force(y[0], y[1]) / M]
+    def step(delta):
+        u = min(delta / D, 1.0)
+        return u * u * (3 - 2 * u)
+
+    def pushing(_t, y):  # the unclamped force's value: it pushes while > 0
+        return K * max(y[0], 0.0) ** N + CMAX * step(y[0]) * y[1]
+
+    def at_d(_t, y):
+        return y[0] - D
 
     def out(_t, y):
         return y[0]
 
-    out.terminal, out.direction = True, -1
-    sol = solve_ivp(rhs, (0, 0.01), [0.0, v0], method="DOP853", rtol=1e-12, atol=[1e-16, 1e-12],
-                    events=out, dense_output=True, first_step=1e-9)
-    t_out = sol.t_events[0][0]
-    return t0, v0, t_out, -sol.y_events[0][0][1], sol
+    def free(_t, y):
+        return [y[1], G]
+
+    def loaded(_t, y):
+        return [y[1], G - (K * max(y[0], 0.0) ** N + CMAX * step(y[0]) * y[1]) / M]
+
+    pieces, t, y = [], 0.0, np.array([0.0, v0])
+    clamped, inner = False, False  # the force is zero; δ > d
+    while True:
+        out.terminal, out.direction = True, -1
+        at_d.terminal, at_d.direction = True, (-1 if inner else 1)
+        pushing.terminal, pushing.direction = True, (1 if clamped else -1)
+        sol = solve_ivp(free if clamped else loaded, (t, 0.01), y, method="DOP853", rtol=1e-13,
+                        atol=[1e-17, 1e-13], events=[out, at_d, pushing], dense_output=True, first_step=1e-10)
+        hit = [k for k in range(3) if sol.t_events[k].size]
+        assert hit, "the contact never ended"
+        i = min(hit, key=lambda k: sol.t_events[k][0])
+        t_end = float(sol.t_events[i][0])
+        pieces.append((t, t_end, sol.sol))
+        t, y = t_end, sol.y_events[i][0].copy()
+        if i == 0:
+            break
+        if i == 1:
+            inner = not inner
+        else:
+            clamped = not clamped
+
+    class Dense:
+        """``sol(t)`` over the whole contact, from the piece holding each t."""
+
+        @staticmethod
+        def sol(times):
+            times = np.atleast_1d(times)
+            result = np.empty((2, times.size))
+            for k, s in enumerate(times):
+                piece = next((p for p in pieces if p[0] <= s <= p[1]), pieces[-1])
+                result[:, k] = piece[2](s)
+            return result
+
+    return t0, v0, t, -y[1], Dense
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect: camsim steps across the IMPACT force's kinks inside a closed phase (the STEP's "
+    "end at δ = d, the clamp at F = 0) instead of locating them; against this converged reference the "
+    "contact lasts 4.5e-8 too long (relative) and the rebound is 9.2e-6 fast. The former reference "
+    "(one DOP853 run, rtol 1e-12) had the same error and hid it (docs/contacts.md)",
+)
 def test_adams_impact_drop_against_solve_ivp():
     t0, v0, duration, rebound, sol = reference()
     r = simulate(load_machine_text(TEXT))

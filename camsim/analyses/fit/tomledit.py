@@ -145,7 +145,8 @@ def edited_text(text: str, entries, source: str = "<string>", what: str = "fitte
         except (KeyError, IndexError, StopIteration, TypeError):
             raise InputError(f"{source}: {key}: not found in the machine file to write the {what} value") from None
         old = table.get(leaf)
-        old_item = table.item(leaf) if leaf in table else None
+        # Table.item() is tomlkit >= 0.13.1; the table's container has had .item() far longer.
+        old_item = table.value.item(leaf) if leaf in table else None
         unit = ""
         if isinstance(old, str) and not isinstance(value, str):
             m = _NUMBER.match(old)
