@@ -377,8 +377,10 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         Udot[:, :3] = U[:, 1:]
         # ---- linear law at the window's start (tangent values on the ladder)
         k_now, c_now = float(kt0[0]), float(ct0[0])
-        if last_law is not None and abs(k_now / last_law[3] - 1.0) < HYSTERESIS and (
-            (c_now == 0.0 and last_law[4] == 0.0) or (last_law[4] > 0 and abs(c_now / last_law[4] - 1.0) < HYSTERESIS)
+        # (as differences, not ratios: a contact at the edge of its law can have a zero
+        # tangent stiffness, and k_now / 0 raised ZeroDivisionError; issue 25)
+        if last_law is not None and abs(k_now - last_law[3]) <= HYSTERESIS * abs(last_law[3]) and (
+            abs(c_now - last_law[4]) <= HYSTERESIS * abs(last_law[4])
         ):
             lin, maps, WL, kq, cq = last_law
         else:
