@@ -330,7 +330,13 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             f"steps per output sample (at most {MAX_STEPS_PER_SAMPLE:.0e}): a stiffness or a mass is out of any "
             "physical range"
         )
-    substeps = max(1, math.ceil(steps_per_sample))
+    # The cam input is carried over each step as the Hermite of s, ṡ, s̈, s⃛ at its ends: a
+    # step no longer than 1/WARMUP_STEPS_PER_MOTION of the shortest rise keeps it exact
+    # (warmup_step). A coarse output grid on a soft machine (5 kHz, one step per sample)
+    # otherwise moved a power-law contact's traces by 1e-6 of peak against 500 kHz (issue 25,
+    # invariant a); machines whose natural frequencies already ask for finer steps keep them.
+    motion_step = cam_input_step(machine)
+    substeps = max(1, math.ceil(steps_per_sample), math.ceil(h_out / motion_step * (1 - 1e-12)))
     integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
@@ -425,19 +431,26 @@ def numerical_failure(machine: Machine):
 WARMUP_STEPS_PER_MOTION = 64
 
 
+def cam_input_step(machine: Machine) -> float:
+    """Longest step [s] over which the cam input stays exact: 1/WARMUP_STEPS_PER_MOTION of
+    the shortest rise or fall (of a revolution for a table cam); inf without a cam."""
+    cam = machine.cam
+    if cam is None:
+        return math.inf
+    motions = [seg.duration for seg in (cam.segments or ()) if seg.motion != "dwell"]
+    shortest = min(motions) if motions else 2 * math.pi / WARMUP_STEPS_PER_MOTION  # a table cam: by revolution
+    return shortest / cam.speed / WARMUP_STEPS_PER_MOTION
+
+
 def warmup_step(machine: Machine, f_max: float, h: float) -> float:
     """Step [s] of the unrecorded warm-up grid: at most 1/(12·f_max) (every guard seen)
-    and 1/WARMUP_STEPS_PER_MOTION of the shortest rise or fall (the cam input exact);
-    ``h`` (the recording step) when neither bounds it."""
-    bounds = []
+    and :func:`cam_input_step` (the cam input exact); ``h`` (the recording step) when
+    neither bounds it."""
+    bounds = [cam_input_step(machine)]
     if f_max > 0:
         bounds.append(1.0 / (SAMPLES_PER_PERIOD * f_max))
-    cam = machine.cam
-    if cam is not None:
-        motions = [seg.duration for seg in (cam.segments or ()) if seg.motion != "dwell"]
-        shortest = min(motions) if motions else 2 * math.pi / WARMUP_STEPS_PER_MOTION  # a table cam: by revolution
-        bounds.append(shortest / cam.speed / WARMUP_STEPS_PER_MOTION)
-    return min(bounds) if bounds else h
+    best = min(bounds)
+    return best if math.isfinite(best) else h
 
 
 @dataclass(frozen=True)

@@ -110,7 +110,7 @@ def test_bad_options(driven, tmp_path):
     _assert_bad(*_run(tmp_path, driven, csv, *PARAM, "--align", "phase"), "--align phase")
     _assert_bad(*_run(tmp_path, driven, None, *PARAM), "nothing to fit to")
     _assert_bad(*_run(tmp_path, driven, tmp_path / "none.csv", *PARAM), "none.csv", "no such measured-data file")
-    _assert_bad(*_run(tmp_path, driven, csv, *PARAM, "--report", str(tmp_path / "r.gif")), "--report", "unknown figure format")
+    _assert_bad(*_run(tmp_path, driven, csv, *PARAM, "--report", str(tmp_path / "r.gif")), "--report", "unknown output format")
 
 
 def test_measured_times_outside_the_simulated_window(driven, tmp_path):

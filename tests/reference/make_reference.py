@@ -54,6 +54,16 @@ def machine_digest(machine) -> str:
     """SHA-256 of the machine's physics in SI (cam, masses, elements, initial state, cycles,
     gravity): comments and the output sample rate of the file do not change it."""
     d = machine_to_dict(machine)
+    # Keys a later camsim added, at their defaults, leave the physics and the digest alone
+    # (motion synthesis, issue 27: a segment's continuity, degree, velocity, start, end,
+    # points; the cam's compensation).
+    unset = (None, {}, [])
+    for seg in d["cam"].get("segments") or []:
+        for key in ("continuity", "degree", "velocity", "start", "end", "points"):
+            if key in seg and seg[key] in unset:
+                del seg[key]
+    if d["cam"].get("compensation", 0) is None:
+        del d["cam"]["compensation"]
     sim = {k: v for k, v in d["simulation"].items() if k != "sample_rate"}
     physics = {"cam": d["cam"], "masses": d["masses"], "elements": d["elements"],
                "initial": d["initial"], "simulation": sim}
