@@ -66,6 +66,10 @@ def test_collocation_error_control_rejects_a_coarse_step(monkeypatch):
     """The local error estimate is not blind: at a tolerance far below what one grid step
     of the polynomial can reach, no step is accepted (DOP853 carries the phase)."""
     text = TEXT.replace('sample_rate = "20 kHz"', 'sample_rate = "500 Hz"')
+    # the 2 ms grid step itself, not the finer one the cam's motions would ask for
+    from camsim.run import simulation
+
+    monkeypatch.setattr(simulation, "cam_input_step", lambda machine: float("inf"))
     result, collocated = simulate_counting(text, monkeypatch)
     # a 2 ms step spans more than half a period of the ringing: the degree-5 polynomial
     # cannot carry it to 1e-11, so every step goes to DOP853 (rtol 1e-11, whose error
