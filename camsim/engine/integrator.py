@@ -31,6 +31,7 @@ from camsim.model.assembly import Configuration, Model
 from camsim.engine.nonlinear import advance_power
 from camsim.engine.watch import CamForceWatch
 from camsim.engine.state import TIME_EPS, Guard, State, Stretch  # noqa: F401 - also the integrator's public names
+from camsim.engine.state import cubic_root as _cubic_root
 from camsim.engine.rigid import resolve as resolve_rigid
 from camsim.engine.stepping import (  # noqa: F401 - also re-exported for camsim.engine.nonlinear and camsim.engine.crossing
     _FACT,
@@ -62,28 +63,6 @@ DIP_RESOLUTION = 1e-10
 #: Closed power-law contacts by the iterated-remainder stepper (camsim.engine.nonlinear); False:
 #: DOP853 throughout (the reference for the stepper's tests and benchmark).
 NONLINEAR_STEPPER = True
-
-
-def _cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:
-    """Root in (0, 1] of the cubic Hermite p with p(0)=g0 > 0, p(1)=g1 ≤ 0, p'(0)=d0, p'(1)=d1."""
-    c2 = 3 * (g1 - g0) - 2 * d0 - d1
-    c3 = 2 * (g0 - g1) + d0 + d1
-    a, b = 0.0, 1.0
-    x = g0 / (g0 - g1) if g0 != g1 else 0.5
-    for _ in range(40):
-        p = g0 + x * (d0 + x * (c2 + x * c3))
-        if p > 0:
-            a = x
-        else:
-            b = x
-        dp = d0 + x * (2 * c2 + 3 * x * c3)
-        x_new = x - p / dp if dp != 0 else 0.5 * (a + b)
-        if not (a < x_new < b):
-            x_new = 0.5 * (a + b)
-        if abs(x_new - x) < 1e-15:
-            return x_new
-        x = x_new
-    return x
 
 
 def _guard_on_step(dense, cam_input, gz, gu, ge):

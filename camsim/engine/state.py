@@ -54,3 +54,25 @@ class State:
     v: np.ndarray
     branches: tuple[Branch, ...]
     v_impacts: dict[int, float]
+
+
+def cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:
+    """Root in (0, 1] of the cubic Hermite p with p(0)=g0 > 0, p(1)=g1 ≤ 0, p'(0)=d0, p'(1)=d1."""
+    c2 = 3 * (g1 - g0) - 2 * d0 - d1
+    c3 = 2 * (g0 - g1) + d0 + d1
+    a, b = 0.0, 1.0
+    x = g0 / (g0 - g1) if g0 != g1 else 0.5
+    for _ in range(40):
+        p = g0 + x * (d0 + x * (c2 + x * c3))
+        if p > 0:
+            a = x
+        else:
+            b = x
+        dp = d0 + x * (2 * c2 + 3 * x * c3)
+        x_new = x - p / dp if dp != 0 else 0.5 * (a + b)
+        if not (a < x_new < b):
+            x_new = 0.5 * (a + b)
+        if abs(x_new - x) < 1e-15:
+            return x_new
+        x = x_new
+    return x

@@ -42,7 +42,7 @@ from camsim.elements import FORCE_TOL
 from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements.events import Event, EventKind
 from camsim.engine.crossing import analytic_input, polish_crossing, root_near
-from camsim.engine.state import Guard
+from camsim.engine.state import Guard, cubic_root
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
 
@@ -292,25 +292,6 @@ def _hermite_zero(t0, t1, f0, f1, d0, d1) -> float:
     """The zero of F between samples (f0 ≥ 0 > f1): of the cubic Hermite with the exact
     rates d0, d1 [N/s] where known, else of the chord."""
     h = t1 - t0
-    chord = t0 + h * f0 / (f0 - f1) if f0 != f1 else t1
     if not (math.isfinite(d0) and math.isfinite(d1)) or h <= 0.0:
-        return float(chord)
-    a0, a1, b0, b1 = f0, f1, d0 * h, d1 * h
-    c2 = 3 * (a1 - a0) - 2 * b0 - b1
-    c3 = 2 * (a0 - a1) + b0 + b1
-    lo, hi = 0.0, 1.0
-    x = (chord - t0) / h
-    for _ in range(60):
-        p = a0 + x * (b0 + x * (c2 + x * c3))
-        if p > 0.0:
-            lo = x
-        else:
-            hi = x
-        dp = b0 + x * (2 * c2 + 3 * x * c3)
-        x_new = x - p / dp if dp != 0.0 else 0.5 * (lo + hi)
-        if not (lo < x_new < hi):
-            x_new = 0.5 * (lo + hi)
-        if abs(x_new - x) < 1e-16:
-            break
-        x = x_new
-    return float(t0 + x * h)
+        return float(t0 + h * f0 / (f0 - f1) if f0 != f1 else t1)
+    return float(t0 + h * cubic_root(f0, f1, d0 * h, d1 * h))
