@@ -235,7 +235,7 @@ def fit_command(
         fitted_text(text, result, source=str(machine))  # any problem shows before a file is written
         if report is not None and report.suffix.lower() in (".html", ".htm"):
             from camsim.cli.report_option import command_line
-            from camsim.reports.page import build_report_from
+            from camsim.reports.build import build_report_from
 
             build_report_from((result, machine, text), "fit", report, command=command_line(), title=f"{machine} — fit report")
         elif report is not None:

@@ -11,7 +11,7 @@ from camsim.cli.app import app, err_console, user_errors
 
 @app.command("report")
 def report_command(
-    results: list[Path] = typer.Argument(..., metavar="RESULT.h5...", help="camsim result files: run, compare, sweep or study (several give one page)."),
+    results: list[Path] = typer.Argument(..., metavar="RESULT.h5...", help="camsim result files: run, compare, sweep, study, or an optimize history (several give one page)."),
     output: Path = typer.Option(None, "-o", "--output", help="The HTML page. Default: the first result's name with .html."),
     pdf: Path = typer.Option(None, "--pdf", help="Also print the page to this PDF through the local Chromium (see docs/report.md)."),
 ) -> None:
@@ -23,7 +23,7 @@ def report_command(
     """
     with user_errors():
         target = output if output is not None else results[0].with_suffix(".html")
-        from camsim.reports.page import build_report
+        from camsim.reports.build import build_report
 
         build_report(results, target, pdf=pdf)
     err_console.print(f"wrote {target}" + (f" and {pdf}" if pdf is not None else ""), markup=False)

@@ -1,7 +1,7 @@
 """The ``--report PAGE.html`` option shared by run, compare, sweep, study and fit (issue 29).
 
 Each command checks the page can be written before it computes, and writes the page of its
-result file at the end (:func:`camsim.reports.page.build_report`).
+result file at the end (:func:`camsim.reports.build.build_report`).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def write_report_page(results: list[Path], page: Path | None, quiet: bool = Fals
     """The page of ``results`` at the end of another command (``--report``); one line when written."""
     if page is None:
         return
-    from camsim.reports.page import build_report
+    from camsim.reports.build import build_report
 
     build_report(results, page, command=command_line())
     if not quiet:

@@ -1,11 +1,15 @@
-"""Build one self-contained HTML page from result files: the kind registry and the renderer.
+"""The page model of an HTML report, its kind registry and its renderer.
 
-:func:`build_report` opens each result file, reads its kind and calls the section builder
-registered for it in :data:`BUILDERS` (``kind -> builder(source) -> [Section]``). Adding a
-page for a new kind (an optimisation) is one builder function and one
-:func:`register` call; nothing else compares kind names. The sections are rendered into
-``page.html.jinja`` (package data) with Bokeh's runtime and the page's CSS inlined, and
-the file is written atomically.
+A page is a list of :class:`Section` (HTML blocks and Bokeh :class:`Plot` objects); a
+section builder turns one :class:`Source` (a result file, or an in-memory result) into
+sections and is registered for its result kind in :data:`BUILDERS` (``kind ->
+builder(source) -> [Section]``) with :func:`register`. The builders
+(:mod:`camsim.reports.sections`, :mod:`camsim.reports.optimize`) sit above this module and
+:mod:`camsim.reports.build` above them: it opens the files and calls the builders. Adding
+a page for a new kind is one builder module with one :func:`register` call, imported by
+:mod:`camsim.reports.build`; nothing else compares kind names. :func:`render_page` puts the
+sections into ``page.html.jinja`` (package data) with Bokeh's runtime and the page's CSS
+inlined; :func:`write_page` writes the file atomically.
 """
 
 from __future__ import annotations
@@ -21,9 +25,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from camsim.errors import ResultFileError
 
-__all__ = ["Plot", "Section", "Source", "BUILDERS", "register", "build_report", "render_page", "write_page"]
+__all__ = ["BUILDERS", "Plot", "Section", "Source", "register", "render_page", "write_page"]
 
 
 # ---------------------------------------------------------------------- page model
@@ -154,123 +157,6 @@ def verdict(label: str, state: str, detail: str, key: str) -> str:
 
 
 # ---------------------------------------------------------------------- building
-def _kind_of(f, path: Path) -> str:
-    """The kind of an open result file: its ``file_kind`` attribute, else recognised by layout."""
-    from camsim.io.results import attr_text, file_kind
-
-    kind = attr_text(f, "file_kind")
-    if not kind:
-        kind = file_kind(f)
-    if kind not in BUILDERS:
-        known = ", ".join(sorted(BUILDERS))
-        raise ResultFileError(f"{path}: file_kind: no report page for a {kind!r} result (pages exist for: {known})")
-    return kind
-
-
-def sections_for(source: Source) -> list[Section]:
-    """The sections of one source through the registry."""
-    return BUILDERS[source.kind](source)
-
-
-def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathLike[str], *, command: str = "",
-                 pdf: str | os.PathLike[str] | None = None, title: str | None = None) -> Path:
-    """Write the HTML page of one or more result files (and optionally its PDF).
-
-    Parameters
-    ----------
-    paths : sequence of path
-        camsim result files (run, compare, sweep, study); several files give one page
-        with the sections of each in turn.
-    output : path
-        The ``.html`` file, written atomically; never one of the inputs.
-    command : str
-        The command that produced the results, shown in the header when known.
-    pdf : path, optional
-        Also print the page to this PDF through the local Chromium
-        (:func:`camsim.reports.browser.print_pdf`).
-    title : str, optional
-        Page title (default: the machine name or the file name).
-
-    Returns
-    -------
-    Path
-        The written HTML file.
-
-    Raises
-    ------
-    ResultFileError, InputError
-        Not a camsim result, a kind without a page, an unwritable output, no browser for
-        ``pdf``, or bokeh missing; nothing is written then.
-    """
-    from camsim.io.atomic import check_writable
-    from camsim.io.results import open_h5
-
-    from camsim.reports import sections as _sections  # noqa: F401  (registers the builders)
-
-    out = Path(output)
-    inputs = [Path(p) for p in paths]
-    if not inputs:
-        raise ResultFileError("camsim report: give at least one result file")
-    for p in inputs:
-        if p.exists() and out.exists() and os.path.samefile(p, out):
-            raise ResultFileError(f"{out}: is an input result file; choose another output name")
-    check_writable(out)
-    if pdf is not None:
-        from camsim.reports.browser import find_browser
-
-        check_writable(pdf)
-        find_browser(required=True)
-    all_sections: list[Section] = []
-    names = []
-    opened = []
-    try:
-        for p in inputs:
-            f = open_h5(p)
-            opened.append(f)
-            kind = _kind_of(f, p)
-            names.append((p, kind, f))
-        for i, (p, kind, f) in enumerate(names):
-            prefix = f"f{i}-" if len(names) > 1 else ""
-            all_sections += sections_for(Source(p, kind, h5=f, command=command, prefix=prefix))
-        if title is None:
-            from camsim.io.results import attr_text
-
-            first = names[0]
-            title = f"{attr_text(first[2], 'machine_name', first[0].name)} — {first[1]} report"
-    finally:
-        for f in opened:
-            f.close()
-    text = render_page(all_sections, title)
-    write_page(text, out)
-    if pdf is not None:
-        from camsim.reports.browser import print_pdf
-
-        print_pdf(out, pdf)
-    return out
-
-
-def build_report_from(obj: Any, kind: str, output: str | os.PathLike[str], *, command: str = "",
-                      pdf: str | os.PathLike[str] | None = None, title: str = "") -> Path:
-    """The page of an in-memory result that has no result file (a fit)."""
-    from camsim.io.atomic import check_writable
-
-    from camsim.reports import sections as _sections  # noqa: F401
-
-    check_writable(output)
-    if pdf is not None:
-        from camsim.reports.browser import find_browser
-
-        check_writable(pdf)
-        find_browser(required=True)
-    text = render_page(sections_for(Source(None, kind, obj=obj, command=command)), title or f"{kind} report")
-    out = write_page(text, output)
-    if pdf is not None:
-        from camsim.reports.browser import print_pdf
-
-        print_pdf(out, pdf)
-    return out
-
-
 def render_page(sections: list[Section], title: str) -> str:
     """The page as HTML text: sections, Bokeh runtime and CSS inline, no external resource."""
     from camsim.reports.figures import bokeh

@@ -54,11 +54,11 @@ def test_not_a_camsim_result(tmp_path):
 
 def test_kind_without_a_page(tmp_path):
     """A result kind the page builder has no section builder for is named in the error."""
-    bad = _camsim_file(tmp_path / "opt.h5", "optimize")
+    bad = _camsim_file(tmp_path / "cam.h5", "cam")  # `camsim cam -o` writes one; no page for it
     out = tmp_path / "page.html"
     r = _invoke(bad, "-o", out)
     assert r.exit_code == 2
-    _one_error_line(r, "opt.h5", "optimize")
+    _one_error_line(r, "cam.h5", "no report page for a 'cam' result")
     assert not out.exists()
 
 

@@ -154,7 +154,7 @@ def test_fit_page_sections_and_numbers(tmp_path):
     pytest.importorskip("bokeh")
     from conftest import CDTM
 
-    from camsim.reports.page import build_report_from
+    from camsim.reports.build import build_report_from
 
     result = _fit_result()
     out = build_report_from((result, CDTM, CDTM.read_text()), "fit", tmp_path / "fit.html")
