@@ -229,3 +229,30 @@ def test_static_equilibrium_counts_a_power_law_contact_in_a_stuck_stop_force():
     assert run.elements["stop12"][0] == pytest.approx(k12 * g, rel=1e-9)
     assert run.elements["roller"][0] == pytest.approx(C * delta**1.5, rel=1e-9)
     assert run.masses["M1"]["displacement"][0] == pytest.approx(-delta, rel=1e-9)
+
+def test_a_chatter_whose_flights_do_not_shrink_ends():
+    """tests/invariants/machines/crawl-adams-roller-rigid-stop.toml: a rigid lash rebounding
+    against a stiff Adams IMPACT roller took 2.7e-8 s flights for ever (2e-6 s simulated per
+    5 s). Reference: spec §4 -- events piling up are held closed (sticking) and said in the
+    event table; issue 25 item 3, never a silent hang. After 32 impacts within 1 µs the
+    contact's next impact is plastic and it sticks: the run ends, with `stick` rows and a
+    bounded number of impacts."""
+    import signal
+    from camsim.engine.rigid import CHATTER_IMPACTS
+
+    text = (MACHINES / "crawl-adams-roller-rigid-stop.toml").read_text()
+
+    def too_long(*_):
+        raise TimeoutError("the chatter did not end within 60 s")
+
+    old = signal.signal(signal.SIGALRM, too_long)
+    signal.alarm(60)
+    try:
+        run = simulate(load(text))
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    kinds = [str(e.kind) for e in run.events]
+    assert "stick" in kinds
+    impacts = [e.time for e in run.events if str(e.kind) == "impact"]
+    assert len(impacts) < 20 * CHATTER_IMPACTS  # bounded, not one per 2.7e-8 s
