@@ -234,9 +234,11 @@ def test_a_chatter_whose_flights_do_not_shrink_ends():
     """tests/invariants/machines/crawl-adams-roller-rigid-stop.toml: a rigid lash rebounding
     against a stiff Adams IMPACT roller took 2.7e-8 s flights for ever (2e-6 s simulated per
     5 s). Reference: spec §4 -- events piling up are held closed (sticking) and said in the
-    event table; issue 25 item 3, never a silent hang. After 32 impacts within 1 µs the
-    contact's next impact is plastic and it sticks: the run ends, with `stick` rows and a
-    bounded number of impacts."""
+    event table; issue 25 item 3, never a silent hang. After 32 impacts within 0.1 ms
+    whose flights do not shrink, the contact's next impact is plastic and it sticks: the
+    run ends, with `stick` rows and a bounded number of impacts. (A ball bouncing to rest,
+    whose flights shrink, still ends at its exact accumulation time:
+    tests/test_engine_analytic.py.)"""
     import signal
     from camsim.engine.rigid import CHATTER_IMPACTS
 
