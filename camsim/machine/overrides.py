@@ -95,13 +95,13 @@ def _apply_override(doc: dict, assignment: str, source: str) -> str:
             from camsim.cam.arrangement import apply_geometry_override
 
             return apply_geometry_override(cam, key, rest, value, source)
+        if leaf == "compensation" and leaf_index is None and rest:  # issue 27: cam.compensation.<key>
+            return _compensation_override(cam, key, rest, value, source)
         if leaf != "segments":
             if leaf_index is not None or rest:
                 raise unknown([f"cam.{k}" for k in CAM_KEYS], key)
             cam[leaf] = value
             return f"cam.{leaf}"
-        if leaf == "compensation" and leaf_index is None:  # issue 27: cam.compensation.<key>
-            return _compensation_override(cam, key, rest, value, source)
         segments = cam.get("segments")
         if leaf_index is not None and len(rest) == 2 and isinstance(segments, list) \
                 and leaf_index < len(segments):  # issue 27: cam.segments[i].end.v, .points[k].s

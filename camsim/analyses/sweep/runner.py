@@ -153,9 +153,18 @@ def machine_value(machine, key: str) -> Any:
         if head == "cam":
             leaf, index = parts[1]
             if leaf == "segments":
-                return d["cam"]["segments"][index][parts[2][0]]
-            if leaf == "geometry":  # issue 14: cam.geometry.<key>[.<key>]
-                value = d["cam"]["geometry"]
+                value = d["cam"]["segments"][index][parts[2][0]]
+                if len(parts) == 4:  # issue 27: cam.segments[i].end.v, .start.a, .points[k].s
+                    from camsim.cam.description import DERIVATIVE_KEYS
+
+                    name = parts[3][0]
+                    if parts[2][0] == "points":
+                        point = value[parts[2][1]]
+                        return point[name] if name in ("at", "s") else point.get(f"d{DERIVATIVE_KEYS[name]}")
+                    return value.get(DERIVATIVE_KEYS[name])
+                return value
+            if leaf in ("geometry", "compensation"):  # issue 14: cam.geometry.<key>[.<key>]; 27
+                value = d["cam"][leaf]
                 for name, _ in parts[2:]:
                     value = value[name]
                 return value
