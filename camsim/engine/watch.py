@@ -46,6 +46,11 @@ from camsim.engine.state import Guard, cubic_root
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
 
+#: A bracket of a power-law stretch without recorded samples is re-integrated when it spans
+#: at most this many grid steps (see CamForceWatch.samples).
+SHORT_BRACKET_STEPS = 16
+
+
 class CamForceWatch:
     """Locates the zero crossings of the driven mass's cam contact force.
 
@@ -234,7 +239,13 @@ class CamForceWatch:
                 z_k = config.state_from_full(start.x, start.v, *integ.inputs(np.array([start.t]))[0, :2])
             else:
                 z_k = stretch.z[inner][k - 1]
-            located = self._locate_nonlinear(config, value, float(t[k]), float(t[k + 1]), z_k, start.v_impacts)
+            # Re-integrate a bracket between recorded samples (or a short stretch); an
+            # unrecorded warm-up stretch is one long bracket whose rows are not kept -- only
+            # the sign at its end is -- so it is interpolated (a whole warm-up revolution at
+            # rtol 1e-12 took minutes on a stiff machine).
+            short = stretch is not None or t[k + 1] - t[k] <= SHORT_BRACKET_STEPS * integ.h
+            located = (self._locate_nonlinear(config, value, float(t[k]), float(t[k + 1]), z_k, start.v_impacts)
+                       if short else None)
             self._jump(located if located is not None else _hermite_zero(t[k], t[k + 1], F[k], F[k + 1], R[k], R[k + 1]))
         self.last = (float(t[-1]), float(F[-1]))
 
