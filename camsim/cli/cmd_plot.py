@@ -38,7 +38,7 @@ def plot_command(
     out: Path = typer.Option(
         None, "-o", "--output-dir", metavar="DIR", help="Directory for the images (created). Default: <input stem>_plots next to the input."
     ),
-    dpi: float = typer.Option(150.0, "--dpi", metavar="DPI", help="Resolution of png images [dots per inch]."),
+    dpi: float = typer.Option(150.0, "--dpi", metavar="DPI", help="Resolution of png images [dots per inch], 20 to 2400."),
     json_: bool = typer.Option(False, "--json", help="Print the written paths as a JSON list on stdout."),
 ) -> None:
     """Plot a result file: one image per figure, named <stem>_<what>.<format>; prints the paths."""

@@ -586,6 +586,10 @@ def prepare_output_dir(out_dir: str | os.PathLike[str]) -> Path:
     return d
 
 
+#: Resolutions [dots per inch] a png may be written at (``--dpi``).
+DPI_RANGE = (20.0, 2400.0)
+
+
 def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fmt: str = "png", dpi: float = 150.0) -> list[Path]:
     """Write each figure as ``out_dir/<name>.<fmt>``, each to a temporary name then renamed.
 
@@ -607,8 +611,10 @@ def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fm
     """
     if fmt not in FORMATS:
         raise InputError(f"--format: unknown format {fmt!r} (one of {', '.join(FORMATS)})")
-    if not (dpi > 0 and np.isfinite(dpi)):
-        raise InputError(f"--dpi: must be positive, got {dpi:g}")
+    if not (DPI_RANGE[0] <= dpi <= DPI_RANGE[1]):
+        # below ~20 dpi the fonts are under a pixel (FreeType refuses them); above 2400 an
+        # image of these figures takes gigabytes
+        raise InputError(f"--dpi: must lie between {DPI_RANGE[0]:g} and {DPI_RANGE[1]:g}, got {dpi:g}")
     d = prepare_output_dir(out_dir)
     from camsim.io.outputs import check_output
 
