@@ -366,6 +366,11 @@ class CamProgram:
         w, r = self.speed, self.ratio
         return r * lift, (r * w) * d1, (r * w * w) * d2, (r * w**3) * d3
 
+    def channels(self, t, side: str = "right") -> np.ndarray:
+        """The cam input of the engine at times ``t``: [s, ṡ, s̈, s⃛] per time, (N, 4)
+        (:meth:`svaj` stacked; the engine reads input channels, not cams)."""
+        return np.stack(self.svaj(np.asarray(t, dtype=float).reshape(-1), side=side), axis=-1)
+
     def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
         """Times in the open interval (t_start, t_end) where a segment boundary passes.
 

@@ -17,7 +17,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from camsim.elements.affine import N_INPUT, Affine
+from camsim.elements.affine import Affine
 from camsim.elements.base import DAMPING_PARAMS, DEFAULT_LAW, FORCE_TOL, Branch, GuardKind, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
 from camsim.physics.restitution import linear_damping_ratio
@@ -77,7 +77,7 @@ class LinearContact(Contact):
     def _law_affine(self, ctx, sign: float) -> Affine:
         delta, rate = ctx.penetration()
         k, c = sign * self.stiffness, sign * ctx.damping["c"]
-        return Affine.combine([(np.array([[k]]), delta), (np.array([[c]]), rate)], np.zeros(1), np.zeros((1, N_INPUT)))
+        return Affine.combine([(np.array([[k]]), delta), (np.array([[c]]), rate)], np.zeros(1))
 
     def closed_guards(self, branch, ctx):
         return [(GuardKind.RELEASE, self._law_affine(ctx, 1.0), FORCE_TOL)]

@@ -12,10 +12,9 @@ import math
 
 import numpy as np
 
-from camsim.elements.affine import N_INPUT
 from camsim.engine.span import dop853_span
 from camsim.engine.state import TIME_EPS, Stretch
-from camsim.engine.stepping import _FACT, _P, step_input_derivatives
+from camsim.engine.stepping import _FACT, _P, step_input_derivatives, taylor_rows
 
 #: Grid steps per call of the collocation (solved together, camsim.engine.collocation).
 COLLOC_STEPS = 8
@@ -28,7 +27,7 @@ def _releasing(delta, rate, h):
 
 
 class _FastInput:
-    """u(t) = [s, ṡ, s̈, s⃛] on [t0, t1] from the grid steps' degree-7 Hermite polynomials,
+    """u(t) ([s, ṡ, s̈, s⃛] per cam) on [t0, t1] from the grid steps' degree-7 Hermite polynomials,
     built for the whole span in one vectorised pass (a right-hand side evaluated
     thousands of times then costs one small matrix product)."""
 
@@ -42,20 +41,18 @@ class _FastInput:
         inner = integ.t_ref + np.arange(k0, k1 + 1) * h
         inner = inner[(inner > t0 + TIME_EPS) & (inner < t1 - TIME_EPS)]
         nodes = np.concatenate([[t0], inner, [t1]])
-        U = np.empty((nodes.size, N_INPUT))
+        U = np.empty((nodes.size, integ.n_input))
         U[0] = integ._node_input(t0)
         if inner.size:
             ks = np.round((inner - integ.t_ref) / h).astype(int)
             U[1:-1] = integ._grid_inputs(int(ks[0]), int(ks[-1]) + 1)
         U[-1] = integ._node_input(t1)
         if t1 in integ._joins:
-            s_, v_, a_, j_ = integ.cam.svaj(np.array([t1]), side="left")
-            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+            U[-1] = integ.cam.channels(np.array([t1]), side="left")[0]
         D = step_input_derivatives(U[:-1], U[1:], np.diff(nodes), h)
-        Dp = np.concatenate([D, np.zeros((D.shape[0], 3))], axis=1)
         fact = _FACT[: _P + 1]
-        # C[k, c, j] = D_{j+c}/j!  so that u_c(τ) = Σ_j C[k, c, j]·τ^j
-        self.C = np.stack([Dp[:, c : c + _P + 1] / fact for c in range(N_INPUT)], axis=1)
+        # C[k, c, j] = D_{j+c}/j! (per cam) so that u_c(τ) = Σ_j C[k, c, j]·τ^j
+        self.C = taylor_rows(D) / fact
         self.starts = nodes[:-1]
         self.powers = np.arange(_P + 1)
         self.last = nodes.size - 2

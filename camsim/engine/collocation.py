@@ -45,9 +45,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from camsim.engine.state import TIME_EPS
-from camsim.engine.stepping import _FACT, _P, StepMaps, forcing_coefficients, step_input_derivatives
+from camsim.engine.stepping import _FACT, _P, StepMaps, forcing_coefficients, step_input_derivatives, taylor_rows
 from camsim.engine.windows import INTERP_TOL, LADDER, _first_hit
-from camsim.model.assembly import N_INPUT
+from camsim.elements.affine import input_rate
 
 #: Unknown node values per step (degree of F's polynomial on a step).
 NODES = 5
@@ -235,8 +235,8 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     U = integ._grid_inputs(k0, k0 + K + 1)
     D = step_input_derivatives(U[:-1], U[1:], np.full(K, h), h)
     E = forcing_coefficients(config, D)  # (K, 8, n)
-    Dp = np.concatenate([D, np.zeros((K, N_INPUT - 1))], axis=1)
-    u_pts = np.stack([Dp[:, ci : ci + coll.powers.shape[1]] @ coll.powers.T for ci in range(N_INPUT)], axis=2)  # (K, nq, 4)
+    rows = taylor_rows(D)  # (K, 4·c, 8)
+    u_pts = np.stack([rows[:, ci, :] @ coll.powers.T for ci in range(rows.shape[1])], axis=2)  # (K, nq, 4·c)
     dr_u = np.stack([u_pts @ stepper.du + stepper.de, u_pts @ stepper.ru + stepper.re], axis=2).reshape(K, 2 * nq)
     pre = np.einsum("rjn,kjn->kr", coll.PE, E) + dr_u  # (K, 2 nq)
     end_in = np.einsum("jnl,kjl->kn", coll.Gamma, E)  # (K, n)
@@ -283,8 +283,7 @@ def collocation_steps(integ, stepper, config, coll, t, z, n_steps, t_stop, guard
     Un = U[: taken + 1]
     Fn_nodes = stepper.force(Z, Un, chi)[2]
     zdot = Z @ config.A.T + Un @ config.B.T + config.b + np.outer(Fn_nodes, stepper.L)
-    Udot = np.zeros_like(Un)
-    Udot[:, :3] = Un[:, 1:]
+    Udot = input_rate(Un)
     nodes = integ.t_ref + np.arange(k0, k0 + taken + 1) * h
     nodes[0] = t
     steps = np.full(taken, h)

@@ -4,8 +4,11 @@ Every way of advancing a configuration (:mod:`camsim.engine.linear`,
 :mod:`camsim.engine.nonlinear`, :mod:`camsim.engine.rk`) and every event handler
 (:mod:`camsim.engine.rigid`, :mod:`camsim.engine.watch`) works on an
 :class:`EngineContext`; the event loop on top (:class:`camsim.engine.integrator.Integrator`)
-is one. The cam input u = [s, ṡ, s̈, s⃛] is evaluated once per grid block and cached;
-single instants between grid points come from the step's degree-7 Hermite polynomial.
+is one. The cam input u — [s, ṡ, s̈, s⃛] of every cam, cam by cam
+(:mod:`camsim.elements.affine`) — is evaluated once per grid block and cached; single
+instants between grid points come from the step's degree-7 Hermite polynomials. The
+engine knows input channels only: which cam is which, and how a cam's motion is made, is
+the cam program's business (``channels(t, side)``, ``boundary_times(t0, t1)``).
 """
 
 from __future__ import annotations
@@ -16,11 +19,11 @@ import math
 import numpy as np
 
 from camsim.elements import Branch
-from camsim.elements.affine import N_INPUT, Affine
+from camsim.elements.affine import N_INPUT, Affine, shift_rate
 from camsim.elements.events import Event, EventKind
 from camsim.model.assembly import Configuration, Model
 from camsim.engine.state import TIME_EPS, Guard, State, Stretch
-from camsim.engine.stepping import _FACT, _P, StepMaps, _hermite_maps
+from camsim.engine.stepping import _FACT, _P, StepMaps, _hermite_maps, hermite_derivatives, taylor_rows
 
 #: A time within this fraction of the grid step of a grid point is that grid point: grid
 #: times are t_ref + k·h computed from k, so only rounding (~1e-16·k) separates them.
@@ -54,7 +57,7 @@ class _GuardContext:
     def now(self, value: Affine) -> float:
         """An affine map evaluated at the current state."""
         integ = self.integrator
-        z = self.config.state_from_full(self.state.x, self.state.v, *integ.inputs(np.array([self.state.t]))[0, :2])
+        z = self.config.state_from_input(self.state.x, self.state.v, integ.inputs(np.array([self.state.t]))[0])
         u = integ.inputs(np.array([self.state.t]))
         return float(value(z[None, :], u)[0, 0])
 
@@ -70,8 +73,9 @@ class EngineContext:
     Parameters
     ----------
     model : Model
-    cam : CamProgram
-        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+    cam : CamProgram or a camshaft input
+        Provides ``channels(t, side)`` — the cam input at times t, (N, 4·c) — and
+        ``boundary_times(t0, t1)`` (where any cam's derivatives may jump).
     step : float
         Internal grid step h [s]; the grid is t_ref + k·h.
     t_ref : float
@@ -84,6 +88,8 @@ class EngineContext:
     def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
         self.model = model
         self.cam = cam
+        #: Columns of the cam input (four per cam).
+        self.n_input = model.n_input
         self.h = step
         self.t_ref = t_ref
         self.events: list[Event] = []
@@ -101,7 +107,7 @@ class EngineContext:
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
-        """[s, ṡ, s̈, s⃛] at times t: (N, 4). Single instants are cached (events ask repeatedly)."""
+        """The cam input at times t: (N, 4·c). Single instants are cached (events ask repeatedly)."""
         t = np.asarray(t, dtype=float)
         if t.size == 1:
             key = float(t.reshape(-1)[0])
@@ -109,35 +115,31 @@ class EngineContext:
             if hit is None:
                 hit = self._input_between_grid_points(key)
                 if hit is None:
-                    s, v, a, j = self.cam.svaj(t.reshape(1))
-                    hit = np.stack([s, v, a, j], axis=-1)
+                    hit = self.cam.channels(t.reshape(1))
                 if len(self._input_cache) > 64:
                     self._input_cache.clear()
                 self._input_cache[key] = hit
             return hit.copy()
-        s, v, a, j = self.cam.svaj(t)
-        return np.stack([s, v, a, j], axis=-1)
+        return self.cam.channels(t)
 
     def analytic_inputs(self, t: float) -> np.ndarray:
-        """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the limit from the right at a join):
-        (4,). Unlike :meth:`inputs`, never the step's Hermite polynomial, whose s̈ and s⃛
-        inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
-        s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
-        return np.array([s_[0], v_[0], a_[0], j_[0]])
+        """The cam input at one instant from the cam laws (the limit from the right at a
+        join): (4·c,). Unlike :meth:`inputs`, never the step's Hermite polynomial, whose s̈
+        and s⃛ inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
+        return self.cam.channels(np.array([float(t)]))[0]
 
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
-        """Cam input [s, ṡ, s̈, s⃛] at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
+        """Cam input at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
 
         The last step ends at the chunk's end, maybe a cam segment join: its end values are
         the limits from the left there (acceleration or jerk may jump).
         """
-        U = np.empty((nodes.size, N_INPUT))
+        U = np.empty((nodes.size, self.n_input))
         U[0] = self._node_input(float(nodes[0]))
         U[1:-1] = self._grid_inputs(k0, k1)
         U[-1] = self._node_input(float(nodes[-1]))
         if nodes[-1] in self._joins:
-            s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
-            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+            U[-1] = self.cam.channels(nodes[-1:], side="left")[0]
         return U
 
     def _node_input(self, t: float) -> np.ndarray:
@@ -166,13 +168,13 @@ class EngineContext:
             return None
         grid = self._grid_inputs(k, k + 2)
         P0, P1 = _hermite_maps(h)
-        D = np.concatenate([grid[0] @ P0 + grid[1] @ P1, np.zeros(N_INPUT - 1)])
+        D = hermite_derivatives(grid[0], grid[1], P0, P1)
         powers = (t - t_k) ** np.arange(_P + 1) / _FACT[: _P + 1]
-        return np.array([[D[c : c + _P + 1] @ powers for c in range(N_INPUT)]])
+        return np.array([[row @ powers for row in taylor_rows(D)]])
 
     def _grid_inputs(self, k0: int, k1: int) -> np.ndarray:
-        """Cam input at grid points k0 ≤ k < k1: (k1 − k0, 4), from blocks evaluated once."""
-        out = np.empty((max(k1 - k0, 0), N_INPUT))
+        """Cam input at grid points k0 ≤ k < k1: (k1 − k0, 4·c), from blocks evaluated once."""
+        out = np.empty((max(k1 - k0, 0), self.n_input))
         block = self._BLOCK
         k = k0
         while k < k1:
@@ -180,8 +182,7 @@ class EngineContext:
             values = self._grid_cache.get(b)
             if values is None:
                 t = self.t_ref + np.arange(b * block, (b + 1) * block) * self.h
-                s_, v_, a_, j_ = self.cam.svaj(t)
-                values = np.stack([s_, v_, a_, j_], axis=-1)
+                values = self.cam.channels(t)
                 if len(self._grid_cache) > 64:
                     self._grid_cache.clear()
                 self._grid_cache[b] = values
@@ -202,11 +203,11 @@ class EngineContext:
         """Deflection d = x_upper − x_lower of element i and its rate, as affine maps."""
         geo = self.model.geometry[i]
         G = geo.G.reshape(1, -1)
-        du = np.zeros((1, N_INPUT))
-        du[0, 0] = geo.g_s
+        du = np.zeros((1, self.n_input))
+        du[0, 0::N_INPUT] = geo.g_s
         d = Affine.combine([(G, config.x)], const=np.zeros(1), du=du)
-        du = np.zeros((1, N_INPUT))
-        du[0, 1] = geo.g_s
+        du = np.zeros((1, self.n_input))
+        du[0, 1::N_INPUT] = geo.g_s
         rate = Affine.combine([(G, config.v)], const=np.zeros(1), du=du)
         return d, rate
 
@@ -243,9 +244,7 @@ class EngineContext:
     def _rate(config: Configuration, g: Affine) -> Affine:
         """d/dt of an affine guard in a linear configuration."""
         Du = g.Cz @ config.B
-        Du[:, 1:] += g.Du[:, :-1]
-        if np.any(g.Du[:, -1]):
-            raise AssertionError("guards may not depend on the jerk")
+        shift_rate(g.Du, Du)
         return Affine(g.Cz @ config.A, Du, np.zeros_like(g.Fn), g.Cz @ config.b)
 
     # ------------------------------------------------------------------ grid helpers
@@ -303,8 +302,8 @@ class EngineContext:
         """(δ, δ̇) of element i at a full state."""
         geo = self.model.geometry[i]
         u = self.inputs(np.array([state.t]))[0]
-        d = state.x @ geo.G + geo.g_s * u[0]
-        dd = state.v @ geo.G + geo.g_s * u[1]
+        d = state.x @ geo.G + geo.cam_term(u[0::N_INPUT])
+        dd = state.v @ geo.G + geo.cam_term(u[1::N_INPUT])
         return self.model.elements[i].penetration(d), -dd
 
     def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float) -> None:

@@ -7,7 +7,7 @@ cam's own scale, but a guard that crosses zero at a shallow slope (a follower th
 leaves the cam near its jump speed, where the contact force touches zero almost
 tangentially) turns a guard error ε into a time error ε/|ġ|. :func:`polish_crossing`
 therefore re-evaluates the guard with the cam input from its **analytic law**
-(:meth:`CamProgram.svaj`) and the state carried from the located root by its exact
+(:meth:`CamProgram.channels`) and the state carried from the located root by its exact
 derivatives (z + ż·τ + ½·z̈·τ², ż = A·z + B·u + b; over the ≤ 1e-8 s involved the
 neglected (ω·τ)³/6 is below 1e-12 relative for modes up to 10⁵ rad/s), and brackets the
 crossing:
@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from camsim.elements.affine import N_INPUT, times_rate
 from camsim.engine.stepping import input_at
 
 #: Half-width of the final bracket of a crossing [s] (the guarantee is the full width).
@@ -52,13 +53,15 @@ _OFFSETS = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * 2.5e-11
 
 
 def _analytic_inputs(cam, t: np.ndarray, step_end: float) -> np.ndarray:
-    """[s, ṡ, s̈, s⃛] from the cam laws; points at or past a step end take the left limit."""
+    """The cam input from the cam laws; points at or past a step end take the left limit."""
     right = t < step_end
-    out = np.empty((t.size, 4))
+    out = None
     for side, mask in (("right", right), ("left", ~right)):
         if np.any(mask):
-            s_, v_, a_, j_ = cam.svaj(t[mask], side=side)
-            out[mask] = np.stack([s_, v_, a_, j_], axis=-1)
+            values = cam.channels(t[mask], side=side)
+            if out is None:
+                out = np.empty((t.size, values.shape[1]))
+            out[mask] = values
     return out
 
 
@@ -69,7 +72,7 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
     Parameters
     ----------
     integrator : camsim.engine.integrator.Integrator
-        Provides ``cam`` (``svaj``) .
+        Provides ``cam`` (``channels``).
     config : camsim.model.assembly.Configuration
         The (linear) configuration the crossing belongs to.
     guard : camsim.engine.integrator.Guard
@@ -80,7 +83,7 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
         The crossing located on the Hermite input, from ``t_step`` [s].
     z : ndarray
         The exact state there.
-    Dk : ndarray (8,), optional
+    Dk : ndarray (8·c,), optional
         The step's Hermite derivatives of the cam input. The state was integrated with
         that input: where its s differs from the analytic law by more than 1e-11
         relative (a coarse warm-up grid; on a recording grid it agrees to ~1e-15) state and analytic input are not consistent and
@@ -92,7 +95,7 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
         The polished crossing and the state there.
     """
     cam = integrator.cam
-    if cam is None or not hasattr(cam, "svaj") or guard.rate is None:
+    if cam is None or not hasattr(cam, "channels") or guard.rate is None:
         return tau, z
     A, B, b = config.A, config.B, config.b
     t_root = t_step + tau
@@ -101,12 +104,13 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
     if Dk is not None:
 
         u_h = input_at(Dk, tau)
-        if abs(u_h[0] - u0[0]) > 1e-11 * (abs(u0[0]) + abs(u_h[0])) + 1e-300:
+        s_h, s_0 = u_h[0::N_INPUT], u0[0::N_INPUT]  # every cam's s
+        if np.any(np.abs(s_h - s_0) > 1e-11 * (np.abs(s_0) + np.abs(s_h)) + 1e-300):
             return tau, z
     if z.size:
         zdot = A @ z + B @ u0 + b
-        # ü = [ṡ, s̈, s⃛, s⁗]: the last channel (jerk) carries no weight in B
-        zddot = A @ zdot + B[:, :3] @ u0[1:]
+        # u̇ = [ṡ, s̈, s⃛, s⁗] per cam: the jerk channels carry no weight in B
+        zddot = A @ zdot + times_rate(B, u0)
     else:
         zdot = zddot = z
 
@@ -256,5 +260,5 @@ def root_near(g, t_lo: float, t_hi: float, t_guess: float) -> float | None:
 
 
 def analytic_input(cam, t: float, end: float) -> np.ndarray:
-    """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the left limit at ``end``): (4,)."""
+    """The cam input at one instant from the cam laws (the left limit at ``end``): (4·c,)."""
     return _analytic_inputs(cam, np.array([t]), end)[0]

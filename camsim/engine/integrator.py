@@ -20,6 +20,7 @@ import numpy as np
 
 from camsim.errors import SimulationError, ZenoError
 from camsim.elements import Branch, GuardKind
+from camsim.elements.affine import N_INPUT
 from camsim.engine.base import Stepper
 from camsim.engine.context import GRID_SNAP, EngineContext
 from camsim.engine.linear import LinearStepper
@@ -54,8 +55,8 @@ class Integrator(EngineContext):
     Parameters
     ----------
     model : Model
-    cam : CamProgram
-        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+    cam : CamProgram or a camshaft input
+        Provides ``channels(t, side)`` and ``boundary_times(t0, t1)``.
     step : float
         Internal grid step h [s]; the grid is t_ref + k·h.
     t_ref : float
@@ -78,7 +79,7 @@ class Integrator(EngineContext):
         config = self.model.configuration(state.branches)
         guards = self.guards(state, config)
         u0 = self.inputs(np.array([state.t]))[0]
-        z0 = config.state_from_full(state.x, state.v, u0[0], u0[1])
+        z0 = config.state_from_input(state.x, state.v, u0)
         stepper = stepper_for(self, config)
         out = stepper.advance(self, state, config, z0, guards, t_stop, record)
         if not stepper.exact:
@@ -105,7 +106,7 @@ class Integrator(EngineContext):
         if guard.kind != GuardKind.UNLIFT and Branch.STUCK in model.branch_options(i):
             return resolve_rigid(self, state, i, guard.kind)  # issue 12 hook: rigid contacts as one LCP
         _, rate = self.relative_rate(state, i)
-        d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0]))
+        d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0::N_INPUT]))
         outcome = model.elements[i].outcome_at(guard.kind, rate, d)  # issue 12 hook: two-sided elements
         if outcome.event is not None:
             self._record(state.t, i, outcome.event, outcome.velocity)
@@ -119,7 +120,7 @@ class Integrator(EngineContext):
         """A guard of the state's configuration that is already violated, if any."""
         config = self.model.configuration(state.branches)
         u = self.inputs(np.array([state.t]))
-        z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
+        z = config.state_from_input(state.x, state.v, u[0])
         fn = self.nonlinear_forces(config, z[None, :], u, state.v_impacts)
         for guard in self.guards(state, config):
             if guard.kind == GuardKind.UNLIFT:

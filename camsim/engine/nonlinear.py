@@ -46,6 +46,7 @@ import math
 
 import numpy as np
 
+from camsim.elements.affine import input_rate, times_rate
 from camsim.engine.bounce import COLLOC_STEPS, _releasing, bounce_span
 from camsim.engine.collocation import Collocation, collocation_steps
 from camsim.engine.remainder import _Anderson, _LinearLaw, _propagate, _RemainderResponse, _step_affine
@@ -321,15 +322,14 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             # the penetration's Taylor polynomial over the first window (δ̈ from the true
             # ż): where it changes by more than SWEEP of itself (a bounce under way, or a
             # contact unloading fast), no window converges; the collocation, or DOP853
-            ddd0 = float((z @ proj_z + u0 @ proj_u + proj_e)[2] + u0[1:] @ stepper.ru[:3] + F0[0] * rate_L)
+            ddd0 = float((z @ proj_z + u0 @ proj_u + proj_e)[2] + times_rate(stepper.ru, u0) + F0[0] * rate_L)
             tw = FIRST_WINDOW * h
             if abs(dd0[0] * tw + 0.5 * ddd0 * tw * tw) > SWEEP * d0[0] or abs(dd0[0]) * MIN_CUT * h > d0[0]:
                 colloc_next = True
                 continue
         U = integ.chunk_inputs(nodes, k0, k1)
         D = step_input_derivatives(U[:-1], U[1:], steps, h)
-        Udot = np.zeros_like(U)  # u̇ = [ṡ, s̈, s⃛, s⁗]; B and the guards take no s⁗
-        Udot[:, :3] = U[:, 1:]
+        Udot = input_rate(U)  # u̇ = [ṡ, s̈, s⃛, s⁗] per cam; B and the guards take no s⁗
         # ---- linear law at the window's start (tangent values on the ladder)
         k_now, c_now = float(kt0[0]), float(ct0[0])
         # (as differences, not ratios: a contact at the edge of its law can have a zero

@@ -44,6 +44,7 @@ import numpy as np
 
 from camsim.elements import Branch
 from camsim.errors import SimulationError
+from camsim.elements.affine import N_INPUT
 from camsim.elements.events import EventKind
 from camsim.engine.state import State
 
@@ -111,10 +112,19 @@ def solve_lcp(W: np.ndarray, q: np.ndarray, tol: float = 0.0) -> np.ndarray:
 
 
 def _rows(model, indices, signs):
-    # A contact on side σ of a two-sided element (a lash) has rows σ·G, σ·g_s (issue 12).
+    # A contact on side σ of a two-sided element (a lash) has rows σ·G, σ·g_s (issue 12);
+    # g_s has one column per cam.
     J = np.array([sign * model.geometry[i].G for i, sign in zip(indices, signs)]).reshape(len(indices), model.n)
-    js = np.array([sign * model.geometry[i].g_s for i, sign in zip(indices, signs)])
+    js = np.array([sign * model.geometry[i].g_s for i, sign in zip(indices, signs)]).reshape(len(indices), model.n_cams)
     return J, js
+
+
+def _cam(js, u, order: int) -> np.ndarray:
+    """Σ_q js[:, q]·(d^order s_q/dt^order) for rows js (r, cams) and a cam-input row u."""
+    out = js[:, 0] * u[order]
+    for q in range(1, js.shape[1]):
+        out = out + js[:, q] * u[N_INPUT * q + order]
+    return out
 
 
 def _pressed_analytic(integrator, t, u, v, open_accelerations):
@@ -128,7 +138,9 @@ def _pressed_analytic(integrator, t, u, v, open_accelerations):
     says the machine does not press the contact outright.
     """
     u_law = u.copy()
-    u_law[2:] = integrator.analytic_inputs(t)[2:]
+    law = integrator.analytic_inputs(t)
+    for order in (2, 3):  # every cam's s̈ and s⃛
+        u_law[order::N_INPUT] = law[order::N_INPUT]
     return open_accelerations(v, u_law)[0]
 
 
@@ -167,7 +179,7 @@ def resolve(integrator, state, trigger: int, kind: str):
         delta, _ = integrator.relative_rate(state, i)
         if i == trigger or model.is_rigid(i, branches[pos]) or delta >= -TOUCH:
             touching.append((pos, i))
-            d = float(model.deflection(i, state.x, u[0]))
+            d = float(model.deflection(i, state.x, u[0::N_INPUT]))
             sides.append(model.elements[i].contact_side(branches[pos], d))
     idx = [i for _, i in touching]
     J, js = _rows(model, idx, [sign for sign, _ in sides])
@@ -179,7 +191,7 @@ def resolve(integrator, state, trigger: int, kind: str):
             + f" over-constrain the masses at t = {t:.12g} s"
         )
     v = state.v.copy()
-    w_minus = J @ v + js * u[1]
+    w_minus = J @ v + _cam(js, u, 1)
     e = np.array([0.0 if _chattering(integrator, i, t) else (model.elements[i].restitution or 0.0) for i in idx])
     scale_v = 1.0 + float(np.max(np.abs(w_minus), initial=0.0))
     vel_tol = 1e-12 * scale_v
@@ -193,10 +205,10 @@ def resolve(integrator, state, trigger: int, kind: str):
 
     def open_accelerations(v_now, uu=u):
         config = model.configuration(open_branches)
-        z = config.state_from_full(state.x, v_now, uu[0], uu[1])
+        z = config.state_from_input(state.x, v_now, uu)
         fn = integrator.nonlinear_forces(config, z[None, :], uu[None, :], state.v_impacts)
         acc = config.a(z[None, :], uu[None, :], fn)[0]
-        return J @ acc + js * uu[2], acc
+        return J @ acc + _cam(js, uu, 2), acc
 
     # ---- impulses (Newton's law per contact, one LCP)
     P = np.zeros(len(idx))
@@ -224,7 +236,7 @@ def resolve(integrator, state, trigger: int, kind: str):
             remaining = 2.0 * w_plus[k] / (-a_open[k] * (1.0 - min(e[k], 1.0 - 1e-16)))
             apex = w_plus[k] ** 2 / (-2.0 * a_open[k])
             i = idx[k]
-            scale_x = abs(sides[k][1]) + abs(float(J[k] @ state.x)) + abs(js[k] * u[0])
+            scale_x = abs(sides[k][1]) + abs(float(J[k] @ state.x)) + abs(float(_cam(js[k : k + 1], u, 0)[0]))
             if remaining < ZENO_TIME or apex < APEX_RTOL * scale_x:
                 resting.append(k)
     stuck = set()
@@ -247,7 +259,7 @@ def resolve(integrator, state, trigger: int, kind: str):
         if stuck:
             S = sorted(stuck)
             Js, jss = J[S], js[S]
-            residual = Js @ v + jss * u[1]
+            residual = Js @ v + _cam(jss, u, 1)
             Ws = W[np.ix_(S, S)]
             v = v - minv * (Js.T @ np.linalg.solve(Ws, residual))
 

@@ -14,11 +14,11 @@ import math
 import numpy as np
 
 from camsim.errors import SimulationError
-from camsim.elements.affine import N_INPUT
+from camsim.elements.affine import reads_acceleration
 from camsim.engine.context import EngineContext
 from camsim.engine.crossing import analytic_input, root_near
 from camsim.engine.state import TIME_EPS
-from camsim.engine.stepping import _FACT, _P, step_input_derivatives
+from camsim.engine.stepping import _FACT, _P, step_input_derivatives, taylor_rows
 
 
 def _guard_on_step(dense, cam_input, gz, gu, ge):
@@ -33,7 +33,7 @@ def _guard_on_step(dense, cam_input, gz, gu, ge):
 
 
 class _StepInput:
-    """The cam input u(t) = [s, ṡ, s̈, s⃛] inside [t0, t1] from per-step Hermite polynomials.
+    """The cam input u(t) ([s, ṡ, s̈, s⃛] per cam) inside [t0, t1] from per-step Hermite polynomials.
 
     A right-hand side evaluated tens of thousands of times would otherwise evaluate the
     cam laws point by point; the degree-7 Hermite of each grid step (exact to ~1e-20
@@ -59,12 +59,10 @@ class _StepInput:
             if b <= a:  # t at (or rounding past) the window's ends
                 b = a + integ.h * 1e-9
             ua = integ.inputs(np.array([a]))
-            s_, v_, a_, j_ = integ.cam.svaj(np.array([b]), side="left")
-            ub = np.array([[s_[0], v_[0], a_[0], j_[0]]])
+            ub = integ.cam.channels(np.array([b]), side="left")
             D = step_input_derivatives(ua, ub, np.array([b - a]))[0]
-            # coefficient matrix: u_c(τ) = Σ_j D[j + c] τ^j / j!
-            Dp = np.concatenate([D, np.zeros(3)])
-            C = np.array([Dp[c : c + _P + 1] / self.fact for c in range(N_INPUT)])
+            # coefficient matrix: u_c(τ) = Σ_j D[j + c] τ^j / j! (per cam)
+            C = taylor_rows(D) / self.fact
             hit = (a, C)
             self.cache[k] = hit
         a, C = hit
@@ -126,7 +124,7 @@ def dop853_span(ctx: EngineContext, rhs, z0, t0: float, t_stop: float, guards, c
     g_old = linear_part(t0, z0) + ge if events else None
     fired = None
     eps = np.finfo(float).eps
-    analytic = ctx.cam if ctx.cam is not None and hasattr(ctx.cam, "svaj") else None
+    analytic = ctx.cam if ctx.cam is not None and hasattr(ctx.cam, "channels") else None
     while True:
         message = solver.step()
         if solver.status == "failed":
@@ -146,7 +144,7 @@ def dop853_span(ctx: EngineContext, rhs, z0, t0: float, t_stop: float, guards, c
                 else:
                     guard_k = _guard_on_step(dense, cam_input, Gz[k], Gu[k], float(ge[k]))
                 root = brentq(guard_k, t_old, t_new, xtol=4 * eps, rtol=4 * eps)
-                if analytic is not None and np.any(Gu[k, 2:]):
+                if analytic is not None and reads_acceleration(Gu[k]):
                     # The guard reads s̈ (a stuck rigid contact's force): located again
                     # with the cam law itself, not the step polynomials of cam_input,
                     # whose s̈ inside a short grid step carries the rounding of s

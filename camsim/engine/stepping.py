@@ -1,15 +1,17 @@
 """Exact steps of a linear configuration with a polynomial cam input.
 
 Between events a configuration is linear time-invariant with a cam input
-(ż = A·z + B·u(t) + b, see :mod:`camsim.model.assembly`). Over each step the cam input is
-replaced by the degree-7 Hermite polynomial that matches s, ṡ, s̈, s⃛ at both ends
+(ż = A·z + B·u(t) + b, see :mod:`camsim.model.assembly`). Over each step each cam's
+displacement is replaced by the degree-7 Hermite polynomial that matches s, ṡ, s̈, s⃛ at both ends
 (error ~ (h/β)^8, far below 1e-9 relative; steps are split at cam segment joins, where
 derivatives jump), and the step map is then exact:
 
     z(t+h) = Φ·z(t) + Σ_j Γ_j·E_j,    Φ = e^{Ah},  Γ_j = ∫₀ʰ e^{A(h−σ)} σ^j/j! dσ
 
 with Φ and Γ_j from one matrix exponential of a block chain (Van Loan 1978), cached per
-configuration (:class:`StepMaps`). The recurrence over a uniform grid runs in modal
+configuration (:class:`StepMaps`). With c cams (u = [s₁, ṡ₁, s̈₁, s⃛₁, s₂, …]) the
+derivatives D of a step are laid out cam by cam too, (K, 8·c): D[:, 8q + j] = d^j s_q/dt^j
+at the step's start; E_j and W sum over the cams. The recurrence over a uniform grid runs in modal
 coordinates as blocked cumulative sums (:mod:`camsim.engine.recurrence`): numpy speed, no Python
 loop per step. :func:`exact_partial` is the same map for one step of any length.
 """
@@ -23,7 +25,7 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg.lapack import dgebal as _dgebal
 
-from camsim.elements.affine import N_INPUT
+from camsim.elements.affine import N_INPUT, n_cams
 from camsim.model.assembly import Configuration
 from camsim.engine.recurrence import linear_recurrence
 
@@ -86,13 +88,35 @@ def _hermite_matrix() -> np.ndarray:
 _HERMITE = _hermite_matrix()
 
 
+def hermite_derivatives(u0: np.ndarray, u1: np.ndarray, P0: np.ndarray, P1: np.ndarray) -> np.ndarray:
+    """D = u0·P0 + u1·P1 cam by cam: the cam input at a step's ends (..., 4·c) → the
+    derivatives of each cam's displacement at its start (..., 8·c)."""
+    if u0.shape[-1] == N_INPUT:
+        return u0 @ P0 + u1 @ P1
+    lead = u0.shape[:-1]
+    D = u0.reshape(-1, N_INPUT) @ P0 + u1.reshape(-1, N_INPUT) @ P1
+    return D.reshape(*lead, -1)
+
+
+def taylor_rows(D: np.ndarray) -> np.ndarray:
+    """Per input channel, the Taylor coefficients of its step polynomial: (..., 8·c) →
+    (..., 4·c, 8), row 4q + d holding D_{8q+d}, …, D_{8q+7} then zeros, so that channel
+    d of cam q is Σ_j row[j]·τ^j/j! (a copy: the values are D's own)."""
+    n = _P + 1
+    lead = D.shape[:-1]
+    Dq = D.reshape(*lead, -1, n)
+    Dp = np.concatenate([Dq, np.zeros((*lead, Dq.shape[-2], N_INPUT - 1))], axis=-1)
+    idx = np.arange(N_INPUT)[:, None] + np.arange(n)[None, :]
+    return Dp[..., idx].reshape(*lead, -1, n)
+
+
 def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray, grid_step: float | None = None) -> np.ndarray:
-    """Derivatives D_j (j = 0..7) of the cam displacement at step starts.
+    """Derivatives D_j (j = 0..7) of each cam's displacement at step starts.
 
     Parameters
     ----------
-    u0, u1 : ndarray (K, 4)
-        [s, ṡ, s̈, s⃛] at the start and end of each step [SI].
+    u0, u1 : ndarray (K, 4·c)
+        The cam input ([s, ṡ, s̈, s⃛] per cam) at the start and end of each step [SI].
     h : ndarray (K,)
         Step lengths [s].
     grid_step : float, optional
@@ -100,21 +124,21 @@ def step_input_derivatives(u0: np.ndarray, u1: np.ndarray, h: np.ndarray, grid_s
 
     Returns
     -------
-    ndarray (K, 8)
-        d^j s/dt^j at each step start for the degree-7 Hermite interpolant.
+    ndarray (K, 8·c)
+        d^j s_q/dt^j at each step start for the degree-7 Hermite interpolant, cam by cam.
     """
     h = np.asarray(h, dtype=float).reshape(-1)
     if h.size == 0:
-        return np.zeros((0, _P + 1))
+        return np.zeros((0, (_P + 1) * n_cams(np.shape(u0)[-1])))
     # Most steps share one length (the grid step): two small matrix products for all of
     # them; the few others (partial steps at stretch ends) one by one.
     common = float(grid_step) if grid_step is not None else float(np.median(h))
     P0, P1 = _hermite_maps(common)
-    out = u0 @ P0 + u1 @ P1
+    out = hermite_derivatives(u0, u1, P0, P1)
     # (grid steps differ from one another by rounding only: |Δh| ~ 1e-16·t)
     for k in np.flatnonzero(np.abs(h - common) > STEP_LENGTH_RTOL * common):
         P0, P1 = _hermite_maps(float(h[k]))
-        out[k] = u0[k] @ P0 + u1[k] @ P1
+        out[k] = hermite_derivatives(u0[k], u1[k], P0, P1)
     return out
 
 
@@ -145,23 +169,32 @@ def _hermite_maps(h: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def forcing_coefficients(config: Configuration, D: np.ndarray) -> np.ndarray:
-    """E_j = B·[D_j, D_{j+1}, D_{j+2}, D_{j+3}] (+ b for j = 0): (K, 8, m)."""
+    """E_j = Σ_q B_q·[D_{q,j}, D_{q,j+1}, D_{q,j+2}, D_{q,j+3}] (+ b for j = 0): (K, 8, m),
+    B_q the four columns of cam q."""
     K = D.shape[0]
-    Dp = np.concatenate([D, np.zeros((K, 3))], axis=1)
-    # stacked[k, j, c] = D_{j+c}
-    idx = np.arange(_P + 1)[:, None] + np.arange(N_INPUT)[None, :]
-    stacked = Dp[:, idx]
+    if D.shape[1] == _P + 1:
+        Dp = np.concatenate([D, np.zeros((K, 3))], axis=1)
+        # stacked[k, j, c] = D_{j+c}
+        idx = np.arange(_P + 1)[:, None] + np.arange(N_INPUT)[None, :]
+        stacked = Dp[:, idx]
+    else:
+        # stacked[k, j, 4q + c] = D_{q, j+c}: the rows of taylor_rows, transposed
+        stacked = np.swapaxes(taylor_rows(D), 1, 2)
     E = stacked @ config.B.T  # (K, 8, m)
     E[:, 0, :] += config.b
     return E
 
 
 def input_at(D: np.ndarray, tau: float) -> np.ndarray:
-    """[s, ṡ, s̈, s⃛] at τ into a step from its Taylor derivatives D (8,)."""
-    out = np.empty(N_INPUT)
-    for c in range(N_INPUT):
-        terms = D[c:]
-        out[c] = np.sum(terms * tau ** np.arange(terms.size) / _FACT[: terms.size])
+    """The cam input ([s, ṡ, s̈, s⃛] per cam) at τ into a step from its Taylor derivatives
+    D (8·c,)."""
+    n = _P + 1
+    out = np.empty(N_INPUT * (D.size // n))
+    for q in range(D.size // n):
+        Dq = D[q * n : (q + 1) * n]
+        for c in range(N_INPUT):
+            terms = Dq[c:]
+            out[N_INPUT * q + c] = np.sum(terms * tau ** np.arange(terms.size) / _FACT[: terms.size])
     return out
 
 
@@ -295,12 +328,15 @@ class StepMaps:
             self.Phi = expo[:m, :m]
             self.Gamma = np.stack([expo[:m, m * (j + 1) : m * (j + 2)] for j in range(_P + 1)]) if m else np.zeros((_P + 1, 0, 0))
         # The step's input term Σ_j Γ_j·E_j with E_j = B·[D_j..D_{j+3}] (+ b for j = 0)
-        # regrouped by input derivative: g = D·W + g0, one small matrix product per chunk.
-        self.W = np.zeros((_P + 1, m))
-        for i in range(_P + 1):
-            for c in range(N_INPUT):
-                if 0 <= i - c <= _P:
-                    self.W[i] += self.Gamma[i - c] @ config.B[:, c]
+        # regrouped by input derivative: g = D·W + g0, one small matrix product per chunk
+        # (rows 8q … 8q + 7 for cam q).
+        cams = n_cams(config.B.shape[1])
+        self.W = np.zeros(((_P + 1) * cams, m))
+        for q in range(cams):
+            for i in range(_P + 1):
+                for c in range(N_INPUT):
+                    if 0 <= i - c <= _P:
+                        self.W[q * (_P + 1) + i] += self.Gamma[i - c] @ config.B[:, N_INPUT * q + c]
         self.g0 = self.Gamma[0] @ config.b if m else np.zeros(0)
         # Modal form for the recurrence; of each complex-conjugate pair of modes only one
         # is run (the state is real, so the other is its conjugate).
@@ -332,7 +368,7 @@ class StepMaps:
     def propagate(self, z0: np.ndarray, D: np.ndarray) -> np.ndarray:
         """States after each full step: z_{k+1} = Φ z_k + Σ_j Γ_j E_kj; returns (K, m).
 
-        ``D`` (K, 8) holds the cam-input derivatives at each step start.
+        ``D`` (K, 8·c) holds the cam-input derivatives at each step start.
         """
         K = D.shape[0]
         m = z0.size

@@ -1,6 +1,7 @@
 """Jump warnings as located events: the cam contact force of a driven mass crossing zero.
 
-A driven mass moves with the cam (``[cam] drives``); the force the cam must exert on it,
+A driven mass moves with its cam (``drives`` of a cam; a machine with several cams may have
+one per cam, each watched on its own); the force the cam must exert on it,
 
     F_c = m·(s̈ + g) + Σ_upper f_i − Σ_lower f_i     (f_i the tension of each element on it)
 
@@ -39,7 +40,7 @@ import math
 import numpy as np
 
 from camsim.elements import FORCE_TOL
-from camsim.elements.affine import N_INPUT, Affine
+from camsim.elements.affine import N_INPUT, Affine, channel, input_rate
 from camsim.elements.events import Event, EventKind
 from camsim.engine.crossing import analytic_input, polish_crossing, root_near
 from camsim.engine.roots import refine
@@ -53,7 +54,7 @@ SHORT_BRACKET_STEPS = 16
 
 
 class CamForceWatch:
-    """Locates the zero crossings of the driven mass's cam contact force.
+    """Locates the zero crossings of every driven mass's cam contact force.
 
     Parameters
     ----------
@@ -65,27 +66,33 @@ class CamForceWatch:
         self.integrator = integrator
         model = integrator.model
         self.model = model
-        self.driven = model.driven
-        self.active = bool(self.driven)
-        #: (t [s], F_c [N]) at the end of the last watched piece, None before the first.
-        self.last: tuple[float, float] | None = None
+        #: (driven mass, index of its cam) of every driven mass.
+        self.drives: list[tuple[str, int]] = list(model.drives.items())
+        self.active = bool(self.drives)
+        #: Per driven mass, (t [s], F_c [N]) at the end of the last watched piece (absent
+        #: before the first).
+        self.last: dict[str, tuple[float, float]] = {}
         self._affines: dict = {}
 
     # ------------------------------------------------------------------ the force
-    def affine(self, config):
-        """(F_c, dF_c/dt or None) of a configuration as affine maps of (z, u, F_nl)."""
-        hit = self._affines.get(config.branches)
+    def affine(self, config, driven: str | None = None):
+        """(F_c, dF_c/dt or None) of a driven mass (default the first) in a configuration as
+        affine maps of (z, u, F_nl)."""
+        driven = driven or self.model.driven
+        key = (config.branches, driven)
+        hit = self._affines.get(key)
         if hit is not None:
             return hit
-        model, driven = self.model, self.driven
+        model = self.model
         m = config.dim
         p = len(config.power_contacts)
         Cz = np.zeros((1, m))
-        Du = np.zeros((1, N_INPUT))
+        Du = np.zeros((1, model.n_input))
         Fn = np.zeros((1, p))
         e = np.zeros(1)
-        Du[0, 2] = model.driven_mass
-        e[0] = model.driven_mass * model.gravity
+        mass = model.driven_masses[driven]
+        Du[0, channel(model.drives[driven], 2)] = mass
+        e[0] = mass * model.gravity
         for i, element in enumerate(model.elements):
             if driven not in element.nodes:
                 continue
@@ -119,33 +126,34 @@ class CamForceWatch:
             e = e + w * (k_ * d.e + c_ * rate.e + f0)
         value = Affine(Cz, Du, Fn, e)
         rate = None
-        if not np.any(value.Fn) and not np.any(value.Du[:, 3]):
+        if not np.any(value.Fn) and not np.any(value.Du[:, 3::N_INPUT]):
             integ = self.integrator
             rate = integ._rate(config, Affine(Cz, Du, np.zeros_like(Fn), e))
         hit = (value, rate)
-        self._affines[config.branches] = hit
+        self._affines[key] = hit
         return hit
 
     # ------------------------------------------------------------------ recording
-    def _jump(self, t: float) -> None:
+    def _jump(self, t: float, driven: str) -> None:
+        cam = self.model.cam_names[self.model.drives[driven]]
         self.integrator.events.append(
-            Event(time=float(t), element="cam", kind=EventKind.JUMP, masses=f"cam/{self.driven}")
+            Event(time=float(t), element=cam, kind=EventKind.JUMP, masses=f"{cam}/{driven}")
         )
 
-    def _boundary(self, t0: float, f0: float) -> None:
+    def _boundary(self, t0: float, f0: float, driven: str) -> None:
         """A piece starts at t0 with F_c = f0: a drop below zero since the last piece ends
         (a jump of F_c at a join or an event, or the run's very first instant)."""
-        if f0 < -FORCE_TOL and (self.last is None or self.last[1] >= -FORCE_TOL):
-            self._jump(t0)
+        last = self.last.get(driven)
+        if f0 < -FORCE_TOL and (last is None or last[1] >= -FORCE_TOL):
+            self._jump(t0, driven)
 
     # ------------------------------------------------------------------ linear stretches
     def linear_chunk(self, config, nodes, Z, U, D, t_cut=None, z_cut=None, index=None):
         """Watch one chunk of a linear stretch: nodes (N,), exact states Z (N, m), inputs U
-        (N, 4), the steps' Hermite derivatives D (N − 1, 8); with ``t_cut`` the chunk ends at
-        an event at t_cut (state ``z_cut``) inside step ``index``."""
+        (N, 4·c), the steps' Hermite derivatives D (N − 1, 8·c); with ``t_cut`` the chunk
+        ends at an event at t_cut (state ``z_cut``) inside step ``index``."""
         if not self.active:
             return
-        value, rate = self.affine(config)
         integ = self.integrator
         if t_cut is not None:
             # the chunk up to the event: nodes ≤ index, then the partial step to t_cut
@@ -157,8 +165,14 @@ class CamForceWatch:
                 D = np.vstack([D[:index], step_input_derivatives(U[index : index + 1], u_cut, np.array([t_cut - nodes[index]]))])
             else:
                 nodes, Z, U, D = nodes[: index + 1], Z[: index + 1], U[: index + 1], D[:index]
+        for driven, _ in self.drives:
+            self._linear_piece(config, nodes, Z, U, D, driven)
+
+    def _linear_piece(self, config, nodes, Z, U, D, driven: str) -> None:
+        """Watch one driven mass over a chunk (see :meth:`linear_chunk`)."""
+        value, rate = self.affine(config, driven)
         G = (Z @ value.Cz.T + U @ value.Du.T + value.e)[:, 0]
-        self._boundary(float(nodes[0]), float(G[0]))
+        self._boundary(float(nodes[0]), float(G[0]), driven)
         if nodes.size >= 2:
             guard_value = Affine(value.Cz, value.Du, value.Fn, value.e + FORCE_TOL)
             guard = Guard(-1, None, guard_value, 0.0, rate)
@@ -171,10 +185,10 @@ class CamForceWatch:
                 crossing = (g0 > 0.0) & (g1 <= 0.0)
                 maybe = ~crossing & (g0 > 0.0) & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
                 for k in np.flatnonzero(crossing | maybe).tolist():
-                    self._locate_linear(config, guard, value, nodes, Z, D, Gd, g, k)
-        self.last = (float(nodes[-1]), float(G[-1]))
+                    self._locate_linear(config, guard, value, nodes, Z, D, Gd, g, k, driven)
+        self.last[driven] = (float(nodes[-1]), float(G[-1]))
 
-    def _locate_linear(self, config, guard, value, nodes, Z, D, Gd, g, k):
+    def _locate_linear(self, config, guard, value, nodes, Z, D, Gd, g, k, driven):
         """The first crossing of F_c + FORCE_TOL downwards inside step k, placed where
         F_c = 0 on the exact solution and the cam law (None found: a dip that stays above)."""
         integ = self.integrator
@@ -201,7 +215,7 @@ class CamForceWatch:
 
         # the jump is where F_c = 0, a hair before it passes −FORCE_TOL
         at_zero = root_near(force, 0.0, tau, tau) if tau > 0.0 else None
-        self._jump(t_k + (at_zero if at_zero is not None else tau))
+        self._jump(t_k + (at_zero if at_zero is not None else tau), driven)
 
     # ------------------------------------------------------------------ other stretches
     def samples(self, start, end, stretch, config, rhs_rates=True):
@@ -209,12 +223,17 @@ class CamForceWatch:
         power-law contact): its start state, recorded samples and end state."""
         if not self.active:
             return
+        for driven, _ in self.drives:
+            self._samples(start, end, stretch, config, driven)
+
+    def _samples(self, start, end, stretch, config, driven):
+        """Watch one driven mass over a stretch (see :meth:`samples`)."""
         integ = self.integrator
-        value, _ = self.affine(config)
+        value, _ = self.affine(config, driven)
         ts, Fs, Rs = [], [], []
         for st in (start, end):
             u = integ.inputs(np.array([st.t]))
-            z = config.state_from_full(st.x, st.v, u[0, 0], u[0, 1])
+            z = config.state_from_input(st.x, st.v, u[0])
             fn = integ.nonlinear_forces(config, z[None, :], u, st.v_impacts)
             ts.append(np.array([st.t]))
             Fs.append(value(z[None, :], u, fn)[:, 0])
@@ -233,11 +252,11 @@ class CamForceWatch:
         F.append(Fs[1])
         R.append(Rs[1])
         t, F, R = np.concatenate(t), np.concatenate(F), np.concatenate(R)
-        self._boundary(float(t[0]), float(F[0]))
+        self._boundary(float(t[0]), float(F[0]), driven)
         g = F + FORCE_TOL
         for k in np.flatnonzero((g[:-1] > 0.0) & (g[1:] <= 0.0)).tolist():
             if k == 0:
-                z_k = config.state_from_full(start.x, start.v, *integ.inputs(np.array([start.t]))[0, :2])
+                z_k = config.state_from_input(start.x, start.v, integ.inputs(np.array([start.t]))[0])
             else:
                 z_k = stretch.z[inner][k - 1]
             # Re-integrate a bracket between recorded samples (or a short stretch); an
@@ -247,8 +266,9 @@ class CamForceWatch:
             short = stretch is not None or t[k + 1] - t[k] <= SHORT_BRACKET_STEPS * integ.h
             located = (self._locate_nonlinear(config, value, float(t[k]), float(t[k + 1]), z_k, start.v_impacts)
                        if short else None)
-            self._jump(located if located is not None else _hermite_zero(t[k], t[k + 1], F[k], F[k + 1], R[k], R[k + 1]))
-        self.last = (float(t[-1]), float(F[-1]))
+            self._jump(located if located is not None else _hermite_zero(t[k], t[k + 1], F[k], F[k + 1], R[k], R[k + 1]),
+                       driven)
+        self.last[driven] = (float(t[-1]), float(F[-1]))
 
     def _locate_nonlinear(self, config, value, t0: float, t1: float, z0, v_impacts) -> float | None:
         """Where F_c crosses zero downwards in [t0, t1] of a stretch with closed power-law
@@ -289,14 +309,14 @@ class CamForceWatch:
         zdot = z @ config.A.T + u @ config.B.T + config.b
         if config.L.shape[1]:
             zdot = zdot + fn @ config.L.T
-        udot = np.zeros_like(u)
-        udot[:, :3] = u[:, 1:]
+        udot = input_rate(u)
         return (zdot @ value.Cz.T + udot @ value.Du.T)[:, 0]
 
 
-def _du(channel: int, coefficient: float) -> np.ndarray:
-    du = np.zeros((1, N_INPUT))
-    du[0, channel] = coefficient
+def _du(order: int, coefficients: np.ndarray) -> np.ndarray:
+    """An input row with ``coefficients`` (one per cam) on each cam's channel ``order``."""
+    du = np.zeros((1, coefficients.size * N_INPUT))
+    du[0, order::N_INPUT] = coefficients
     return du
 
 

@@ -4,12 +4,14 @@ The free masses obey M·ẍ = Σ element forces (+ gravity). Every element sits 
 linear *branch* between events (a link joined or separated, a contact open, closed or
 stuck), so for a *configuration* — one branch per switching element — the state z obeys
 
-    ż = A·z + B·u(t) + b + L·F_nl,        u = [s, ṡ, s̈, s⃛]
+    ż = A·z + B·u(t) + b + L·F_nl,        u = [s₁, ṡ₁, s̈₁, s⃛₁, s₂, …]
 
-where u is the cam motion on the model axis and F_nl the forces of power-law contacts
-that are closed (the only nonlinear terms). Rigid (restitution) contacts that are stuck
+where u is the motion of every cam on the model axis (four channels per cam, cam by cam:
+:mod:`camsim.elements.affine`; one cam, or none, gives u = [s, ṡ, s̈, s⃛]) and F_nl the
+forces of power-law contacts that are closed (the only nonlinear terms). Rigid (restitution) contacts that are stuck
 are constraints: the configuration then uses reduced coordinates q with
-x = N·q + p0 + p_s·s (N an orthonormal null-space basis), and z = [q, q̇].
+x = N·q + p0 + P_s·s (N an orthonormal null-space basis, s the cams' displacements), and
+z = [q, q̇].
 
 Everything observable (positions, velocities, accelerations of the free masses,
 constraint forces) is an affine map of (z, u, F_nl) — an :class:`Affine` — so the
@@ -35,13 +37,21 @@ from camsim.machine.description import Machine
 
 @dataclass
 class ElementGeometry:
-    """How an element's deflection depends on the free coordinates and the cam.
+    """How an element's deflection depends on the free coordinates and the cams.
 
-    d = G·x + g_s·s (+ 0),  ḋ = G·v + g_s·ṡ.
+    d = G·x + Σ_q g_s[q]·s_q (+ 0),  ḋ = G·v + Σ_q g_s[q]·ṡ_q.
     """
 
     G: np.ndarray  # (n,)
-    g_s: float
+    g_s: np.ndarray  # (cams,)
+
+    def cam_term(self, s) -> np.ndarray | float:
+        """Σ_q g_s[q]·s_q for cam values s (..., cams) (the cam part of d, or of ḋ from ṡ)."""
+        s = np.asarray(s, dtype=float)
+        out = self.g_s[0] * s[..., 0]
+        for q in range(1, self.g_s.size):
+            out = out + self.g_s[q] * s[..., q]
+        return out
 
 
 @dataclass
@@ -61,7 +71,7 @@ class Configuration:
     lam: Affine  # constraint forces of stuck contacts, compressive-positive
     N: np.ndarray  # (n, nq) null-space basis (identity when unconstrained)
     p0: np.ndarray  # (n,)
-    p_s: np.ndarray  # (n,)
+    p_s: np.ndarray  # (n, cams)
     cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -72,11 +82,21 @@ class Configuration:
     def linear(self) -> bool:
         return not self.power_contacts
 
-    def state_from_full(self, x: np.ndarray, v: np.ndarray, s: float, sdot: float) -> np.ndarray:
-        """Reduced state z from full positions and velocities (projection onto the constraints)."""
-        q = self.N.T @ (x - self.p0 - self.p_s * s)
-        qd = self.N.T @ (v - self.p_s * sdot)
+    def state_from_full(self, x: np.ndarray, v: np.ndarray, s, sdot) -> np.ndarray:
+        """Reduced state z from full positions and velocities (projection onto the
+        constraints); ``s``, ``sdot`` the cams' displacements and velocities (one value per
+        cam, or a float for one cam)."""
+        s, sdot = np.atleast_1d(s), np.atleast_1d(sdot)
+        ps, psd = self.p_s[:, 0] * s[0], self.p_s[:, 0] * sdot[0]
+        for c in range(1, s.size):
+            ps, psd = ps + self.p_s[:, c] * s[c], psd + self.p_s[:, c] * sdot[c]
+        q = self.N.T @ (x - self.p0 - ps)
+        qd = self.N.T @ (v - psd)
         return np.concatenate([q, qd])
+
+    def state_from_input(self, x: np.ndarray, v: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Reduced state z from full positions, velocities and one cam-input row u (4·c,)."""
+        return self.state_from_full(x, v, u[0::N_INPUT], u[1::N_INPUT])
 
 
 class Model:
@@ -93,13 +113,24 @@ class Model:
     def __init__(self, machine: Machine, *, no_impact: bool = False):
         self.machine = machine
         self.no_impact = no_impact
-        self.driven = machine.cam.drives if machine.cam is not None else None
+        cams = tuple(getattr(machine, "cams", ()) or ((machine.cam,) if machine.cam is not None else ()))
+        #: The cam nodes in input order (cam q drives channels 4q … 4q+3); a machine without
+        #: a cam keeps one cam node, ``cam``, at rest.
+        self.cam_names: list[str] = [getattr(c, "name", CAM) for c in cams] or [CAM]
+        self.cam_index = {name: q for q, name in enumerate(self.cam_names)}
+        self.n_cams = len(self.cam_names)
+        #: Columns of the cam input u.
+        self.n_input = N_INPUT * self.n_cams
+        #: Driven mass → the index of the cam that drives it.
+        self.drives: dict[str, int] = {c.drives: q for q, c in enumerate(cams) if c.drives}
+        self.driven = next(iter(self.drives), None)  # the first driven mass (one-cam machines: the one)
         self.free_names = [m.name for m in machine.free_masses]
         self.index = {name: i for i, name in enumerate(self.free_names)}
         self.n = len(self.free_names)
         self.mass = np.array([m.mass for m in machine.free_masses], dtype=float)
         self.gravity = machine.simulation.gravity
         self.driven_mass = machine.mass_of(self.driven) if self.driven else 0.0
+        self.driven_masses = {name: machine.mass_of(name) for name in self.drives}
         elements = [e for e in machine.elements if not (no_impact and e.impact_only)]
         self.elements: list[Element] = elements
         self.geometry = [self._geometry(e) for e in elements]
@@ -109,15 +140,20 @@ class Model:
         self._configs: dict[tuple[Branch, ...], Configuration] = {}
 
     # ------------------------------------------------------------------ geometry
-    def node_coefficients(self, node: str) -> tuple[np.ndarray, float]:
-        """x_node = e·x_free + c·s."""
+    def node_coefficients(self, node: str) -> tuple[np.ndarray, np.ndarray]:
+        """x_node = e·x_free + c·s (c one coefficient per cam)."""
         e = np.zeros(self.n)
+        c = np.zeros(self.n_cams)
         if node == GROUND:
-            return e, 0.0
-        if node == CAM or node == self.driven:
-            return e, 1.0
+            return e, c
+        if node in self.cam_index:
+            c[self.cam_index[node]] = 1.0
+            return e, c
+        if node in self.drives:
+            c[self.drives[node]] = 1.0
+            return e, c
         e[self.index[node]] = 1.0
-        return e, 0.0
+        return e, c
 
     def _geometry(self, element: Element) -> ElementGeometry:
         e_lo, c_lo = self.node_coefficients(element.lower)
@@ -129,7 +165,7 @@ class Model:
         if element.damping.reference_mass:
             return self.machine.mass_of(element.damping.reference_mass)
         for node in (element.upper, element.lower):
-            if node not in (GROUND, CAM):
+            if node != GROUND and node not in self.cam_index:
                 return self.machine.mass_of(node)
         raise InputError(f"element {element.name}: no mass to reference its damping ratio to")
 
@@ -166,8 +202,9 @@ class Model:
         n = self.n
         K = np.zeros((n, n))
         C = np.zeros((n, n))
-        k_s = np.zeros(n)  # generalized force per unit s  (moves to the right-hand side)
-        c_s = np.zeros(n)
+        nc = self.n_cams
+        k_s = np.zeros((n, nc))  # generalized force per unit s of each cam (moves to the right-hand side)
+        c_s = np.zeros((n, nc))
         F0 = -self.mass * self.gravity  # constant generalized force
         power: list[int] = []
         rigid: list[int] = []
@@ -186,8 +223,9 @@ class Model:
             # Tension f acts −f on the upper node, +f on the lower: Q = −f·G.
             K += k * np.outer(geo.G, geo.G)
             C += c * np.outer(geo.G, geo.G)
-            k_s -= k * geo.G * geo.g_s
-            c_s -= c * geo.G * geo.g_s
+            for q in range(nc):
+                k_s[:, q] -= k * geo.G * geo.g_s[q]
+                c_s[:, q] -= c * geo.G * geo.g_s[q]
             F0 -= f0 * geo.G
         # Power-law contact force F (compressive) acts +F on the upper node: Q = F·G; a
         # contact on side σ of a two-sided element (a lash) acts σ·F·G (issue 12 hook).
@@ -196,7 +234,7 @@ class Model:
 
         if rigid:
             J = np.array([sides[i][0] * self.geometry[i].G for i in rigid])
-            j_s = np.array([sides[i][0] * self.geometry[i].g_s for i in rigid])
+            j_s = np.array([sides[i][0] * self.geometry[i].g_s for i in rigid]).reshape(len(rigid), nc)
             r0 = np.array([sides[i][0] * sides[i][1] for i in rigid])  # σ·(G·x + g_s·s) = σ·gap
             if np.linalg.matrix_rank(J) < len(rigid):
                 raise InputError(
@@ -206,74 +244,87 @@ class Model:
             N = scipy.linalg.null_space(J) if n else np.zeros((0, 0))
             pinv = np.linalg.pinv(J)
             p0 = pinv @ r0
-            p_s = -pinv @ j_s
+            p_s = np.column_stack([-pinv @ j_s[:, q] for q in range(nc)]).reshape(n, nc)
         else:
             J = np.zeros((0, n))
             N = np.eye(n)
             p0 = np.zeros(n)
-            p_s = np.zeros(n)
+            p_s = np.zeros((n, nc))
         nq = N.shape[1]
         Mfull = np.diag(self.mass)
         Mr = N.T @ Mfull @ N
         Mr_inv = np.linalg.inv(Mr) if nq else np.zeros((0, 0))
         Kr = N.T @ K @ N
         Cr = N.T @ C @ N
-        # Generalized force F = −K·x − C·v + k_s·s + c_s·ṡ + F0 with x = N q + p0 + p_s s.
-        f_s = N.T @ (-K @ p_s + k_s)  # per s
-        f_sd = N.T @ (-C @ p_s + c_s)  # per ṡ
-        f_sdd = -N.T @ (Mfull @ p_s)  # per s̈ (inertia of the prescribed part)
+        # Generalized force F = −K·x − C·v + k_s·s + c_s·ṡ + F0 with x = N q + p0 + p_s s
+        # (one column per cam).
+        f_s = [N.T @ (-K @ p_s[:, q] + k_s[:, q]) for q in range(nc)]  # per s
+        f_sd = [N.T @ (-C @ p_s[:, q] + c_s[:, q]) for q in range(nc)]  # per ṡ
+        f_sdd = [-N.T @ (Mfull @ p_s[:, q]) for q in range(nc)]  # per s̈ (inertia of the prescribed part)
         f_0 = N.T @ (-K @ p0 + F0)
         m = 2 * nq
         A = np.zeros((m, m))
         A[:nq, nq:] = np.eye(nq)
         A[nq:, :nq] = -Mr_inv @ Kr
         A[nq:, nq:] = -Mr_inv @ Cr
-        B = np.zeros((m, N_INPUT))
-        B[nq:, 0] = Mr_inv @ f_s
-        B[nq:, 1] = Mr_inv @ f_sd
-        B[nq:, 2] = Mr_inv @ f_sdd
+        B = np.zeros((m, self.n_input))
+        for q in range(nc):
+            B[nq:, N_INPUT * q] = Mr_inv @ f_s[q]
+            B[nq:, N_INPUT * q + 1] = Mr_inv @ f_sd[q]
+            B[nq:, N_INPUT * q + 2] = Mr_inv @ f_sdd[q]
         b = np.zeros(m)
         b[nq:] = Mr_inv @ f_0
         L = np.zeros((m, len(power)))
         L[nq:, :] = Mr_inv @ (N.T @ P)
 
         p = len(power)
-        zeros_u = np.zeros((n, N_INPUT))
+        zeros_u = np.zeros((n, self.n_input))
         # x = N q + p0 + p_s s
         Du_x = zeros_u.copy()
-        Du_x[:, 0] = p_s
-        x_map = Affine(np.hstack([N, np.zeros((n, nq))]), Du_x, np.zeros((n, p)), p0.copy())
         Du_v = zeros_u.copy()
-        Du_v[:, 1] = p_s
+        for q in range(nc):
+            Du_x[:, N_INPUT * q] = p_s[:, q]
+            Du_v[:, N_INPUT * q + 1] = p_s[:, q]
+        x_map = Affine(np.hstack([N, np.zeros((n, nq))]), Du_x, np.zeros((n, p)), p0.copy())
         v_map = Affine(np.hstack([np.zeros((n, nq)), N]), Du_v, np.zeros((n, p)), np.zeros(n))
         # ẍ = N q̈ + p_s s̈,  q̈ = rows nq: of (A z + B u + b + L F)
         Du_a = N @ B[nq:]
-        Du_a[:, 2] += p_s
+        for q in range(nc):
+            Du_a[:, N_INPUT * q + 2] += p_s[:, q]
         a_map = Affine(N @ A[nq:], Du_a, N @ L[nq:], N @ b[nq:])
         # Constraint forces: Jᵀ·λ = M·ẍ − F(x, v, s, ṡ)  →  λ = (J Jᵀ)⁻¹ J (M ẍ − F).
         if rigid:
             W = np.linalg.solve(J @ J.T, J)  # (r, n)
             # F as an affine map: −K x − C v + k_s s + c_s ṡ + F0 + P F_nl
             Du_F = zeros_u.copy()
-            Du_F[:, 0] = k_s
-            Du_F[:, 1] = c_s
+            for q in range(nc):
+                Du_F[:, N_INPUT * q] = k_s[:, q]
+                Du_F[:, N_INPUT * q + 1] = c_s[:, q]
             F_map = Affine.combine(
                 [(-K, x_map), (-C, v_map)], const=F0, du=Du_F
             )
             F_map = Affine(F_map.Cz, F_map.Du, F_map.Fn + P, F_map.e)
-            lam = Affine.combine([(W @ Mfull, a_map), (-W, F_map)], const=np.zeros(len(rigid)), du=np.zeros((len(rigid), N_INPUT)))
+            lam = Affine.combine([(W @ Mfull, a_map), (-W, F_map)], const=np.zeros(len(rigid)), du=np.zeros((len(rigid), self.n_input)))
         else:
-            lam = Affine(np.zeros((0, m)), np.zeros((0, N_INPUT)), np.zeros((0, p)), np.zeros(0))
+            lam = Affine(np.zeros((0, m)), np.zeros((0, self.n_input)), np.zeros((0, p)), np.zeros(0))
         return Configuration(
             branches=branches, A=A, B=B, b=b, L=L, power_contacts=tuple(power), stuck_contacts=tuple(rigid),
             x=x_map, v=v_map, a=a_map, lam=lam, N=N, p0=p0, p_s=p_s,
         )
 
     # ------------------------------------------------------------------ element quantities
-    def deflection(self, index: int, x: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """d = x_upper − x_lower for full positions x (..., n) and cam s (...)."""
+    def deflection(self, index: int, x: np.ndarray, s) -> np.ndarray:
+        """d = x_upper − x_lower for full positions x (..., n) and the cams' displacements
+        s (..., cams), or (...) for one cam."""
         geo = self.geometry[index]
-        return x @ geo.G + geo.g_s * s
+        return x @ geo.G + geo.cam_term(self._per_cam(s, x))
+
+    def _per_cam(self, s, x) -> np.ndarray:
+        """Cam values as (..., cams): a one-cam value (..., ) without the cam axis gains it."""
+        s = np.asarray(s, dtype=float)
+        if s.ndim == np.ndim(x) - 1:
+            s = s[..., None]
+        return s
 
     def power_force(self, index: int, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None) -> np.ndarray:
         """Force of a nonlinear (power-law) contact on samples, ≥ 0 [N]."""
@@ -292,13 +343,15 @@ class Model:
     ) -> np.ndarray:
         """Forces of all elements on samples: (N, n_elements) [N].
 
-        Tension-positive for springs and links, compressive-positive for contacts.
+        Tension-positive for springs and links, compressive-positive for contacts. ``s``,
+        ``sdot``: the cams' displacements and velocities (N, cams), or (N,) for one cam.
         """
         out = np.zeros((x.shape[0], len(self.elements)))
+        s, sdot = self._per_cam(s, x), self._per_cam(sdot, x)
         for i, element in enumerate(self.elements):
             geo = self.geometry[i]
-            d = x @ geo.G + geo.g_s * s
-            dd = v @ geo.G + geo.g_s * sdot
+            d = x @ geo.G + geo.cam_term(s)
+            dd = v @ geo.G + geo.cam_term(sdot)
             if i in config.stuck_contacts:
                 out[:, i] = element.reported_constraint_force(self.branch_of(branches, i),
                                                               lam[:, config.stuck_contacts.index(i)])
@@ -306,17 +359,24 @@ class Model:
                 out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i))
         return out
 
-    def cam_contact_force(self, forces: np.ndarray, sddot: np.ndarray) -> np.ndarray | None:
-        """Force the cam must exert on the driven mass: m·s̈ − Σ forces on it (+ m·g) [N]."""
-        if not self.driven:
+    def cam_contact_force(self, forces: np.ndarray, sddot: np.ndarray, driven: str | None = None) -> np.ndarray | None:
+        """Force the cam must exert on a driven mass: m·s̈ − Σ forces on it (+ m·g) [N].
+
+        ``driven``: the mass (default the first driven one); ``sddot`` its cam's s̈ (N,), or
+        every cam's (N, cams)."""
+        driven = driven or self.driven
+        if not driven:
             return None
-        total = self.driven_mass * (sddot + self.gravity)
+        sddot = np.asarray(sddot, dtype=float)
+        if sddot.ndim == 2:
+            sddot = sddot[:, self.drives[driven]]
+        total = self.driven_masses[driven] * (sddot + self.gravity)
         for i, element in enumerate(self.elements):
-            if self.driven not in element.nodes:
+            if driven not in element.nodes:
                 continue
             sign_on_upper = 1.0 if element.unilateral else -1.0
             # tension f: −f on upper, +f on lower; contact F: +F on upper, −F on lower.
-            on_driven = sign_on_upper if element.upper == self.driven else -sign_on_upper
+            on_driven = sign_on_upper if element.upper == driven else -sign_on_upper
             total = total - on_driven * forces[:, i]
         return total
 

@@ -348,7 +348,7 @@ class RunResult:
             for i, element in enumerate(model.elements):
                 if element.name in names:
                     geo = model.geometry[i]
-                    d = x @ geo.G + geo.g_s * s
+                    d = x @ geo.G + geo.cam_term(s[:, None])
                     gap = max(gap, float(np.max(-np.asarray(element.penetration(d), dtype=float))))
         return gap, self.separation_span(float(self.time[-1]) if self.time.size else None)
 

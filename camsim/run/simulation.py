@@ -16,6 +16,7 @@ from threadpoolctl import threadpool_limits
 from camsim.cam.program import CamProgram
 from camsim.errors import InputError, SimulationError
 from camsim.elements.events import Event, EventKind, EventTable
+from camsim.elements.affine import N_INPUT
 from camsim.elements import CAM, GROUND, Branch
 from camsim.engine.integrator import Integrator, State, Stretch
 from camsim.machine.description import Machine
@@ -176,11 +177,11 @@ def _consistent_branches(model: Model, integrator: Integrator, state: State) -> 
     branches = list(state.branches)
     config = model.configuration(state.branches)
     u = integrator.inputs(np.array([state.t]))
-    z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])
+    z = config.state_from_input(state.x, state.v, u[0])
     # the constraint forces balance the closed power-law contacts' forces too
     fn = integrator.nonlinear_forces(config, z[None, :], u, {})
     for pos, i in enumerate(model.switching):
-        d = float(model.deflection(i, state.x, u[0, 0]))
+        d = float(model.deflection(i, state.x, u[0, 0::N_INPUT]))
 
         def constraint_force(i=i) -> float:
             return float(config.lam(z[None, :], u, fn)[0, config.stuck_contacts.index(i)])
@@ -215,7 +216,7 @@ def initial_state(model: Model, integrator: Integrator, t0: float) -> State:
     u = integrator.inputs(np.array([t0]))[0]
     for i in model.switching:
         geo = model.geometry[i]
-        d = x @ geo.G + geo.g_s * u[0]
+        d = x @ geo.G + geo.cam_term(u[0::N_INPUT])
         try:
             branches.append(model.elements[i].branch_from_state(d, model.no_impact))
         except ValueError as exc:
@@ -546,7 +547,7 @@ def period_end(run: RunSetup, state: State) -> dict | None:
     t = np.array([state.t])
     u = integrator.inputs(t)
     config = model.configuration(state.branches)
-    z = config.state_from_full(state.x, state.v, u[0, 0], u[0, 1])[None, :]
+    z = config.state_from_input(state.x, state.v, u[0])[None, :]
     fn = integrator.nonlinear_forces(config, z, u, state.v_impacts)
     x, v, a = config.x(z, u, fn), config.v(z, u, fn), config.a(z, u, fn)
     lam = config.lam(z, u, fn)
