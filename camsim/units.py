@@ -125,6 +125,10 @@ DIMENSIONS: dict[str, str] = {
     "pressure": "Pa",
     "density": "kg/m**3",
     "area": "m**2",
+    "torque": "N*m",  # issue 38: the camshaft
+    "torsional_stiffness": "N*m/rad",
+    "torsional_damping": "N*m*s/rad",
+    "inertia": "kg*m**2",
     "dimensionless": "",
 }
 
@@ -149,6 +153,10 @@ _DIMENSION_TEXT = {
     "pressure": "[force]/[length]^2",
     "density": "[mass]/[length]^3",
     "area": "[length]^2",
+    "torque": "[force]*[length]",
+    "torsional_stiffness": "[force]*[length]/[angle]",
+    "torsional_damping": "[force]*[length]*[time]/[angle]",
+    "inertia": "[mass]*[length]^2",
     "dimensionless": "a number",
 }
 

@@ -130,7 +130,7 @@ class Cam:
     drives : str or None
         Name of the mass whose motion the cam prescribes exactly.
     start_angle : float
-        θ0 [rad], cam angle at t = 0.
+        θ0 [rad], the shaft's angle at t = 0.
     geometry : CamGeometry or None
         The cam's shape and follower arrangement (``[cam.geometry]``), None if not given.
     """
@@ -148,6 +148,11 @@ class Cam:
     compensation: Compensation | None = None
     compensated: CompensatedProfile | None = None
     output_program: Cam | None = None
+    # issue 38: several cams on one camshaft ([[cam]] tables). ``name`` is the cam's node
+    # (``cam`` for a [cam] table); ``phase`` is added to the shaft's angle: the cam's angle
+    # is θ_shaft + phase.
+    name: str = "cam"
+    phase: float = 0.0
 
     @property
     def period(self) -> float:
@@ -155,3 +160,82 @@ class Cam:
         import math
 
         return 2.0 * math.pi / self.speed
+
+
+#: The camshaft's models (``[camshaft] model``) and drives (``drive``).
+CAMSHAFT_MODELS = ("rigid", "dynamic")
+CAMSHAFT_DRIVES = ("speed", "motor")
+
+
+@dataclass(frozen=True)
+class CamshaftSection:
+    """A torsional section between the drive and one cam (``[[camshaft.section]]``).
+
+    Attributes
+    ----------
+    cam : str
+        The cam at the section's end.
+    stiffness : float
+        Torsional stiffness k_t [N·m/rad], > 0.
+    inertia : float
+        The cam's own inertia J [kg·m²], > 0.
+    damping_ratio : float
+        ζ of the section's own mode (c_t = 2ζ·√(k_t·J)) [-].
+    """
+
+    cam: str
+    stiffness: float
+    inertia: float
+    damping_ratio: float = 0.0
+
+
+@dataclass(frozen=True)
+class Camshaft:
+    """The camshaft (``[camshaft]``, spec §9): its speed, and optionally its own dynamics.
+
+    Attributes
+    ----------
+    speed : float
+        Nominal (mean) shaft speed ω̄ [rad/s].
+    start_angle : float
+        Shaft angle at t = 0 [rad].
+    model : str
+        ``"rigid"`` (constant speed, the default) or ``"dynamic"`` (the shaft angle a state).
+    speed_fluctuation : float or None
+        Coefficient of speed fluctuation C_s for the flywheel sizing [-].
+    inertia : float
+        J0, the drive side's inertia (motor rotor, gears) [kg·m²].
+    flywheel : float
+        A flywheel on the drive side [kg·m²] (added to J0).
+    drive : str
+        ``"speed"`` (a constant-speed drive through a compliance) or ``"motor"`` (a linear
+        torque–speed line).
+    drive_stiffness, drive_damping : float
+        The speed drive's compliance: k_d [N·m/rad], c_d [N·m·s/rad].
+    stall_torque, no_load_speed : float
+        The motor's line T = T_stall·(1 − ω/ω_0) [N·m, rad/s].
+    sections : tuple of CamshaftSection
+        Torsional sections to cams; a cam without one sits rigidly on the drive.
+    """
+
+    speed: float
+    start_angle: float = 0.0
+    model: str = "rigid"
+    speed_fluctuation: float | None = None
+    inertia: float = 0.0
+    flywheel: float = 0.0
+    drive: str = "speed"
+    drive_stiffness: float | None = None
+    drive_damping: float = 0.0
+    stall_torque: float | None = None
+    no_load_speed: float | None = None
+    sections: tuple[CamshaftSection, ...] = ()
+
+    @property
+    def drive_inertia(self) -> float:
+        """J0 + flywheel [kg·m²]."""
+        return self.inertia + self.flywheel
+
+    def section(self, cam: str) -> CamshaftSection | None:
+        """The torsional section of ``cam``, None when it sits rigidly on the drive."""
+        return next((s for s in self.sections if s.cam == cam), None)

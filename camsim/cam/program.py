@@ -134,7 +134,8 @@ class CamProgram:
             return
         self.speed = float(cam.speed)
         self.period = _TWO_PI / self.speed
-        self.start_angle = float(cam.start_angle)
+        # the cam's angle at t = 0: the shaft's plus the cam's phase (issue 38; 0 for [cam])
+        self.start_angle = float(cam.start_angle) + float(getattr(cam, "phase", 0.0))
         self.ratio = float(cam.ratio)
         if cam.table is not None:
             from camsim.cam.spline import TableSpline

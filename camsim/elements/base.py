@@ -179,6 +179,10 @@ class Element:
     lower: str
     upper: str
     damping: Damping = field(default_factory=Damping)
+    #: The machine's cam nodes (``("cam",)`` unless the file has ``[[cam]]`` tables, issue 38):
+    #: an element touching one of them is a cam contact (kept, bilateral, in the no-impact
+    #: variant).
+    cam_nodes: tuple[str, ...] = field(default=(CAM,), kw_only=True, compare=False, repr=False)
 
     #: Machine-file ``type`` (and ``law`` for contacts) this class is registered under.
     type_name: ClassVar[str] = ""
@@ -197,6 +201,17 @@ class Element:
     @property
     def nodes(self) -> tuple[str, str]:
         return (self.lower, self.upper)
+
+    @property
+    def at_cam(self) -> bool:
+        """Whether one end is a cam node."""
+        return self.lower in self.cam_nodes or self.upper in self.cam_nodes
+
+    def on_cams(self, cam_nodes: tuple[str, ...]) -> "Element":
+        """The same element in a machine whose cam nodes are ``cam_nodes``."""
+        import dataclasses
+
+        return dataclasses.replace(self, cam_nodes=tuple(cam_nodes))
 
     @property
     def force_sense(self) -> str:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from camsim.elements.base import CAM, FIXED_NODES, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param
+from camsim.elements.base import FIXED_NODES, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param
 from camsim.elements.events import EventKind
 
 #: Keys every contact takes, whatever its law.
@@ -51,7 +51,7 @@ class Contact(Element):
     @property
     def impact_only(self) -> bool:  # type: ignore[override]
         # The no-impact variant keeps the cam contact (made bilateral) and drops the rest.
-        return CAM not in self.nodes
+        return not self.at_cam
 
     @classmethod
     def check(cls, values, error, driven) -> None:

@@ -41,7 +41,7 @@ import numpy as np
 
 from camsim.elements.affine import Affine
 from camsim.elements.adams_impact import AdamsImpactContact
-from camsim.elements.base import CAM, DEFAULT_LAW, FORCE_TOL, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, register
+from camsim.elements.base import DEFAULT_LAW, FORCE_TOL, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
 from camsim.elements.linear_contact import LinearContact
 from camsim.elements.power_contact import PowerContact
@@ -120,7 +120,7 @@ class Lash(Element):
 
     @property
     def impact_only(self) -> bool:  # type: ignore[override]
-        return CAM not in self.nodes
+        return not self.at_cam
 
     @property
     def low(self) -> float:

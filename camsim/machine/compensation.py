@@ -375,3 +375,44 @@ def _check_smooth(program: CamProgram, cam: Cam, need: int, n_masses: int, key: 
                     f"the {names[n]} (order {n}) of the written program jumps at the start of this segment (the "
                     f"join with cam.segments[{before}], {math.degrees(float(th)):g} deg); compensation through {n_masses} mass(es) needs it continuous "
                     f"up to order {need} (give the segments enough continuity, e.g. polynomial continuity = {need})")
+
+
+def compensate_cams(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
+    """The machine with every cam that has a ``compensation`` replaced by its compensated cam.
+
+    One ``[cam]``: :func:`compensate`. Several ``[[cam]]`` tables (issue 38): each compensated
+    cam is built on the machine as that cam sees it (its node named ``cam``, the elements that
+    touch other cams left out), which holds when no other cam acts on its path to the output
+    (an error otherwise: the other cams' motions would enter the compensation). Error keys
+    name the cam's table, ``cam[i]....``.
+    """
+    if not machine.multi_cam:
+        return compensate(machine, grid_points)
+    cams = list(machine.cams)
+    for i, cam in enumerate(cams):
+        if cam.compensation is None:
+            continue
+        others = set(machine.cam_names) - {cam.name}
+
+        def node(n: str, name: str = cam.name) -> str:
+            return CAM if n == name else n
+
+        elements = tuple(dataclasses.replace(e, lower=node(e.lower), upper=node(e.upper))
+                         for e in machine.elements if not set(e.nodes) & others)
+        view = dataclasses.replace(machine, cam=dataclasses.replace(cam, name=CAM, phase=0.0), cams=(),
+                                   multi_cam=False, elements=elements)
+        prefix = f"cam[{i}]"
+        try:
+            top = {CAM} | ({cam.drives} if cam.drives else set())
+            path = _find_path(view, cam.compensation.output, top)
+            for e in machine.elements:
+                if set(e.nodes) & others and set(e.nodes) & set(path):
+                    raise CompensationError(f"{prefix}.compensation.output",
+                                            f"element {e.name} joins the compensation path to another cam: a cam's "
+                                            "compensation needs a path that no other cam acts on")
+            done = compensate(view, grid_points).cam
+        except CompensationError as exc:
+            key = prefix + exc.key[3:] if exc.key.startswith("cam.") else exc.key
+            raise CompensationError(key, exc.message.replace("cam.", f"{prefix}.")) from None
+        cams[i] = dataclasses.replace(done, name=cam.name, phase=cam.phase)
+    return dataclasses.replace(machine, cams=tuple(cams))

@@ -36,6 +36,8 @@ from camsim.cam.description import (  # noqa: E402,F401 - re-exported
     MOTIONS,
     SYNTHESIS_LAWS,
     Cam,
+    Camshaft,
+    CamshaftSection,
     CamTable,
     Compensation,
     Segment,
@@ -89,6 +91,28 @@ class Simulation:
 
 
 @dataclass(frozen=True)
+class ClearancePart:
+    """One side of a clearance: a mass or cam node and the offset of its edge [m]."""
+
+    node: str
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """``[[clearance]]`` (spec §9): the distance between two stations' parts.
+
+    The distance is (x_B + offset_B) − (x_A + offset_A) for ``between = [A, B]``; a value below
+    ``minimum`` (default 0: the parts touch) is a collision.
+    """
+
+    name: str
+    a: ClearancePart
+    b: ClearancePart
+    minimum: float = 0.0
+
+
+@dataclass(frozen=True)
 class Machine:
     """A whole machine in SI, as loaded from a machine file.
 
@@ -97,7 +121,17 @@ class Machine:
     name : str
         ``[machine] name``.
     cam : Cam or None
-        None when the machine has no cam: the ``cam`` node stays at x = 0.
+        None when the machine has no cam: the ``cam`` node stays at x = 0. With several
+        cams (``[[cam]]`` tables) the first of them (the shaft's speed and start angle are
+        every cam's).
+    cams : tuple of Cam
+        Every cam, in the order of the cam input (a ``[cam]`` file: ``(cam,)``).
+    camshaft : Camshaft or None
+        ``[camshaft]`` (spec §9); None when the file has none (a rigid shaft at the cam's speed).
+    clearances : tuple of Clearance
+        ``[[clearance]]`` pairs.
+    multi_cam : bool
+        The file holds ``[[cam]]`` tables (results under ``/cams/<name>/``).
     masses : tuple of Mass
     elements : tuple of Element
     simulation : Simulation
@@ -117,10 +151,39 @@ class Machine:
     source: str = "<string>"
     text: str = ""
     base_dir: str = "."
+    cams: tuple[Cam, ...] = ()
+    camshaft: Camshaft | None = None
+    clearances: tuple[Clearance, ...] = ()
+    multi_cam: bool = False
 
     #: Rebuilds a machine from this one's text with ``--set`` assignments; set by the loader
     #: that made it (the description sits below the loader, so it is handed the way back).
     rebuild: Callable[["Machine", dict], "Machine"] | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # One [cam]: cams is (cam,) whatever was given (dataclasses.replace(cam=...) keeps
+        # them in step); [[cam]]: cam is the first of them.
+        if not self.multi_cam:
+            object.__setattr__(self, "cams", (self.cam,) if self.cam is not None else ())
+        elif self.cams:
+            object.__setattr__(self, "cam", self.cams[0])
+
+    def cam_named(self, name: str) -> Cam:
+        """The cam whose node is ``name``."""
+        for cam in self.cams:
+            if cam.name == name:
+                return cam
+        raise KeyError(name)
+
+    @property
+    def cam_names(self) -> tuple[str, ...]:
+        """The cam nodes (``("cam",)`` for a [cam] file; empty without a cam)."""
+        return tuple(c.name for c in self.cams)
+
+    @property
+    def driven_masses(self) -> dict[str, str]:
+        """Driven mass → the cam that drives it."""
+        return {c.drives: c.name for c in self.cams if c.drives}
 
     def with_values(self, values: dict) -> "Machine":
         """A modified copy: ``{KEY: VALUE}`` in the ``--set`` grammar, checked like the file.
@@ -146,9 +209,9 @@ class Machine:
 
     @property
     def free_masses(self) -> tuple[Mass, ...]:
-        """Masses that are degrees of freedom (all but the one the cam drives)."""
-        driven = self.cam.drives if self.cam is not None else None
-        return tuple(m for m in self.masses if m.name != driven)
+        """Masses that are degrees of freedom (all but those a cam drives)."""
+        driven = self.driven_masses
+        return tuple(m for m in self.masses if m.name not in driven)
 
     def element(self, name: str) -> Element:
         for e in self.elements:
@@ -158,7 +221,8 @@ class Machine:
 
 __all__ = [
     "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
-    "PreloadedLink", "RigidContact", "Spring", "Cam", "CamTable", "InitialCondition", "Machine", "Mass",
+    "PreloadedLink", "RigidContact", "Spring", "Cam", "Camshaft", "CamshaftSection", "Clearance", "ClearancePart",
+    "CamTable", "InitialCondition", "Machine", "Mass",
     "Segment", "SegmentPoint", "Compensation", "Simulation", "LAWS", "SYNTHESIS_LAWS", "DERIVATIVE_KEYS",
     "MOTIONS", "STANDARD_GRAVITY",
 ]

@@ -31,6 +31,7 @@ from camsim.machine.description import Machine
 from camsim.machine.overrides import _apply_override, _named_rows
 from camsim.machine.validator import (  # noqa: F401 - the key lists, re-exported
     CAM_KEYS,
+    MULTI_CAM_KEYS,
     DURATION_TOLERANCE_DEG,
     ELEMENT_COMMON_KEYS,
     INITIAL_KEYS,
@@ -190,11 +191,11 @@ def load_machine_text(
                 exc.file, exc.key, f"{exc.message} (value from --set {origin[exc.key]})"
             ) from None
         raise
-    if machine.cam is not None and machine.cam.compensation is not None:  # issue 27
-        from camsim.machine.compensation import CompensationError, compensate
+    if any(c.compensation is not None for c in machine.cams):  # issue 27 (each cam: issue 38)
+        from camsim.machine.compensation import CompensationError, compensate_cams
 
         try:
-            machine = compensate(machine)
+            machine = compensate_cams(machine)
         except CompensationError as exc:
             message = exc.message
             if exc.key in origin:
@@ -249,14 +250,33 @@ def override_keys(doc: dict) -> list[str]:
     """
     keys = ["schema"] + [f"machine.{k}" for k in MACHINE_KEYS]
     cam = doc.get("cam")
-    keys += [f"cam.{k}" for k in CAM_KEYS if k not in ("segments", "geometry")]
     from camsim.cam.arrangement import GEOMETRY_KEYS, MATERIAL_KEYS  # issue 14
 
-    keys += [f"cam.geometry.{k}" for k in GEOMETRY_KEYS if not k.endswith("_material")]
-    keys += [f"cam.geometry.{m}.{k}" for m in ("cam_material", "follower_material") for k in MATERIAL_KEYS]
-    if isinstance(cam, dict) and isinstance(cam.get("segments"), list):
-        for i, _ in enumerate(cam["segments"]):
-            keys += [f"cam.segments[{i}].{k}" for k in SEGMENT_KEYS]
+    def cam_keys(prefix: str, table, valid) -> list[str]:
+        out = [f"{prefix}.{k}" for k in valid if k not in ("segments", "geometry", "speed", "start_angle")
+               or (prefix == "cam" and k in ("speed", "start_angle"))]
+        out += [f"{prefix}.geometry.{k}" for k in GEOMETRY_KEYS if not k.endswith("_material")]
+        out += [f"{prefix}.geometry.{m}.{k}" for m in ("cam_material", "follower_material") for k in MATERIAL_KEYS]
+        if isinstance(table, dict) and isinstance(table.get("segments"), list):
+            for i, _ in enumerate(table["segments"]):
+                out += [f"{prefix}.segments[{i}].{k}" for k in SEGMENT_KEYS]
+        return out
+
+    if isinstance(cam, list):  # issue 38: [[cam]] tables, by name; cam.speed is the shaft's
+        from camsim.machine import schema
+
+        keys += ["cam.speed", "cam.start_angle"]
+        for name, row in _named_rows(cam).items():
+            keys += cam_keys(f"cam.{name}", row, MULTI_CAM_KEYS)
+        keys += [f"camshaft.{k}" for k in schema.keys("camshaft") if k != "section"]
+        shaft = doc.get("camshaft") if isinstance(doc.get("camshaft"), dict) else {}
+        for row in shaft.get("section", []) if isinstance(shaft.get("section"), list) else []:
+            if isinstance(row, dict) and isinstance(row.get("cam"), str):
+                keys += [f"camshaft.section.{row['cam']}.{k}" for k in schema.keys("camshaft.section") if k != "cam"]
+    else:
+        keys += cam_keys("cam", cam, CAM_KEYS)
+    for name in _named_rows(doc.get("clearance")):
+        keys.append(f"clearance.{name}.minimum")
     masses = _named_rows(doc.get("mass"))
     for name in masses:
         keys += [f"mass.{name}.{k}" for k in MASS_KEYS if k != "name"]
@@ -265,9 +285,10 @@ def override_keys(doc: dict) -> list[str]:
         extra = element_kinds.type_keys(kind) if isinstance(kind, str) else ()
         keys += [f"element.{name}.{k}" for k in ELEMENT_COMMON_KEYS + extra if k != "name"]
     keys += [f"simulation.{k}" for k in SIMULATION_KEYS]
-    driven = cam.get("drives") if isinstance(cam, dict) else None
+    rows = cam if isinstance(cam, list) else [cam]
+    driven = {r.get("drives") for r in rows if isinstance(r, dict)}
     for name in masses:
-        if name != driven:
+        if name not in driven:
             keys += [f"initial.{name}.{k}" for k in INITIAL_KEYS]
     return keys
 
@@ -299,6 +320,44 @@ def reference_mass_of(element: Element) -> str:
     return element.lower if element.upper in FIXED_NODES else element.upper
 
 
+def _cam_dict(cam) -> dict[str, Any]:
+    """One cam as :func:`machine_to_dict` describes it (SI)."""
+    cam_dict = {
+        "speed": cam.speed,
+        "period": cam.period,
+        "ratio": cam.ratio,
+        "arm": cam.arm,
+        "drives": cam.drives,
+        "start_angle": cam.start_angle,
+        "segments": [
+            {"motion": s.motion, "law": s.law, "duration": s.duration, "lift": s.lift,
+             # issue 27: synthesised segments (None/empty for the standard laws)
+             "continuity": s.continuity, "degree": s.degree, "velocity": s.velocity,
+             "start": dict(s.start), "end": dict(s.end),
+             "points": [{"at": p.at, "s": p.s, **{f"d{k}": v for k, v in p.derivatives}} for p in s.points]}
+            for s in cam.segments
+        ],
+        "compensation": None if cam.compensation is None else {
+            "output": cam.compensation.output, "speed": cam.compensation.speed,
+            "kind": cam.compensated.kind if cam.compensated is not None else None},
+        "table": None,
+    }
+    if cam.geometry is not None:  # issue 14
+        from camsim.cam.arrangement import geometry_to_dict
+
+        cam_dict["geometry"] = geometry_to_dict(cam.geometry)
+    if cam.table is not None:
+        t = cam.table
+        cam_dict["table"] = {
+            "source": t.source,
+            "angle": list(t.angle),
+            "displacement": list(t.displacement),
+            "velocity": None if t.velocity is None else list(t.velocity),
+            "acceleration": None if t.acceleration is None else list(t.acceleration),
+        }
+    return cam_dict
+
+
 def machine_to_dict(machine: Machine) -> dict[str, Any]:
     """A JSON-able description of a machine in SI units.
 
@@ -310,41 +369,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
         coefficients ``c`` or ``c_push``/``c_pull``), ``simulation``, ``initial``.
     """
     cam = machine.cam
-    cam_dict: dict[str, Any] | None = None
-    if cam is not None:
-        cam_dict = {
-            "speed": cam.speed,
-            "period": cam.period,
-            "ratio": cam.ratio,
-            "arm": cam.arm,
-            "drives": cam.drives,
-            "start_angle": cam.start_angle,
-            "segments": [
-                {"motion": s.motion, "law": s.law, "duration": s.duration, "lift": s.lift,
-                 # issue 27: synthesised segments (None/empty for the standard laws)
-                 "continuity": s.continuity, "degree": s.degree, "velocity": s.velocity,
-                 "start": dict(s.start), "end": dict(s.end),
-                 "points": [{"at": p.at, "s": p.s, **{f"d{k}": v for k, v in p.derivatives}} for p in s.points]}
-                for s in cam.segments
-            ],
-            "compensation": None if cam.compensation is None else {
-                "output": cam.compensation.output, "speed": cam.compensation.speed,
-                "kind": cam.compensated.kind if cam.compensated is not None else None},
-            "table": None,
-        }
-        if cam.geometry is not None:  # issue 14
-            from camsim.cam.arrangement import geometry_to_dict
-
-            cam_dict["geometry"] = geometry_to_dict(cam.geometry)
-        if cam.table is not None:
-            t = cam.table
-            cam_dict["table"] = {
-                "source": t.source,
-                "angle": list(t.angle),
-                "displacement": list(t.displacement),
-                "velocity": None if t.velocity is None else list(t.velocity),
-                "acceleration": None if t.acceleration is None else list(t.acceleration),
-            }
+    cam_dict = _cam_dict(cam) if cam is not None else None
     elements = []
     for e in machine.elements:
         row: dict[str, Any] = e.describe()
@@ -387,7 +412,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
         },
         "cam": cam_dict,
         "masses": [
-            {"name": m.name, "mass": m.mass, "driven": cam is not None and cam.drives == m.name}
+            {"name": m.name, "mass": m.mass, "driven": m.name in machine.driven_masses}
             for m in machine.masses
         ],
         "elements": elements,
@@ -402,7 +427,25 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             {"mass": i.mass, "displacement": i.displacement, "velocity": i.velocity}
             for i in machine.initial
         ],
+        **_shaft_dict(machine),
     }
+
+
+def _shaft_dict(machine: Machine) -> dict[str, Any]:
+    """The cams, camshaft and clearances of a machine with ``[[cam]]`` tables or a ``[camshaft]``
+    (issue 38); nothing for a one-cam file without them (its description is unchanged)."""
+    import dataclasses
+
+    out: dict[str, Any] = {}
+    if machine.multi_cam:
+        out["cams"] = [{"name": c.name, "phase": c.phase, **_cam_dict(c)} for c in machine.cams]
+    if machine.camshaft is not None:
+        shaft = dataclasses.asdict(machine.camshaft)
+        shaft["drive_inertia"] = machine.camshaft.drive_inertia
+        out["camshaft"] = shaft
+    if machine.clearances:
+        out["clearances"] = [dataclasses.asdict(c) for c in machine.clearances]
+    return out
 
 
 def _replace_text(machine: Machine, text: str, base_dir: Path) -> Machine:

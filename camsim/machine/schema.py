@@ -24,7 +24,12 @@ TABLES: dict[str, tuple[Param, ...]] = {
     "top": (
         Param("schema", "integer", "must be `1`", required=True),
         Param("machine", "table", "name and description", required=True),
-        Param("cam", "table", "the cam; absent: the `cam` node stays at x = 0"),
+        Param("cam", "table", "the cam (`[cam]`), or several cams on one shaft (`[[cam]]` tables, below); absent: "
+              "the `cam` node stays at x = 0"),
+        Param("camshaft", "table", "the camshaft (`[camshaft]`, below): its speed with `[[cam]]` tables, the "
+              "flywheel sizing, and its own dynamics"),
+        Param("clearance", "array of tables", "distances between two stations' parts checked over the cycle "
+              "(`[[clearance]]`, below)"),
         Param("mass", "array of tables", "the masses (at least one)", required=True),
         Param("element", "array of tables", "springs, links and contacts"),
         Param("simulation", "table", "run settings"),
@@ -49,6 +54,63 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("geometry", "table", "the cam's shape, for the design checks (`[cam.geometry]`, below)"),
         Param("compensation", "table", "dynamic compensation (`[cam.compensation]`, below): the segments are the "
               "motion wanted at an output mass, and camsim computes the cam that produces it"),
+    ),
+    # issue 38: several cams on one shaft, the camshaft, clearances
+    "cams": (
+        Param("name", "string", "the cam's node name: unique among masses, cams and `ground`; not a key of this "
+              "table", required=True),
+        Param("phase", "angle", "the cam's angle is the shaft's plus `phase`; bare number = degrees", default=0.0),
+        Param("speed", "angular_speed", "the shaft's speed, in the first `[[cam]]` only and only when "
+              "`[camshaft]` does not give it"),
+        Param("ratio", "number", "as in `[cam]`", default=1.0),
+        Param("arm", "length", "as in `[cam]`"),
+        Param("drives", "mass name", "as in `[cam]`: the mass this cam prescribes; a mass is driven by one cam "
+              "at most"),
+        Param("start_angle", "angle", "the shaft's angle at t = 0: in the first `[[cam]]` only, when "
+              "`[camshaft]` does not give it", default=0.0),
+        Param("segments", "array of tables", "as in `[cam]`"),
+        Param("table", "string", "as in `[cam]`"),
+        Param("geometry", "table", "as `[cam.geometry]`, written `geometry = { … }` inside the `[[cam]]` table"),
+        Param("compensation", "table", "as `[cam.compensation]`, written `compensation = { … }`"),
+    ),
+    "camshaft": (
+        Param("speed", "angular_speed", "> 0; the shaft's mean speed ω̄ (with `[[cam]]` tables; a `[cam]` "
+              "table gives its own `speed`)"),
+        Param("start_angle", "angle", "the shaft's angle at t = 0; bare number = degrees", default=0.0),
+        Param("model", "choice", "`rigid`: constant speed (every cam's θ = θ_shaft + phase); `dynamic`: the "
+              "shaft's angle is a state driven by the stations' torques (docs/camshaft.md)", default="rigid",
+              choices=("rigid", "dynamic")),
+        Param("speed_fluctuation", "number", "in (0, 1); the coefficient C_s = (ω_max − ω_min)/ω̄ the flywheel "
+              "is sized for: I = E_k/(C_s·ω̄²) in the summary"),
+        Param("inertia", "inertia", "≥ 0; J0, the drive side's inertia (motor rotor, gears) [kg·m²]; "
+              "`dynamic`", default=0.0),
+        Param("flywheel", "inertia", "≥ 0; a flywheel on the drive side, added to `inertia`; `dynamic`",
+              default=0.0),
+        Param("drive", "choice", "`speed`: a constant-speed drive through `drive_stiffness`/`drive_damping`; "
+              "`motor`: a linear torque–speed line from `stall_torque` and `no_load_speed`; `dynamic`",
+              default="speed", choices=("speed", "motor")),
+        Param("drive_stiffness", "torsional_stiffness", "> 0; the speed drive's compliance k_d; required for "
+              "`drive = \"speed\"`"),
+        Param("drive_damping", "torsional_damping", "≥ 0; the speed drive's damping c_d", default=0.0),
+        Param("stall_torque", "torque", "> 0; the motor's torque at zero speed; required for `drive = \"motor\"`"),
+        Param("no_load_speed", "angular_speed", "> `speed`; the motor's speed at zero torque; required for "
+              "`drive = \"motor\"`"),
+        Param("section", "array of tables", "torsional sections between the drive and cams "
+              "(`[[camshaft.section]]`, below)"),
+    ),
+    "camshaft.section": (
+        Param("cam", "string", "the cam at the section's end (one section per cam)", required=True),
+        Param("stiffness", "torsional_stiffness", "> 0; k_t of the shaft between the drive and the cam",
+              required=True),
+        Param("inertia", "inertia", "> 0; J, the cam's own inertia", required=True),
+        Param("damping_ratio", "number", "≥ 0; ζ of the section (c_t = 2ζ·√(k_t·J))", default=0.0),
+    ),
+    "clearance": (
+        Param("name", "string", "unique; names the pair in warnings and the summary", required=True),
+        Param("between", "array", "`[A, B]`, each a mass or cam node name, or `{ part = \"M3\", offset = \"5 mm\" "
+              "}`: the edge of part A and of part B; the distance is (x_B + offset_B) − (x_A + offset_A)",
+              required=True),
+        Param("minimum", "length", "the smallest distance allowed (a collision below it)", default=0.0),
     ),
     # issue 27: motion synthesis and dynamic compensation
     "cam.compensation": (
@@ -151,6 +213,15 @@ def key_param(key: str) -> Param | None:
     head, leaf = names[0], names[-1]
     if head == "element":
         return ELEMENT_PARAMS.get(leaf)
+    if head == "cam" and len(names) >= 3 and names[1] not in keys("cams"):  # issue 38: cam.<name>.<key>
+        if len(names) == 3 and leaf in ("name", "phase"):
+            return next(p for p in TABLES["cams"] if p.key == leaf)
+        return key_param(".".join(["cam", *key.split(".")[2:]]))
+    if head == "camshaft" and len(names) == 4 and names[1] == "section":  # camshaft.section.<cam>.<key>
+        table = "camshaft.section"
+        return next((p for p in TABLES[table] if p.key == leaf), None)
+    if head == "clearance" and len(names) == 3:  # clearance.<name>.minimum
+        return next((p for p in TABLES["clearance"] if p.key == leaf), None)
     if head == "cam" and len(names) == 3 and names[1] == "segments":
         table = "cam.segments"
     elif head == "cam" and len(names) == 4 and names[1] == "segments":  # issue 27
@@ -176,7 +247,8 @@ def key_unit(key: str) -> str:
 _SHOWN = {
     "stiffness": "force/length", "damping": "N·s/m", "number": "number", "bool": "boolean", "nodes": "[node, node]",
     "power_coefficient": "force/length^a", "angular_speed": "angular speed", "mass name": "mass name",
-    "slowness": "time/length (s/m)",
+    "slowness": "time/length (s/m)", "torsional_stiffness": "torque/angle (N·m/rad)",
+    "torsional_damping": "torque·time/angle (N·m·s/rad)", "inertia": "mass·length² (kg·m²)", "torque": "torque (N·m)",
 }
 
 

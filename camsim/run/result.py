@@ -25,7 +25,7 @@ import numpy as np
 
 from camsim.errors import ResultFileError
 from camsim.elements.events import Event, EventKind, EventTable
-from camsim.machine.description import CAM, Machine
+from camsim.machine.description import Machine
 
 #: SI units of the per-mass kinematic quantities.
 QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
@@ -158,6 +158,17 @@ class RunResult:
         Cam angles of the segment joins [deg].
     sample_rate : float
         Output sample rate [Hz].
+    cams : dict or None
+        Several cams (``[[cam]]``, issue 38): name → the traces of ``cam`` for each
+        (``cam`` is then the first cam's).
+    cam_contact_forces : dict or None
+        Several cams: cam name → force on the mass it drives [N] (``cam_contact_force`` is
+        then None).
+    shaft_angle : ndarray or None
+        The camshaft's angle [deg] (drive side) where it differs from the first cam's.
+    shaft_speed, cam_speeds, drive_torque : ndarray, dict, ndarray or None
+        A dynamic camshaft: the drive side's speed [rad/s], each cam's [rad/s], the drive's
+        torque [N·m] (None on a rigid shaft).
     """
 
     machine: Machine
@@ -177,6 +188,14 @@ class RunResult:
     #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
     #: the cam design's energy quantities (issue 26).
     period_end: dict | None = None
+    # issue 38: several cams, the camshaft
+    cams: dict[str, dict[str, np.ndarray]] | None = None
+    cam_contact_forces: dict[str, np.ndarray] | None = None
+    shaft_angle: np.ndarray | None = None
+    shaft_speed: np.ndarray | None = None
+    cam_speeds: dict[str, np.ndarray] | None = None
+    drive_torque: np.ndarray | None = None
+    shaft_dynamics: dict | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -190,9 +209,19 @@ class RunResult:
     @cached_property
     def _traces(self) -> dict[str, Trace]:
         out: dict[str, Trace] = {"time": Trace(self.time, "s", "time")}
-        out["cam/angle"] = Trace(self.cam["angle"], "deg", "cam angle θ0 + ω·t")
-        for quantity in ("displacement", "velocity", "acceleration", "jerk"):
-            out[f"cam/{quantity}"] = Trace(self.cam[quantity], QUANTITY_UNITS[quantity], f"cam {quantity} on the model axis")
+        if self.cams is None:
+            out["cam/angle"] = Trace(self.cam["angle"], "deg", "cam angle θ0 + ω·t")
+            for quantity in ("displacement", "velocity", "acceleration", "jerk"):
+                out[f"cam/{quantity}"] = Trace(self.cam[quantity], QUANTITY_UNITS[quantity], f"cam {quantity} on the model axis")
+        else:  # issue 38: /cams/<name>/...
+            for name, traces in self.cams.items():
+                out[f"cams/{name}/angle"] = Trace(traces["angle"], "deg", f"angle of cam {name}, θ_shaft + phase")
+                for quantity in ("displacement", "velocity", "acceleration", "jerk"):
+                    out[f"cams/{name}/{quantity}"] = Trace(traces[quantity], QUANTITY_UNITS[quantity],
+                                                           f"cam {name} {quantity} on the model axis")
+                if self.cam_contact_forces and name in self.cam_contact_forces:
+                    out[f"cams/{name}/contact_force"] = Trace(self.cam_contact_forces[name], "N",
+                                                              f"force of cam {name} on the mass it drives")
         for name, traces in self.masses.items():
             for quantity in MASS_QUANTITIES:
                 out[f"masses/{name}/{quantity}"] = Trace(traces[quantity], QUANTITY_UNITS[quantity], f"{quantity} of {name}")
@@ -211,6 +240,11 @@ class RunResult:
 
         for path, (data, units, long_name) in design_traces(self).items():
             out[path] = Trace(data, units, long_name)
+        from camsim.run import camshaft  # issue 38: the camshaft's torque, speed, clearances
+
+        if camshaft.active(self.machine):
+            for path, (data, units, long_name) in camshaft.shaft_traces(self).items():
+                out[path] = Trace(data, units, long_name)
         return out
 
     def trace(self, path: str) -> np.ndarray:
@@ -237,6 +271,9 @@ class RunResult:
         from camsim.cam.design import design_columns  # issue 14
 
         units.update(design_columns(self.machine))
+        from camsim.run.camshaft import camshaft_columns  # issue 38
+
+        units.update(camshaft_columns(self.machine))
         if key in units:
             return units[key]
         raise KeyError(f"no trace or scalar {path!r} in this result")
@@ -252,6 +289,13 @@ class RunResult:
         """
         if self.cam_contact_force is not None:
             return self.cam_contact_force
+        if self.cams is not None:  # issue 38: the station whose cam force comes lowest
+            from camsim.run.camshaft import _station_forces
+
+            forces = list(_station_forces(self).values())
+            if not forces:
+                return None
+            return forces[int(np.argmin([float(np.min(f)) if f.size else np.inf for f in forces]))]
         names = [e.name for e in self._cam_contacts if e.name in self.elements]
         if not names:
             return None
@@ -259,7 +303,7 @@ class RunResult:
 
     @property
     def _cam_contacts(self) -> list:
-        return [e for e in self.machine.elements if e.unilateral and CAM in e.nodes]
+        return [e for e in self.machine.elements if e.unilateral and e.at_cam]
 
     def impacts(self) -> EventTable:
         """Impact-like events (contacts closing and links rejoining)."""
@@ -292,6 +336,12 @@ class RunResult:
         cf = self.cam_force
         out["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
         out["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
+        if self.cams is not None:  # issue 38: the extremes over every station
+            from camsim.run.camshaft import _station_forces
+
+            forces = [f for f in _station_forces(self).values() if f.size]
+            if forces:
+                out["max_cam_contact_force"] = max(float(np.max(f)) for f in forces)
         cam_contacts = {e.name for e in self._cam_contacts}
         out["jump"] = bool(
             (cf is not None and cf.size and float(np.min(cf)) < 0)
@@ -306,7 +356,29 @@ class RunResult:
         from camsim.cam.design import design_row  # issue 14: design scalars with [cam.geometry]
 
         out.update(design_row(self))
+        if self.camshaft_accumulator() is not None:  # issue 38
+            out.update(self.camshaft_accumulator().row())
         return out
+
+    def camshaft_accumulator(self, cs: float | None = None):
+        """The camshaft's scalars over this run (:class:`camsim.run.camshaft.CamshaftAccumulator`),
+        None for a machine without camshaft outputs (one ``[cam]`` and no ``[camshaft]``)."""
+        from camsim.run import camshaft
+
+        if not camshaft.active(self.machine):
+            return None
+        if cs is None and getattr(self, "_shaft_acc", None) is not None:
+            return self._shaft_acc
+        acc = camshaft.CamshaftAccumulator(self.machine, cs)
+        acc.add(self)
+        if cs is None:
+            self._shaft_acc = acc
+        return acc
+
+    def camshaft_summary(self, cs: float | None = None) -> dict | None:
+        """The camshaft section of the summary (torques, work, E_k, flywheel, motor, clearances)."""
+        acc = self.camshaft_accumulator(cs)
+        return None if acc is None else acc.summary()
 
     def missing_reasons(self) -> dict[str, str]:
         """Why each scalar without a value (NaN in :meth:`scalars`) is absent (issue 26)."""
@@ -344,11 +416,12 @@ class RunResult:
             model = Model(self.machine, no_impact=self.no_impact)
             x = (np.column_stack([self.masses[n]["displacement"] for n in model.free_names]) if model.n
                  else np.zeros((self.time.size, 0)))
-            s = self.cam["displacement"]
+            cams = self.cams if self.cams is not None else {model.cam_names[0]: self.cam}
+            s = np.column_stack([cams[name]["displacement"] for name in model.cam_names])
             for i, element in enumerate(model.elements):
                 if element.name in names:
                     geo = model.geometry[i]
-                    d = x @ geo.G + geo.cam_term(s[:, None])
+                    d = x @ geo.G + geo.cam_term(s)
                     gap = max(gap, float(np.max(-np.asarray(element.penetration(d), dtype=float))))
         return gap, self.separation_span(float(self.time[-1]) if self.time.size else None)
 
@@ -404,6 +477,11 @@ class RunResult:
         design = self.design_summary()  # issue 14: with [cam.geometry]
         if design is not None:
             out["design"] = design
+        shaft = self.camshaft_summary()  # issue 38: several cams, or a [camshaft]
+        if shaft is not None:
+            if self.shaft_dynamics is not None:
+                shaft["dynamics"] = self.shaft_dynamics
+            out["camshaft"] = shaft
         return out
 
     # ------------------------------------------------------------------ views
@@ -496,9 +574,23 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             machine = load_machine_text(text, source=f"{path}:machine_toml", base_dir=Path(path).parent)
         except MachineFileError as exc:
             raise ResultFileError(f"{path}: cannot rebuild its machine from machine_toml ({exc})") from None
+        extra: dict[str, Any] = {}
         try:
             time = g["time"][()]
-            cam = {q: g[f"cam/{q}"][()] for q in ("angle", "displacement", "velocity", "acceleration", "jerk")}
+            quantities = ("angle", "displacement", "velocity", "acceleration", "jerk")
+            if machine.multi_cam:  # issue 38: /cams/<name>/...
+                extra["cams"] = {c.name: {q: g[f"cams/{c.name}/{q}"][()] for q in quantities} for c in machine.cams}
+                extra["cam_contact_forces"] = {c.name: g[f"cams/{c.name}/contact_force"][()] for c in machine.cams
+                                               if f"cams/{c.name}/contact_force" in g}
+                cam = extra["cams"][machine.cams[0].name]
+            else:
+                cam = {q: g[f"cam/{q}"][()] for q in quantities}
+            if "camshaft/angle" in g and machine.camshaft is not None and machine.camshaft.model == "dynamic":
+                extra["shaft_angle"] = g["camshaft/angle"][()]
+                extra["shaft_speed"] = g["camshaft/speed"][()]
+                extra["drive_torque"] = g["camshaft/motor_torque"][()]
+                extra["cam_speeds"] = {c.name: g[f"cams/{c.name}/speed"][()] for c in machine.cams
+                                       if f"cams/{c.name}/speed" in g} or None
             masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
         except KeyError:  # a run stored with --record or --summary-only (camsim.run.stream)
             import json
@@ -518,11 +610,12 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             row = {name: values[k] for name, values in table.items()}
             events.append(Event(**{name: (str(v) if isinstance(v, (str, bytes, np.str_)) or name in ("element", "kind", "masses") else float(v))
                                    for name, v in row.items()}))
-        boundaries = g["cam/boundaries_deg"][()] if "cam/boundaries_deg" in g else np.zeros(0)
+        boundaries = g["cam/boundaries_deg"][()] if "cam/boundaries_deg" in g else (
+            g["camshaft/boundaries_deg"][()] if "camshaft/boundaries_deg" in g else np.zeros(0))
         residual = float(g.attrs.get("periodicity_residual", float("nan")))
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
-            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)),
+            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), **extra,
         )

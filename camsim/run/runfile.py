@@ -45,6 +45,8 @@ def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
         write_trace(group, path, trace.data, trace.units, trace.long_name, time)
         if path == "cam/jerk":  # the joins sit with the cam traces (spec §7 order)
             group.create_dataset("cam/boundaries_deg", data=np.asarray(result.boundaries_deg, dtype=float)).attrs["units"] = "deg"
+        elif path == "camshaft/angle" and "cam/jerk" not in traces:  # several cams: the shaft's angles of every join
+            group.create_dataset("camshaft/boundaries_deg", data=np.asarray(result.boundaries_deg, dtype=float)).attrs["units"] = "deg"
     write_events(group, result.events)
     group.attrs["no_impact"] = bool(result.no_impact)
     group.attrs["sample_rate"] = float(result.sample_rate)

@@ -13,11 +13,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from camsim.cam.camshaft import cam_input
 from camsim.cam.program import CamProgram
 from camsim.errors import InputError, SimulationError
 from camsim.elements.events import Event, EventKind, EventTable
 from camsim.elements.affine import N_INPUT
-from camsim.elements import CAM, GROUND, Branch
+from camsim.elements import GROUND, Branch
 from camsim.engine.integrator import Integrator, State, Stretch
 from camsim.machine.description import Machine
 from camsim.model.assembly import Model
@@ -285,9 +286,12 @@ def simulate(
         return _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress)
 
 
-def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None) -> RunResult:
+def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None, warps=None,
+              record_all=False) -> RunResult:
     """The run; ``stream(run)`` (camsim.run.stream), when given, makes the consumer of the
-    stretches (see :class:`RunSetup`) and its ``finish()`` returns the result instead."""
+    stretches (see :class:`RunSetup`) and its ``finish()`` returns the result instead.
+    ``warps``: per cam, the time warp of a dynamic camshaft (camsim.run.shaft; None: the
+    rigid shaft); ``record_all``: record the warm-up too (its samples before output time 0)."""
     sim = machine.simulation
     if cycles is not None or warmup_cycles is not None or sample_rate is not None:
         sim = replace(
@@ -300,7 +304,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         machine = replace(machine, simulation=sim)
     if sim.sample_rate <= 0:
         raise InputError("simulation.sample_rate: must be positive")
-    cam = CamProgram(machine.cam)
+    cam = cam_input(machine, warps)  # one cam: its CamProgram; [[cam]]: every cam's, stacked (issue 38)
     model = Model(machine, no_impact=no_impact)
     warnings = list(cam.warnings)
     period = cam.period
@@ -360,7 +364,8 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     # (issue 26: the last sample of one revolution falls short of the period unless the
     # period is a multiple of the sample spacing).
     t_period_end = None
-    if has_cam and getattr(machine.cam, "geometry", None) is not None and t_end >= t_rec + period * (1 - 1e-12):
+    if has_cam and (any(getattr(c, "geometry", None) is not None for c in machine.cams) or machine.multi_cam
+                    or machine.camshaft is not None) and t_end >= t_rec + period * (1 - 1e-12):
         t_period_end = t_rec + period
     all_stops = tuple(stops) + ((t_period_end,) if t_period_end is not None and t_period_end not in stops else ())
 
@@ -383,7 +388,8 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             # with no jump row the continuous run does not have (issue 25)
             integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
-            _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report)
+            _, stretches = integrator.run(state, t_final, record_from=0.0 if record_all else t_rec, stops=all_stops,
+                                          on_stop=on_stop, progress=report)
             result = _assemble(run, stretches)
             peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
         else:
@@ -435,12 +441,14 @@ WARMUP_STEPS_PER_MOTION = 64
 def cam_input_step(machine: Machine) -> float:
     """Longest step [s] over which the cam input stays exact: 1/WARMUP_STEPS_PER_MOTION of
     the shortest rise or fall (of a revolution for a table cam); inf without a cam."""
-    cam = machine.cam
-    if cam is None:
+    cams = machine.cams
+    if not cams:
         return math.inf
-    motions = [seg.duration for seg in (cam.segments or ()) if seg.motion != "dwell"]
-    shortest = min(motions) if motions else 2 * math.pi / WARMUP_STEPS_PER_MOTION  # a table cam: by revolution
-    return shortest / cam.speed / WARMUP_STEPS_PER_MOTION
+    shortest = math.inf
+    for cam in cams:  # every cam of the shaft (issue 38)
+        motions = [seg.duration for seg in (cam.segments or ()) if seg.motion != "dwell"]
+        shortest = min(shortest, min(motions) if motions else 2 * math.pi / WARMUP_STEPS_PER_MOTION)  # a table: by revolution
+    return shortest / cams[0].speed / WARMUP_STEPS_PER_MOTION
 
 
 def warmup_step(machine: Machine, f_max: float, h: float) -> float:
@@ -491,8 +499,8 @@ class RunSetup:
 def stretch_samples(run: RunSetup, st: Stretch):
     """The output-grid samples of one stretch: ``(t, x, v, a, u, forces)`` or None.
 
-    ``t`` [s] on the simulation clock; x, v, a (N, n) of the free masses; u (N, 4) the
-    cam input s, ṡ, s̈, s⃛; forces (N, elements) [N]. Used by :func:`_assemble` and by the
+    ``t`` [s] on the simulation clock; x, v, a (N, n) of the free masses; u (N, 4·c) the
+    cam input (s, ṡ, s̈, s⃛ of every cam); forces (N, elements) [N]. Used by :func:`_assemble` and by the
     streaming assembler alike, so both give the same bits.
     """
     t_rec, t_end, h_out = run.t_rec, run.t_end, run.h_out
@@ -509,7 +517,7 @@ def stretch_samples(run: RunSetup, st: Stretch):
     v = config.v(z, u, fn)
     a = config.a(z, u, fn)
     lam = config.lam(z, u, fn)
-    forces = run.model.element_forces(st.branches, x, v, u[:, 0], u[:, 1], lam, config, st.v_impacts)
+    forces = run.model.element_forces(st.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, st.v_impacts)
     return t, x, v, a, u, forces
 
 
@@ -521,15 +529,27 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     machine, model, cam = run.machine, run.model, run.cam
     masses: dict[str, dict[str, np.ndarray]] = {}
     for m in machine.masses:
-        if m.name == model.driven:
-            masses[m.name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
+        if m.name in model.drives:
+            c = N_INPUT * model.drives[m.name]  # the channels of the cam that drives it
+            masses[m.name] = {"displacement": u[:, c], "velocity": u[:, c + 1], "acceleration": u[:, c + 2]}
         else:
             k = model.index[m.name]
             masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
     elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
-    cam_force = model.cam_contact_force(forces, u[:, 2])
     transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
+    if machine.multi_cam:  # issue 38: every cam's traces, /cams/<name>/...
+        cams, contact = {}, {}
+        for q, name in enumerate(model.cam_names):
+            c = N_INPUT * q
+            cams[name] = {"angle": np.degrees(cam.cam_angle(q, time)), "displacement": u[:, c],
+                          "velocity": u[:, c + 1], "acceleration": u[:, c + 2], "jerk": u[:, c + 3]}
+        for driven, q in model.drives.items():
+            contact[model.cam_names[q]] = model.cam_contact_force(forces, u[:, N_INPUT * q + 2], driven)
+        return {"time": time, "cam": cams[model.cam_names[0]], "masses": masses, "elements": elements,
+                "cam_contact_force": None, "transducer_force": transducer, "cams": cams, "cam_contact_forces": contact,
+                "shaft_angle": np.degrees(cam.angle(time))}
+    cam_force = model.cam_contact_force(forces, u[:, 2])
     # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
     angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(time)
     cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
@@ -551,14 +571,20 @@ def period_end(run: RunSetup, state: State) -> dict | None:
     fn = integrator.nonlinear_forces(config, z, u, state.v_impacts)
     x, v, a = config.x(z, u, fn), config.v(z, u, fn), config.a(z, u, fn)
     lam = config.lam(z, u, fn)
-    forces = model.element_forces(state.branches, x, v, u[:, 0], u[:, 1], lam, config, state.v_impacts)
+    forces = model.element_forces(state.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, state.v_impacts)
     kw = sample_traces(run, t - run.t_rec, x, v, a, u, forces)
     probe = RunResult(machine=run.machine, events=[], periodicity_residual=float("nan"), **kw)
+    out = {"time": float(state.t - run.t_rec)}
+    from camsim.run.camshaft import active, shaft_power
+
+    if active(run.machine):  # issue 38: the power into the stations there (the camshaft's work)
+        out["power"] = float(shaft_power(probe)[0])
     force = probe.cam_force
     if force is None:
-        return None
+        return out if "power" in out else None
     torque = camshaft_torque(force, u[:, 1], run.cam.speed)
-    return {"time": float(state.t - run.t_rec), "cam_force": float(force[0]), "torque": float(torque[0])}
+    out.update(cam_force=float(force[0]), torque=float(torque[0]))
+    return out
 
 
 def boundaries_deg(run: RunSetup) -> np.ndarray:
@@ -603,13 +629,17 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     machine, model, cam, warnings = run.machine, run.model, run.cam, run.warnings
     cam_force = traces["cam_contact_force"]
     events = EventTable(_events(machine, model, cam, run.integrator.events, t_rec, run.t_end, time, traces["elements"]))
-    if cam_force is not None:
+    forces_by_mass = ({model.driven: cam_force} if cam_force is not None else
+                      {m: traces["cam_contact_forces"][model.cam_names[q]] for m, q in model.drives.items()}
+                      if machine.multi_cam else {})
+    if forces_by_mass:
         # jump rows are events of the integrator (camsim.engine.watch), located on the
         # exact solution like every other; here only the warning of the sampled minimum
         events.sort(key=lambda e: e.time)
-        if np.min(cam_force) < 0:
-            k = int(np.argmin(cam_force))
-            warnings.append(negative_cam_force_warning(model.driven, cam_force[k], time[k]))
+        for driven, force in forces_by_mass.items():
+            if force.size and np.min(force) < 0:
+                k = int(np.argmin(force))
+                warnings.append(negative_cam_force_warning(driven, force[k], time[k]))
     return RunResult(
         machine=machine, **traces, events=events,
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
@@ -630,7 +660,7 @@ def _events(machine, model, cam, raw: list[Event], t_rec, t_end, time, element_f
 
 
 def _node_mass(model: Model, node: str) -> float:
-    if node in (GROUND, CAM) or node == model.driven:
+    if node == GROUND or node in model.cam_index or node in model.drives:
         return math.inf
     return model.machine.mass_of(node)
 

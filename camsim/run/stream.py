@@ -64,7 +64,7 @@ def _margin(h_out: float) -> float:
 def _empty_traces(run: RunSetup) -> dict:
     n, n_el = run.model.n, len(run.model.elements)
     z = np.zeros((0, n))
-    return sample_traces(run, np.zeros(0), z, z, z, np.zeros((0, 4)), np.zeros((0, n_el)))
+    return sample_traces(run, np.zeros(0), z, z, z, np.zeros((0, run.model.n_input)), np.zeros((0, n_el)))
 
 
 def _empty_result(run: RunSetup, events=None) -> RunResult:
@@ -81,10 +81,10 @@ def trace_layout(run: RunSetup) -> dict:
 
 def machine_trace_layout(machine, no_impact: bool = False) -> dict:
     """:func:`trace_layout` of a machine before any run (builds its model; milliseconds)."""
-    from camsim.cam.program import CamProgram
+    from camsim.cam.camshaft import cam_input
     from camsim.model.assembly import Model
 
-    cam = CamProgram(machine.cam)
+    cam = cam_input(machine)
     run = RunSetup(machine, Model(machine, no_impact=no_impact), cam, None, 0.0, 0.0, 1.0, [], no_impact,
                    cam.period if machine.cam is not None else None)
     return trace_layout(run)

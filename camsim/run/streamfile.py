@@ -74,6 +74,8 @@ class TraceStreamWriter:
             self._datasets[path] = dset
             if cam_paths and path == cam_paths[-1]:  # the joins sit with the cam traces (spec §7 order)
                 group.create_dataset("cam/boundaries_deg", data=np.asarray(boundaries_deg, dtype=float)).attrs["units"] = "deg"
+            elif not cam_paths and path == "camshaft/angle":  # several cams (issue 38): the shaft's angles
+                group.create_dataset("camshaft/boundaries_deg", data=np.asarray(boundaries_deg, dtype=float)).attrs["units"] = "deg"
 
     def append(self, traces: Mapping) -> None:
         """Append one piece of every stored trace (path → Trace, all on one time base).
