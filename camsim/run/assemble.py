@@ -100,18 +100,37 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
     transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
+    dynamics = getattr(cam, "dynamics", None)  # issue 38: a dynamic camshaft's solution
+    shaft: dict = {}
+    if dynamics is not None:
+        # angles on the recorded clock, continuing from the shaft's start angle at t = 0
+        t_sim, back = time + run.t_rec, 2.0 * np.pi * round(run.t_rec / run.period) if run.period else 0.0
+        shaft = {"shaft_angle": np.degrees(dynamics.drive_angle(t_sim) - back),
+                 "shaft_speed": dynamics.drive_speed(t_sim), "drive_torque": dynamics.drive_torque(t_sim),
+                 "cam_speeds": {name: dynamics.cam_speed(q, t_sim) for q, name in enumerate(model.cam_names)}}
+
+        def angle_of(q):
+            return np.degrees(cam.cam_angle(q, t_sim) - back)
+    else:
+        def angle_of(q):
+            return np.degrees(cam.cam_angle(q, time))
     if machine.multi_cam:  # issue 38: every cam's traces, /cams/<name>/...
         cams, contact = {}, {}
         for q, name in enumerate(model.cam_names):
             c = N_INPUT * q
-            cams[name] = {"angle": np.degrees(cam.cam_angle(q, time)), "displacement": u[:, c],
+            cams[name] = {"angle": angle_of(q), "displacement": u[:, c],
                           "velocity": u[:, c + 1], "acceleration": u[:, c + 2], "jerk": u[:, c + 3]}
         for driven, q in model.drives.items():
             contact[model.cam_names[q]] = model.cam_contact_force(forces, u[:, N_INPUT * q + 2], driven)
         return {"time": time, "cam": cams[model.cam_names[0]], "masses": masses, "elements": elements,
                 "cam_contact_force": None, "transducer_force": transducer, "cams": cams, "cam_contact_forces": contact,
-                "shaft_angle": np.degrees(cam.angle(time))}
+                "shaft_angle": np.degrees(cam.angle(time)), **shaft}
     cam_force = model.cam_contact_force(forces, u[:, 2])
+    if dynamics is not None:  # one cam on a dynamic shaft: its own (lagging) angle
+        cam_traces = {"angle": angle_of(0), "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2],
+                      "jerk": u[:, 3]}
+        return {"time": time, "cam": cam_traces, "masses": masses, "elements": elements,
+                "cam_contact_force": cam_force, "transducer_force": transducer, **shaft}
     # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
     angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(time)
     cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
@@ -202,11 +221,18 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
             if force.size and np.min(force) < 0:
                 k = int(np.argmin(force))
                 warnings.append(negative_cam_force_warning(driven, force[k], time[k]))
-    return RunResult(
+    result = RunResult(
         machine=machine, **traces, events=events,
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
         boundaries_deg=boundaries_deg(run),
     )
+    if machine.clearances:  # issue 38: a collision of two stations' parts is a warning row
+        from camsim.run.camshaft import CamshaftAccumulator
+
+        probe = CamshaftAccumulator(machine)
+        probe.add(result)
+        warnings.extend(probe.warnings())
+    return result
 
 
 def _events(machine, model, cam, raw: list[Event], t_rec, t_end, time, element_forces) -> list[Event]:

@@ -213,6 +213,8 @@ class RunResult:
             out["cam/angle"] = Trace(self.cam["angle"], "deg", "cam angle θ0 + ω·t")
             for quantity in ("displacement", "velocity", "acceleration", "jerk"):
                 out[f"cam/{quantity}"] = Trace(self.cam[quantity], QUANTITY_UNITS[quantity], f"cam {quantity} on the model axis")
+            if self.cam_speeds:  # one cam on a dynamic camshaft
+                out["cam/speed"] = Trace(next(iter(self.cam_speeds.values())), "rad/s", "angular speed of the cam")
         else:  # issue 38: /cams/<name>/...
             for name, traces in self.cams.items():
                 out[f"cams/{name}/angle"] = Trace(traces["angle"], "deg", f"angle of cam {name}, θ_shaft + phase")
@@ -222,6 +224,8 @@ class RunResult:
                 if self.cam_contact_forces and name in self.cam_contact_forces:
                     out[f"cams/{name}/contact_force"] = Trace(self.cam_contact_forces[name], "N",
                                                               f"force of cam {name} on the mass it drives")
+                if self.cam_speeds and name in self.cam_speeds:  # a dynamic camshaft
+                    out[f"cams/{name}/speed"] = Trace(self.cam_speeds[name], "rad/s", f"angular speed of cam {name}")
         for name, traces in self.masses.items():
             for quantity in MASS_QUANTITIES:
                 out[f"masses/{name}/{quantity}"] = Trace(traces[quantity], QUANTITY_UNITS[quantity], f"{quantity} of {name}")
@@ -589,8 +593,9 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                 extra["shaft_angle"] = g["camshaft/angle"][()]
                 extra["shaft_speed"] = g["camshaft/speed"][()]
                 extra["drive_torque"] = g["camshaft/motor_torque"][()]
-                extra["cam_speeds"] = {c.name: g[f"cams/{c.name}/speed"][()] for c in machine.cams
-                                       if f"cams/{c.name}/speed" in g} or None
+                extra["cam_speeds"] = ({c.name: g[f"cams/{c.name}/speed"][()] for c in machine.cams
+                                        if f"cams/{c.name}/speed" in g} if machine.multi_cam else
+                                       {machine.cams[0].name: g["cam/speed"][()]} if "cam/speed" in g else None) or None
             masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
         except KeyError:  # a run stored with --record or --summary-only (camsim.run.stream)
             import json

@@ -103,12 +103,13 @@ def simulate(
         return _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress)
 
 
-def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None, warps=None,
-              record_all=False) -> RunResult:
+def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None, shaft=None,
+              record_all=False, rigid_shaft=False) -> RunResult:
     """The run; ``stream(run)`` (camsim.run.stream), when given, makes the consumer of the
     stretches (see :class:`RunSetup`) and its ``finish()`` returns the result instead.
-    ``warps``: per cam, the time warp of a dynamic camshaft (camsim.run.shaft; None: the
-    rigid shaft); ``record_all``: record the warm-up too (its samples before output time 0)."""
+    ``shaft``: a dynamic camshaft's solution (camsim.run.shaft.ShaftSolution; None: the
+    rigid shaft, or the solution still to find); ``record_all``: record the warm-up too (its samples before output time 0);
+    ``rigid_shaft``: a dynamic camshaft's machine on a rigid shaft (the relaxation's start)."""
     sim = machine.simulation
     if cycles is not None or warmup_cycles is not None or sample_rate is not None:
         sim = replace(
@@ -121,7 +122,21 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         machine = replace(machine, simulation=sim)
     if sim.sample_rate <= 0:
         raise InputError("simulation.sample_rate: must be positive")
+    dynamics = (shaft, None) if shaft is not None else None
+    if shaft is None and not rigid_shaft and machine.cams and machine.camshaft is not None \
+            and machine.camshaft.model == "dynamic":
+        # issue 38: the camshaft's own dynamics, iterated with the stations to one solution
+        # (waveform relaxation, camsim.run.shaft); then the run below on the converged angles
+        from camsim.run.shaft import converge
+
+        t_rec_dyn = (sim.warmup_cycles * 2.0 * math.pi / machine.cams[0].speed) if sim.warmup_cycles else 0.0
+        dynamics = converge(machine, lambda solution: _simulate(
+            machine, no_impact, None, None, None, None, shaft=solution, record_all=True, rigid_shaft=solution is None),
+            t_rec_dyn)
+    warps = dynamics[0].warps() if dynamics is not None else None
     cam = cam_input(machine, warps)  # one cam: its CamProgram; [[cam]]: every cam's, stacked (issue 38)
+    if dynamics is not None:
+        cam.dynamics = dynamics[0]
     model = Model(machine, no_impact=no_impact)
     warnings = list(cam.warnings)
     period = cam.period
@@ -198,7 +213,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     if any(e.is_nonlinear(b) for e in model.elements for b in Branch):
         h_warm = integrator.h
     with numerical_failure(machine):
-        if t_rec > 0 and h_warm > 1.5 * integrator.h:
+        if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all:
             warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
             # the cam contact force's sign where the warm-up ends: the recorded window starts
@@ -217,10 +232,17 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         end = period_end(run, saved[round(t_period_end, 9)])
         result.period_end = end
         design = getattr(result, "_design", None)  # a streamed run's accumulator (camsim.run.stream)
-        if design is not None and end is not None:
+        if design is not None and end is not None and "torque" in end:
             design.period_end = (end["time"], end["torque"])
+        shaft = getattr(result, "_shaft", None)  # issue 38: the streamed camshaft accumulator
+        if shaft is not None and end is not None and "power" in end:
+            shaft.period_end = (end["time"], end["power"])
     result.periodicity_residual = _residual(model, saved, stops, peak)
     result.sample_rate = sim.sample_rate
+    if dynamics is not None and dynamics[1] is not None:
+        from camsim.run.shaft import dynamics_summary
+
+        result.shaft_dynamics = dynamics_summary(*dynamics)
     if consumer is not None:
         consumer.close(result)
     return result

@@ -141,7 +141,7 @@ class StreamedRun:
     """
 
     def __init__(self, machine, events: EventTable, warnings: list[str], no_impact: bool, boundaries: np.ndarray,
-                 scalars: dict, summary_masses: dict, extremes: dict, samples: int, design=None):
+                 scalars: dict, summary_masses: dict, extremes: dict, samples: int, design=None, shaft=None):
         self.machine = machine
         self.events = events
         self.warnings = warnings
@@ -158,6 +158,20 @@ class StreamedRun:
         self._masses = summary_masses
         self._extremes = extremes
         self._design = design  # camsim.cam.design.DesignAccumulator with [cam.geometry]
+        self._shaft = shaft  # camsim.run.camshaft.CamshaftAccumulator: several cams or a [camshaft] (issue 38)
+        self.shaft_dynamics: dict | None = None
+
+    def camshaft_summary(self, cs: float | None = None) -> dict | None:
+        """The camshaft section over every revolution (as :meth:`RunResult.camshaft_summary`)."""
+        if self._shaft is None:
+            return None
+        if cs is not None and cs != self._shaft.cs:
+            import copy
+
+            other = copy.copy(self._shaft)
+            other.cs = cs
+            return other.summary()
+        return self._shaft.summary()
 
     def design_summary(self, cs: float | None = None) -> dict | None:
         """Cam design checks and dynamic quantities over every revolution (as
@@ -196,6 +210,8 @@ class StreamedRun:
         out = dict(self._scalars)
         out["periodicity_residual"] = float(self.periodicity_residual)
         out.update(design_row_from(self.design_summary()))
+        if self._shaft is not None:
+            out.update(self._shaft.row())
         return out
 
     def summary(self) -> dict:
@@ -211,6 +227,11 @@ class StreamedRun:
         design = self.design_summary()
         if design is not None:
             out["design"] = design
+        shaft = self.camshaft_summary()
+        if shaft is not None:
+            if self.shaft_dynamics is not None:
+                shaft["dynamics"] = self.shaft_dynamics
+            out["camshaft"] = shaft
         return out
 
     def open(self) -> RunResult:
@@ -302,6 +323,9 @@ class StreamAssembler:
         from camsim.cam.design import DesignAccumulator
 
         self._design = DesignAccumulator.for_machine(run.machine)  # None without [cam.geometry]
+        from camsim.run import camshaft
+
+        self._shaft = camshaft.CamshaftAccumulator(run.machine) if camshaft.active(run.machine) else None
         self._open: list[_ImpactWindow] = []
         self._samples = 0
         self._masses: dict[str, dict[str, dict]] = {}
@@ -386,6 +410,8 @@ class StreamAssembler:
         self._fold(piece)
         if self._design is not None:
             self._design.add(piece)
+        if self._shaft is not None:
+            self._shaft.add(piece)
         for w in self._open:
             w.add(time, traces["elements"][w.element.name])
         still = []
@@ -440,7 +466,12 @@ class StreamAssembler:
         if run.model.driven:
             # jump rows came with the integrator's events (camsim.engine.watch)
             events.sort(key=lambda e: e.time)
-            if self._cam_min is not None and self._cam_min[0] < 0:
+            if run.machine.multi_cam and self._shaft is not None:  # issue 38: each driven mass's own
+                for cam in run.machine.cams:
+                    low = self._shaft.force_min.get(cam.name)
+                    if cam.drives and low is not None and low[0] < 0:
+                        run.warnings.append(negative_cam_force_warning(cam.drives, *low))
+            elif self._cam_min is not None and self._cam_min[0] < 0:
                 run.warnings.append(negative_cam_force_warning(run.model.driven, *self._cam_min))
         # The event-derived scalars (impacts, their largest speed, a cam contact opening)
         # from the same code as an in-memory result, on a result without samples.
@@ -454,8 +485,10 @@ class StreamAssembler:
         # the span off the cam runs between events, to the end of the record when still open
         scalars["cam_separation_angle"] = _empty_result(run, events).separation_span(run.t_end - run.t_rec)
         masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
+        if self._shaft is not None:  # issue 38: a collision of two stations' parts is a warning row
+            run.warnings.extend(self._shaft.warnings())
         return StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
-                           dict(self._extremes), self._samples, design=self._design)
+                           dict(self._extremes), self._samples, design=self._design, shaft=self._shaft)
 
     def close(self, result: StreamedRun) -> None:
         """Write the event table, attributes and summary once the result is complete."""
