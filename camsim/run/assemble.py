@@ -156,10 +156,11 @@ def period_end(run: RunSetup, state: State) -> dict | None:
     kw = sample_traces(run, t - run.t_rec, x, v, a, u, forces)
     probe = RunResult(machine=run.machine, events=[], periodicity_residual=float("nan"), **kw)
     out = {"time": float(state.t - run.t_rec)}
-    from camsim.run.camshaft import active, shaft_power
+    from camsim.run.camshaft import active, drive_power, shaft_power
 
-    if active(run.machine):  # issue 38: the power into the stations there (the camshaft's work)
+    if active(run.machine):  # issue 38: the power into the stations and the drive's there
         out["power"] = float(shaft_power(probe)[0])
+        out["drive_power"] = float(drive_power(probe)[0])
     force = probe.cam_force
     if force is None:
         return out if "power" in out else None

@@ -115,6 +115,19 @@ def shaft_power(result) -> np.ndarray:
     return total
 
 
+def drive_power(result, traces=None) -> np.ndarray:
+    """The power the drive delivers [W]: the shaft's power P on a rigid shaft; on a dynamic
+    one the drive's torque times the speed of what drives it (the constant-speed source, ω̄,
+    for a speed drive; the motor's own speed for a motor)."""
+    machine = result.machine
+    if getattr(result, "shaft_speed", None) is None:
+        return shaft_power(result)
+    torque = np.asarray(result.drive_torque, dtype=float)
+    if machine.camshaft.drive == "speed":
+        return torque * float(machine.camshaft.speed)
+    return torque * np.asarray(result.shaft_speed, dtype=float)
+
+
 def clearance_distance(result, clearance) -> np.ndarray:
     """d(t) = (x_B + offset_B) − (x_A + offset_A) of a ``[[clearance]]`` pair [m]."""
     def position(part):
@@ -213,8 +226,10 @@ class CamshaftAccumulator:
         self.clearance: dict[str, tuple[float, float]] = {}
         self.first_time: list[np.ndarray] = []
         self.first_power: list[np.ndarray] = []
-        #: (t [s], P [W]) at the end of the first recorded revolution (the exact state there).
-        self.period_end: tuple[float, float] | None = None
+        self.first_drive: list[np.ndarray] = []
+        #: (t [s], P [W], drive power [W]) at the end of the first recorded revolution (the
+        #: exact state there).
+        self.period_end: tuple[float, float, float] | None = None
 
     def add(self, result) -> None:
         """Fold in one piece (or a whole run)."""
@@ -223,7 +238,7 @@ class CamshaftAccumulator:
             return
         end = getattr(result, "period_end", None)
         if end is not None and self.period_end is None and "power" in end:
-            self.period_end = (float(end["time"]), float(end["power"]))
+            self.period_end = (float(end["time"]), float(end["power"]), float(end["drive_power"]))
         traces = shaft_traces(result)
         series = {"camshaft": traces["camshaft/torque"][0], "motor": traces["camshaft/motor_torque"][0]}
         torques = shaft_torques(result)
@@ -259,6 +274,7 @@ class CamshaftAccumulator:
             n = int(np.count_nonzero(time <= self.period * (1.0 + 1e-12))) + 1
             self.first_time.append(time[:n])
             self.first_power.append(shaft_power(result)[:n])
+            self.first_drive.append(drive_power(result, traces)[:n])
 
     def _needs_more(self) -> bool:
         if not self.first_time:
@@ -266,17 +282,18 @@ class CamshaftAccumulator:
         last = self.first_time[-1]
         return last.size == 0 or last[-1] <= self.period * (1.0 + 1e-12)
 
-    def _revolution(self):
+    def _revolution(self, drive: bool = False):
         if not self.first_time:
             return None
         time = np.concatenate(self.first_time)
-        power = np.concatenate(self.first_power)
+        power = np.concatenate(self.first_drive if drive else self.first_power)
         period = self.period
         if self.period_end is not None:
             keep = time < self.period_end[0] - 1e-9 * period
             if not keep.any():
                 return None
-            return np.append(time[keep], self.period_end[0]), np.append(power[keep], self.period_end[1])
+            end = self.period_end[2] if drive else self.period_end[1]
+            return np.append(time[keep], self.period_end[0]), np.append(power[keep], end)
         if time.size < 2 or time[-1] < period * (1.0 - 1e-9):
             return None
         keep = time <= period * (1.0 + 1e-12)
@@ -303,7 +320,11 @@ class CamshaftAccumulator:
         out["peak_motor_torque"], out["peak_motor_torque_time"] = peak("motor")
         out["rms_motor_torque"] = rms.get("motor")
         rev = self._revolution()
-        out["cycle_work"] = out["energy_excursion"] = out["flywheel_inertia"] = None
+        out["cycle_work"] = out["energy_excursion"] = out["flywheel_inertia"] = out["drive_work"] = None
+        drive_rev = self._revolution(drive=True)
+        if drive_rev is not None:
+            t, p = drive_rev
+            out["drive_work"] = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
         if rev is None:
             why = f"the run records less than one revolution ({self.period:.6g} s)"
             reasons["cycle_work"] = reasons["energy_excursion"] = why

@@ -96,7 +96,8 @@ class ShaftModel:
         """Undamped natural frequencies of the shaft's torsional modes [rad/s] (the
         imaginary parts of A's eigenvalues, one of each pair; rigid-body modes left out)."""
         lam = np.linalg.eigvals(self.A)
-        w = np.abs(lam.imag[lam.imag > 1e-9])
+        scale = float(np.max(np.abs(lam))) if lam.size else 0.0
+        w = np.abs(lam.imag[lam.imag > 1e-6 * scale])  # (a motor's slow rigid-body pair is no mode)
         return np.sort(w)
 
     def equilibrium(self, torques: np.ndarray) -> np.ndarray:
@@ -268,6 +269,7 @@ def converge(machine, run_once, t_rec: float, progress=None) -> tuple[ShaftSolut
     """
     model = ShaftModel(machine)
     previous = None
+    y0 = None
     changes: list[float] = []
     solution = None
     for iteration in range(1, MAX_ITERATIONS + 1):
@@ -276,9 +278,13 @@ def converge(machine, run_once, t_rec: float, progress=None) -> tuple[ShaftSolut
         torques = station_torques(result, model.names)
         if not np.all(np.isfinite(torques)):
             raise SimulationError(f"{machine.source}: the stations' torque is not finite (iteration {iteration})")
-        # start in steady rotation under the first revolution's mean torques
-        first = t <= t[0] + 2.0 * math.pi / model.omega
-        y0 = model.equilibrium(np.mean(torques[first], axis=0))
+        if y0 is None:
+            # start in steady rotation under the rigid shaft's mean torques over the first
+            # revolution, the same start for every iteration (updating it with each
+            # iteration's torques fed a motor's steep speed-torque sensitivity back into the
+            # iteration, which then diverged)
+            first = t <= t[0] + 2.0 * math.pi / model.omega
+            y0 = model.equilibrium(np.mean(torques[first], axis=0))
         y = model.integrate(t, torques, y0)
         solution = ShaftSolution(model, t, y, torques)
         if previous is not None:

@@ -236,7 +236,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             design.period_end = (end["time"], end["torque"])
         shaft = getattr(result, "_shaft", None)  # issue 38: the streamed camshaft accumulator
         if shaft is not None and end is not None and "power" in end:
-            shaft.period_end = (end["time"], end["power"])
+            shaft.period_end = (end["time"], end["power"], end["drive_power"])
     result.periodicity_residual = _residual(model, saved, stops, peak)
     result.sample_rate = sim.sample_rate
     if dynamics is not None and dynamics[1] is not None:
