@@ -191,8 +191,10 @@ def check_machine(machine, cs: float | None = None) -> None:
     if cs is not None:
         if not (math.isfinite(cs) and cs > 0):
             raise InputError(f"--cs: must be a positive number (e.g. 0.05), got {cs:g}")
-        if geometry is None:
-            raise InputError(f"--cs: {machine.source} has no [cam.geometry]; the flywheel needs the camshaft torque")
+        shaft = bool(machine.cams) and (machine.multi_cam or machine.camshaft is not None)  # issue 38
+        if geometry is None and not shaft:
+            raise InputError(f"--cs: {machine.source} has no [cam.geometry] and no [camshaft]; the flywheel needs "
+                             "the camshaft torque (add [camshaft], or geometry)")
     if geometry is not None:
         from camsim.cam.geometry import check_followable
         from camsim.cam.program import CamProgram

@@ -78,3 +78,52 @@ def write_cam_csv(path: str | os.PathLike[str], program: CamProgram, points: int
     with atomic_path(path) as tmp:
         np.savetxt(tmp, columns, fmt="%.12g", delimiter=",", header=header, comments="")
     return Path(path)
+
+
+def write_cams_hdf5(path: str | os.PathLike[str], machine, points: int = 3600) -> Path:
+    """One revolution of every cam of a machine with ``[[cam]]`` tables (issue 38), as a camsim
+    HDF5 file (``file_kind = "cam"``): ``/time`` [s], ``/camshaft/angle`` [deg] (the
+    shaft's), and per cam ``/cams/<name>/{angle,displacement,velocity,acceleration,jerk}``
+    on the model axis (its angle is the shaft's plus its phase), ``/cams/<name>/boundaries_deg``;
+    with a geometry its design datasets under ``/cams/<name>/``."""
+    from camsim.cam.camshaft import cam_input
+
+    shaft = cam_input(machine)
+    t = np.arange(points) * (shaft.period / points)
+    with atomic_path(path) as tmp:
+        with create_file(tmp) as f:
+            write_root_attributes(f, machine, "cam")
+            time = write_time(f, t)
+            write_trace(f, "camshaft/angle", np.degrees(shaft.angle(t)), "deg", "camshaft angle", time)
+            for q, (cam, program) in enumerate(zip(machine.cams, shaft.programs)):
+                base = f"cams/{cam.name}"
+                theta = program.angle(t)
+                write_trace(f, f"{base}/angle", np.degrees(theta), "deg", f"angle of cam {cam.name}", time)
+                for (name, units, long_name), values in zip(TRACES, program.svaj(t)):
+                    write_trace(f, f"{base}/{name}", values, units, long_name.replace("cam ", f"cam {cam.name} "), time)
+                if cam.geometry is not None:
+                    from camsim.cam.geometry import geometry_datasets
+
+                    for path_, (values, units, long_name) in geometry_datasets(cam.geometry, program, theta).items():
+                        write_trace(f, base + path_[3:], values, units, long_name, time)
+                if program.kind == "segments":
+                    write_trace(f, f"{base}/boundaries_deg", np.degrees(program.boundary_angles()), "deg",
+                                f"cam {cam.name}'s angles of segment joins")
+    return Path(path)
+
+
+def write_cams_csv(path: str | os.PathLike[str], machine, points: int = 3600) -> Path:
+    """One revolution of every cam as CSV: ``time [s]``, ``shaft angle [deg]``, then per cam
+    ``<name> displacement [m]``, velocity, acceleration, jerk (12 significant digits)."""
+    from camsim.cam.camshaft import cam_input
+
+    shaft = cam_input(machine)
+    t = np.arange(points) * (shaft.period / points)
+    header = ["time [s]", "shaft angle [deg]"]
+    columns = [t, np.degrees(shaft.angle(t))]
+    for cam, program in zip(machine.cams, shaft.programs):
+        header += [f"{cam.name} {name} [{units}]" for name, units, _ in TRACES]
+        columns += list(program.svaj(t))
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, np.column_stack(columns) + 0.0, fmt="%.12g", delimiter=",", header=",".join(header), comments="")
+    return Path(path)

@@ -177,6 +177,9 @@ def cam_command(
         machine = load_machine(machine_file, overrides=overrides)
         if machine.cam is None:
             raise MachineFileError(str(machine_file), "cam", "the machine has no cam")
+        if machine.multi_cam:  # issue 38: several cams on one shaft
+            _several_cams(machine, machine_file, output, kind, points, as_json, plot, profile, dxf, unit, tol)
+            return
         try:
             program = CamProgram(machine.cam)
         except ValueError as exc:
@@ -283,6 +286,116 @@ def cam_command(
         if not as_json:
             for line in written:
                 err_console.print(f"wrote {line}", markup=False)
+
+
+def _geometry_console():
+    return err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
+
+
+def _several_cams(machine, machine_file, output, kind, points, as_json, plot, profile, dxf, unit, tol) -> None:
+    """``camsim cam`` on a machine with ``[[cam]]`` tables (issue 38): every cam's table and
+    geometry checks, the clearances (a collision is an error, exit 2, before any output),
+    the timing diagram (--plot), every cam under /cams/<name>/ (-o), a profile per cam with
+    geometry (--profile/--dxf: STEM-<cam>.EXT)."""
+    from camsim.cam import CamProgram
+    from camsim.cam.files import write_cams_csv, write_cams_hdf5
+    from camsim.cam.timing import kinematic_clearances
+
+    source = str(machine_file)
+    programs, checks = {}, {}
+    for i, cam in enumerate(machine.cams):
+        try:
+            programs[cam.name] = CamProgram(cam)
+        except ValueError as exc:
+            raise MachineFileError(source, f"cam[{i}]", str(exc)) from None
+        if cam.geometry is not None:
+            from camsim.cam.geometry import check_followable
+
+            try:
+                checks[cam.name] = check_followable(cam.geometry, programs[cam.name], source)
+            except MachineFileError as exc:
+                raise MachineFileError(exc.file, f"cam[{i}].geometry", exc.message) from None
+    if profile is not None or dxf is not None:
+        if not checks:
+            raise MachineFileError(source, "cam", "--profile and --dxf need a cam's shape: give a [[cam]] a geometry")
+    clearances = kinematic_clearances(machine)
+    if as_json:
+        payload = {
+            "machine": machine.name,
+            "speed_rad_s": machine.cams[0].speed,
+            "start_angle_deg": math.degrees(machine.cams[0].start_angle),
+            "cams": [
+                {"name": cam.name, "phase_deg": math.degrees(cam.phase), "ratio": cam.ratio, "drives": cam.drives,
+                 "segments": programs[cam.name].segment_peaks(), "warnings": list(programs[cam.name].warnings),
+                 **({"geometry": {k: v for k, v in checks[cam.name].items() if k != "defects"}} if cam.name in checks else {})}
+                for cam in machine.cams
+            ],
+            "clearances": clearances,
+        }
+        print_json(payload)
+    else:
+        for cam in machine.cams:
+            _print_table(machine, programs[cam.name], programs[cam.name].segment_peaks(),
+                         heading=f"cam {cam.name}, phase {math.degrees(cam.phase):.6g} deg"
+                         + (f", drives {cam.drives}" if cam.drives else ""))
+            if cam.name in checks:
+                from camsim.reports.summary import render_geometry_checks
+
+                g = cam.geometry
+                render_geometry_checks(checks[cam.name], _geometry_console(), title=(
+                    f"cam {cam.name} geometry: {g.follower}, Rb {1e3 * g.base_radius:.5g} mm; cam angles, lift at the roller"))
+        if clearances:
+            table = Table(title="clearances over one revolution (kinematic)", title_justify="left", box=box.SIMPLE_HEAD)
+            for header in ("pair", "between", "smallest [mm]", "shaft angle [deg]", "allowed [mm]", ""):
+                table.add_column(escape(header), justify="left" if header in ("pair", "between", "") else "right")
+            for c in clearances:
+                d = c["minimum_distance"]
+                table.add_row(escape(c["name"]), escape(" – ".join(c["between"])), _num(None if d is None else 1e3 * d),
+                              _num(c["shaft_angle_deg"], ".2f"), _num(1e3 * c["allowed"]),
+                              escape(c.get("reason") or ("COLLISION" if c["collides"] else "ok")))
+            _geometry_console().print(table)
+    for cam in machine.cams:
+        for message in programs[cam.name].warnings:
+            err_console.print(f"camsim: warning: cam {cam.name}: {message}", markup=False)
+    for i, c in enumerate(clearances):  # a collision of two stations' parts: an error, nothing written
+        if c["collides"]:
+            index = [x.name for x in machine.clearances].index(c["name"])
+            raise MachineFileError(source, f"clearance[{index}]",
+                                   f"{c['between'][0]} and {c['between'][1]} collide: their distance comes to "
+                                   f"{1e3 * c['minimum_distance']:.4g} mm (allowed {1e3 * c['allowed']:.4g} mm) at "
+                                   f"shaft angle {c['shaft_angle_deg']:.3f} deg; change a phase or a lift")
+    written = []
+    if kind == "h5":
+        write_cams_hdf5(output, machine, points)
+        written.append(f"{output} ({points} samples over one revolution, {len(machine.cams)} cams)")
+    elif kind == "csv":
+        write_cams_csv(output, machine, points)
+        written.append(f"{output} ({points} samples over one revolution, {len(machine.cams)} cams)")
+    for option, target in (("--profile", profile), ("--dxf", dxf)):
+        if target is None:
+            continue
+        from camsim.cam.profile import profile_points, write_profile_csv, write_profile_dxf
+
+        for cam in machine.cams:
+            if cam.geometry is None:
+                continue
+            path_ = target.with_name(f"{target.stem}-{cam.name}{target.suffix}")
+            pts = profile_points(cam.geometry, programs[cam.name], tol)
+            (write_profile_csv(path_, pts, unit) if option == "--profile" else write_profile_dxf(path_, pts, cam.geometry, unit))
+            written.append(f"{path_} (cam {cam.name}, {pts['theta'].size} points, {unit})")
+    if plot is not None:
+        from camsim.figures.timing import plot_timing
+        from camsim.io.atomic import atomic_path
+
+        fmt = plot.suffix.lower().lstrip(".")
+        metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
+        fig = plot_timing(machine, title=f"{machine.name}: timing diagram")
+        with atomic_path(plot) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+        written.append(f"{plot} (timing diagram)")
+    if not as_json:
+        for line in written:
+            err_console.print(f"wrote {line}", markup=False)
 
 
 __all__ = ["cam_command", "write_cam_csv", "write_cam_hdf5"]

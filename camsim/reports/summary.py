@@ -92,6 +92,10 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
         design = summary["design"] if cs is None else result.design_summary(cs)
         render_geometry_checks(design, console)
         render_design_dynamics(design, console)
+    if "camshaft" in summary:  # issue 38: several cams, or a [camshaft]
+        shaft = summary["camshaft"] if cs is None else {**result.camshaft_summary(cs),
+                                                         "dynamics": summary["camshaft"].get("dynamics")}
+        render_camshaft(shaft, console)
     residual = result.periodicity_residual
     console.print(
         "periodicity residual (state one revolution apart, relative to peak): "
@@ -169,3 +173,70 @@ def render_design_dynamics(summary: dict, console: Console) -> None:
     console.print(table)
     for k, note in enumerate(notes, 1):
         console.print(f"  ({k}) {note}", markup=False)
+
+
+def render_camshaft(summary: dict, console: Console) -> None:
+    """Print the camshaft section (:meth:`camsim.run.result.RunResult.camshaft_summary`): each
+    cam's torque and contact force, the shaft's torque, work, energy excursion, flywheel,
+    motor torque, speed, and the clearances."""
+    cams = summary.get("cams") or {}
+    if cams:
+        table = Table(title="cams on the shaft (torque T = F·ds/dθ from the simulated contact force)",
+                      title_justify="left")
+        for column in ("cam", "phase [deg]", "drives", "peak |T| [N·m]", "at t [s]", "RMS T [N·m]",
+                       "contact force max [N]", "min [N]", "at t [s]"):
+            table.add_column(escape(column), justify="left" if column in ("cam", "drives") else "right")
+        for name, c in cams.items():
+            table.add_row(escape(name), _fmt(c["phase_deg"], ".5g"), escape(c["drives"] or "–"), _fmt(c["peak_torque"]),
+                          _fmt(c["peak_torque_time"], ".5f"), _fmt(c["rms_torque"]), _fmt(c["max_contact_force"]),
+                          _fmt(c["min_contact_force"]), _fmt(c["min_contact_force_time"], ".5f"))
+        console.print(table)
+    rpm = summary["mean_speed"] * 60.0 / (2.0 * math.pi)
+    table = Table(title=escape(f"camshaft ({summary['model']}, {rpm:.6g} rpm)"), title_justify="left")
+    for column in ("quantity", "value", "unit", "at t [s]"):
+        table.add_column(escape(column), justify="left" if column == "quantity" else "right")
+    reasons = summary.get("reasons", {})
+    rows = [
+        ("peak |shaft torque|", summary["peak_torque"], "N·m", summary["peak_torque_time"], "peak_torque"),
+        ("RMS shaft torque", summary["rms_torque"], "N·m", None, "rms_torque"),
+        ("work per revolution (into the stations)", summary["cycle_work"], "J", None, "cycle_work"),
+        ("energy excursion E_k", summary["energy_excursion"], "J", None, "energy_excursion"),
+        ("drive work per revolution", summary.get("drive_work"), "J", None, "drive_work"),
+        ("peak |motor torque|", summary["peak_motor_torque"], "N·m", summary["peak_motor_torque_time"], "peak_motor_torque"),
+        ("RMS motor torque", summary["rms_motor_torque"], "N·m", None, "rms_motor_torque"),
+    ]
+    if summary.get("cs") is not None:
+        rows.append((f"flywheel inertia for C_s = {summary['cs']:g}", summary["flywheel_inertia"], "kg·m²", None,
+                     "flywheel_inertia"))
+    if summary["model"] == "dynamic":
+        rows += [("speed min", summary["min_speed"], "rad/s", None, "min_speed"),
+                 ("speed max", summary["max_speed"], "rad/s", None, "max_speed"),
+                 ("(max − min)/ω̄", summary["speed_fluctuation"], "", None, "speed_fluctuation")]
+    notes = []
+    for name, value, unit, when, key in rows:
+        why = reasons.get(key)
+        if value is None and why:
+            notes.append(f"{name}: {why}")
+            table.add_row(escape(name), f"n/a ({len(notes)})", unit, "")
+        else:
+            table.add_row(escape(name), _fmt(value), unit, _fmt(when, ".5f") if when is not None else "")
+    console.print(table)
+    for k, note in enumerate(notes, 1):
+        console.print(f"  ({k}) {note}", markup=False)
+    dynamics = summary.get("dynamics")
+    if dynamics:
+        freqs = ", ".join(f"{f:.4g}" for f in dynamics["natural_frequencies_hz"]) or "none"
+        console.print(f"dynamic camshaft: {dynamics['iterations']} relaxation iterations (last speed change "
+                      f"{dynamics['speed_change']:.2g} of ω̄), torsional modes {freqs} Hz, mean drive speed "
+                      f"{dynamics['mean_drive_speed'] * 60 / (2 * math.pi):.6g} rpm", markup=False)
+    clearances = summary.get("clearances") or {}
+    if clearances:
+        table = Table(title="clearances (smallest distance over the recorded motion)", title_justify="left")
+        for column in ("pair", "between", "smallest [mm]", "shaft angle [deg]", "at t [s]", "allowed [mm]", ""):
+            table.add_column(escape(column), justify="left" if column in ("pair", "between", "") else "right")
+        for name, c in clearances.items():
+            d = c["minimum_distance"]
+            table.add_row(escape(name), escape(" – ".join(c["between"])), _fmt(None if d is None else 1e3 * d),
+                          _fmt(c["shaft_angle_deg"], ".2f"), _fmt(c["time"], ".5f"), _fmt(1e3 * c["allowed"]),
+                          "COLLISION" if c["collides"] else "ok")
+        console.print(table)
