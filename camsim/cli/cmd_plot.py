@@ -22,7 +22,8 @@ def plot_command(
             "impacts marked), forces (element, cam-contact and transducer forces [N]; a negative cam-contact "
             "force, i.e. jump, is shaded), compare (impact vs no-impact with the % difference), sweep (peaks "
             "against the swept parameter), design (with [cam.geometry]: pressure angle [deg], surface radius of "
-            "curvature [mm], contact normal force [N], Hertz stress [MPa], camshaft torque [N*m]). Default: all "
+            "curvature [mm], contact normal force [N], Hertz stress [MPa], camshaft torque [N*m]), camshaft (several "
+            "cams or a [camshaft]: each cam's and the shaft's torque [N*m], the speed [rad/s] of a dynamic shaft). Default: all "
             "that the file holds."
         ),
     ),

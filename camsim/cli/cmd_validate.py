@@ -78,6 +78,50 @@ def _param_text(p: Param, value) -> str:
     return f"{p.key} {value:.6g} {unit}".strip()
 
 
+def _print_cam(cam, title: str = "cam") -> None:
+    """One cam's table, segments, table profile and geometry."""
+    head = Table(title=escape(title), title_justify="left", show_header=False)
+    head.add_column("key")
+    head.add_column("value")
+    head.add_row("speed", f"{cam.speed:.6g} rad/s  ({cam.speed * 30 / math.pi:.6g} rpm)")
+    head.add_row("period", _g(cam.period, "s"))
+    head.add_row("ratio (roller -> model axis)", f"{cam.ratio:.6g}")
+    head.add_row("arm", _g(cam.arm, "m"))
+    head.add_row("drives", escape(cam.drives or "- (no driven mass)"))
+    head.add_row("start_angle", f"{cam.start_angle:.6g} rad ({math.degrees(cam.start_angle):.6g} deg)")
+    err_console.print(head)
+    if cam.segments:
+        seg = Table(title="cam segments (lift at the roller; on the model axis = ratio x lift)",
+                    title_justify="left")
+        for col in ("#", "motion", "law", "duration [rad]", "[deg]", "lift [m]", "model axis [m]"):
+            seg.add_column(escape(col), justify="right" if col not in ("motion", "law") else "left")
+        for i, s in enumerate(cam.segments):
+            seg.add_row(str(i), s.motion, s.law or "-", f"{s.duration:.6g}", f"{math.degrees(s.duration):.6g}",
+                        f"{s.lift:.6g}", f"{s.lift * cam.ratio:.6g}")
+        err_console.print(seg)
+    if cam.table is not None:
+        t = cam.table
+        err_console.print(
+            f"cam table: {escape(t.source)}, {len(t.angle)} rows, angle {math.degrees(t.angle[0]):.6g} to "
+            f"{math.degrees(t.angle[-1]):.6g} deg, roller lift {min(t.displacement):.6g} to "
+            f"{max(t.displacement):.6g} m"
+        )
+    if cam.geometry is not None:  # issue 14: [cam.geometry] in SI
+        from camsim.cam.arrangement import geometry_to_dict
+
+        geo = Table(title="cam geometry (SI; checks: camsim cam)", title_justify="left", show_header=False)
+        geo.add_column("key")
+        geo.add_column("value")
+        units = {"max_pressure_angle": "rad"}
+        for key, value in geometry_to_dict(cam.geometry).items():
+            if isinstance(value, dict):
+                value = f"E {value['youngs_modulus']:.6g} Pa, nu {value['poisson_ratio']:.6g}"
+            elif isinstance(value, float):
+                value = f"{value:.6g} {units.get(key, 'm')}"
+            geo.add_row(key, escape(str(value if value is not None else "-")))
+        err_console.print(geo)
+
+
 def _print_machine(machine: Machine) -> None:
     """Human summary on stderr: cam, masses, elements (with damping coefficients), settings."""
     from camsim.machine.loader import damping_coefficients, reference_mass_of
@@ -86,53 +130,35 @@ def _print_machine(machine: Machine) -> None:
     cam = machine.cam
     if cam is None:
         err_console.print("cam: none (the cam node stays at x = 0)")
-    else:
-        head = Table(title="cam", title_justify="left", show_header=False)
-        head.add_column("key")
-        head.add_column("value")
-        head.add_row("speed", f"{cam.speed:.6g} rad/s  ({cam.speed * 30 / math.pi:.6g} rpm)")
-        head.add_row("period", _g(cam.period, "s"))
-        head.add_row("ratio (roller -> model axis)", f"{cam.ratio:.6g}")
-        head.add_row("arm", _g(cam.arm, "m"))
-        head.add_row("drives", escape(cam.drives or "- (no driven mass)"))
-        head.add_row("start_angle", f"{cam.start_angle:.6g} rad ({math.degrees(cam.start_angle):.6g} deg)")
-        err_console.print(head)
-        if cam.segments:
-            seg = Table(title="cam segments (lift at the roller; on the model axis = ratio x lift)",
-                        title_justify="left")
-            for col in ("#", "motion", "law", "duration [rad]", "[deg]", "lift [m]", "model axis [m]"):
-                seg.add_column(escape(col), justify="right" if col not in ("motion", "law") else "left")
-            for i, s in enumerate(cam.segments):
-                seg.add_row(str(i), s.motion, s.law or "-", f"{s.duration:.6g}", f"{math.degrees(s.duration):.6g}",
-                            f"{s.lift:.6g}", f"{s.lift * cam.ratio:.6g}")
-            err_console.print(seg)
-        if cam.table is not None:
-            t = cam.table
-            err_console.print(
-                f"cam table: {escape(t.source)}, {len(t.angle)} rows, angle {math.degrees(t.angle[0]):.6g} to "
-                f"{math.degrees(t.angle[-1]):.6g} deg, roller lift {min(t.displacement):.6g} to "
-                f"{max(t.displacement):.6g} m"
-            )
-        if cam.geometry is not None:  # issue 14: [cam.geometry] in SI
-            from camsim.cam.arrangement import geometry_to_dict
+    elif not machine.multi_cam:
+        _print_cam(cam)
+    else:  # issue 38: every cam on the shaft
+        for c in machine.cams:
+            _print_cam(c, f"cam {c.name} (phase {math.degrees(c.phase):.6g} deg; speed and start angle: the shaft's)")
+    if machine.camshaft is not None:
+        import dataclasses
 
-            geo = Table(title="cam geometry (SI; checks: camsim cam)", title_justify="left", show_header=False)
-            geo.add_column("key")
-            geo.add_column("value")
-            units = {"max_pressure_angle": "rad"}
-            for key, value in geometry_to_dict(cam.geometry).items():
-                if isinstance(value, dict):
-                    value = f"E {value['youngs_modulus']:.6g} Pa, nu {value['poisson_ratio']:.6g}"
-                elif isinstance(value, float):
-                    value = f"{value:.6g} {units.get(key, 'm')}"
-                geo.add_row(key, escape(str(value if value is not None else "-")))
-            err_console.print(geo)
+        shaft = Table(title="camshaft (SI)", title_justify="left", show_header=False)
+        shaft.add_column("key")
+        shaft.add_column("value")
+        for key, value in dataclasses.asdict(machine.camshaft).items():
+            if key == "sections":
+                for sec in value:
+                    shaft.add_row(f"section {sec['cam']}", escape(f"k_t {sec['stiffness']:.6g} N*m/rad, J {sec['inertia']:.6g} "
+                                                                  f"kg*m^2, zeta {sec['damping_ratio']:g}"))
+                continue
+            shaft.add_row(key, escape("-" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)))
+        err_console.print(shaft)
+    for c in machine.clearances:
+        err_console.print(f"clearance {escape(c.name)}: {escape(c.a.node)} (offset {c.a.offset:.6g} m) to {escape(c.b.node)} "
+                          f"(offset {c.b.offset:.6g} m), at least {c.minimum:.6g} m")
     masses = Table(title="masses", title_justify="left")
     masses.add_column("name")
     masses.add_column(escape("mass [kg]"), justify="right")
     masses.add_column("role")
     for m in machine.masses:
-        role = "driven by the cam" if cam is not None and cam.drives == m.name else "free"
+        driver = machine.driven_masses.get(m.name)
+        role = "free" if driver is None else ("driven by the cam" if not machine.multi_cam else f"driven by cam {driver}")
         masses.add_row(escape(m.name), f"{m.mass:.6g}", role)
     err_console.print(masses)
 

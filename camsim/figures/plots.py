@@ -41,7 +41,7 @@ from camsim.io.results import (
 )
 
 #: Plot families, in the order :func:`make_plots` builds them.
-PLOT_KINDS = ("svaj", "masses", "forces", "compare", "sweep", "design")  # design: issue 14
+PLOT_KINDS = ("svaj", "masses", "forces", "compare", "sweep", "design", "camshaft")  # design: issue 14; camshaft: 38
 #: Mass quantities that can be chosen with ``quantities``.
 QUANTITIES = ("displacement", "velocity", "acceleration")
 #: Output formats of :func:`save_figures`.
@@ -53,7 +53,7 @@ MAX_LABELS = 12
 
 #: Which plot families each file kind offers, and which it draws by default.
 _OFFERS = {
-    "run": ("svaj", "masses", "forces", "design"),
+    "run": ("svaj", "masses", "forces", "design", "camshaft"),
     "cam": ("svaj", "design"),
     "compare": ("compare",),
     "sweep": ("sweep",),
@@ -171,6 +171,8 @@ def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str
     title : str
         Figure title.
     """
+    if "cam/angle" not in group and "cams" in group:  # issue 38: every cam against the shaft angle
+        return _plot_svaj_cams(group, time_window, angle_window, title)
     angle_ds = require(group, "cam/angle", "cam angle for the SVAJ plot")
     angle = angle_ds[()]
     if time_window is not None or angle_window is not None:
@@ -203,6 +205,53 @@ def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str
                 ax.vlines(marks, 0, 1, transform=ax.get_xaxis_transform(), colors="0.5", linestyles=":", linewidth=0.9)
         axes[-1].set_xlabel(axis_label("cam angle", units_of(angle_ds)))
         fig.suptitle(title or "cam displacement, velocity, acceleration, jerk")
+    return fig
+
+
+def _plot_svaj_cams(group: h5py.Group, time_window=None, angle_window=None, title: str = "") -> Figure:
+    """s, v, a, j of every cam of a machine with ``[[cam]]`` tables against the shaft's angle."""
+    shaft = require(group, "camshaft/angle", "shaft angle for the SVAJ plot")
+    mask = _sample_mask(group, time_window, angle_window) if "time" in group else _in(shaft[()], angle_window)
+    x = shaft[()][mask]
+    names = ("displacement", "velocity", "acceleration", "jerk")
+    with matplotlib.rc_context(_STYLE):
+        fig, axes = _new_figure(8.0, 4)
+        for cam in group["cams"]:
+            for ax, q in zip(axes, names):
+                ds = require(group, f"cams/{cam}/{q}", "cam SVAJ")
+                ax.plot(x, ds[()][mask], label=cam)
+                ax.set_ylabel(axis_label(q, units_of(ds)))
+        axes[0].legend(loc="best", fontsize="small")
+        axes[-1].set_xlabel(axis_label("shaft angle", units_of(shaft)))
+        fig.suptitle(title or "every cam's displacement, velocity, acceleration, jerk")
+    return fig
+
+
+def plot_camshaft(group: h5py.Group, time_window=None, angle_window=None, title: str = "") -> Figure:
+    """The camshaft (issue 38): each cam's torque and the shaft's, the motor's torque, and the
+    shaft's speed when it varies (a dynamic shaft)."""
+    mask = _sample_mask(group, time_window, angle_window)
+    t = group["time"][()][mask]
+    speed = group["camshaft/speed"][()][mask] if "camshaft/speed" in group else None
+    varies = speed is not None and np.ptp(speed) > 1e-12 * max(float(np.max(np.abs(speed))), 1.0)
+    with matplotlib.rc_context(_STYLE):
+        fig, axes = _new_figure(6.5 if varies else 3.8, 2 if varies else 1)
+        ax = axes[0]
+        if "cams" in group:
+            for cam in group["cams"]:
+                if f"cams/{cam}/torque" in group:
+                    ax.plot(t, group[f"cams/{cam}/torque"][()][mask], linewidth=0.9, label=f"cam {cam}")
+        torque = require(group, "camshaft/torque")
+        ax.plot(t, torque[()][mask], color="k", linewidth=1.2, linestyle="--", label="shaft (sum)")
+        if "camshaft/motor_torque" in group and varies:
+            ax.plot(t, group["camshaft/motor_torque"][()][mask], color="tab:red", linestyle="--", label="drive")
+        ax.set_ylabel(axis_label("torque", units_of(torque)))
+        ax.legend(loc="best", fontsize="small")
+        if varies:
+            axes[1].plot(t, speed, color="tab:blue")
+            axes[1].set_ylabel(axis_label("shaft speed", units_of(group["camshaft/speed"])))
+        axes[-1].set_xlabel(axis_label("time", units_of(group["time"])))
+        fig.suptitle(title or "camshaft torque" + (" and speed" if varies else ""))
     return fig
 
 
@@ -281,7 +330,7 @@ def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None
         angle_window,
         events=read_events(group),
         impacts_of_element=element,
-        shade_negative=path == "cam_contact/force",
+        shade_negative=path == "cam_contact/force" or path.endswith("/contact_force"),
         title=title,
     )
 
@@ -518,6 +567,7 @@ def figures_for_file(
         elif k == "forces":
             paths = [f"elements/{e}/force" for e in names_with(f, "elements", "force")]
             paths += [p for p in ("cam_contact/force", "transducer/force") if p in f]
+            paths += [f"cams/{c}/contact_force" for c in (f["cams"] if "cams" in f else ()) if f"cams/{c}/contact_force" in f]
             if not paths and explicit:
                 raise ResultFileError(f"{f.filename}: --what forces: no element, cam-contact or transducer forces in the file")
             for p in paths:
@@ -529,6 +579,12 @@ def figures_for_file(
             for m in chosen:
                 for q in wanted_q:
                     figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window)
+        elif k == "camshaft":  # issue 38: several cams, or a [camshaft]
+            if "camshaft/torque" not in f:
+                if explicit:
+                    raise ResultFileError(f"{f.filename}: --what camshaft: no /camshaft/torque (one cam and no [camshaft])")
+                continue
+            figs[f"{stem}_camshaft"] = plot_camshaft(f, time_window, angle_window)
         elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
             if "cam/pressure_angle" not in f:
                 if explicit:

@@ -65,6 +65,8 @@ def _sample_mask(group: h5py.Group, time_window, angle_window, angle_source: h5p
     elif angle_window is not None:
         if "cam/angle" in group:
             angle = group["cam/angle"][()]
+        elif "camshaft/angle" in group:  # several cams (issue 38): the shaft's angle
+            angle = group["camshaft/angle"][()]
         elif angle_source is not None and "cam/angle" in angle_source:
             angle = np.interp(t, angle_source["time"][()], angle_source["cam/angle"][()])
         else:

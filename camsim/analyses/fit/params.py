@@ -119,8 +119,13 @@ def si_unit(machine, key: str) -> str:
 
 
 def override_text(key: str, value: str | float) -> str:
-    """The ``KEY=VALUE`` override that sets ``key`` to a value text or an SI float."""
+    """The ``KEY=VALUE`` override that sets ``key`` to a value text or an SI float (an angle
+    carries ``rad``: a bare angle is read in degrees)."""
     if isinstance(value, float):
+        from camsim.machine.schema import key_unit as schema_key_unit
+
+        if schema_key_unit(key) == "rad":
+            return f'{key}="{value!r} rad"'
         return f"{key}={value!r}"
     number = _NUMBER.match(value)
     if number and not number.group(2):
@@ -215,7 +220,7 @@ def resolve_params(source, fixed: Sequence[str], specs: Sequence[str], log_keys:
             raise InputError(f"{where}: the bounds [{low:.6g}, {high:.6g}] exclude {what} ({start:.6g}) (SI)")
         unit = si_unit(base, key)
         # A fitted value travels to the loader as a bare SI number: check that it means SI.
-        probe = _si_value(source, fixed, key, repr(start), where)
+        probe = _si_value(source, fixed, key, f"{start!r} rad" if unit == "rad" else repr(start), where)
         if not math.isclose(probe, start, rel_tol=1e-12, abs_tol=1e-300):
             raise InputError(f"{where}: {key}: a bare number is not read in SI for this key; it cannot be fitted")
         out.append(Parameter(key=key, low=low, high=high, start=start, log=False, unit=unit, initial=float(current)))

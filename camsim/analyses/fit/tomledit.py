@@ -41,6 +41,31 @@ def _locate(doc, key: str):
             raise InputError(f"{key}: malformed key")
         parts.append((m.group(1), None if m.group(2) is None else int(m.group(2))))
     head, index = parts[0]
+    if head == "cam" and not hasattr(doc["cam"], "keys"):  # issue 38: [[cam]] tables
+        cams = doc["cam"]
+        if index is None and len(parts) == 2 and parts[1][0] in ("speed", "start_angle"):  # the shaft's
+            leaf = parts[1][0]
+            if "camshaft" in doc and (leaf in doc["camshaft"] or leaf not in cams[0]):
+                return doc["camshaft"], leaf, False
+            return cams[0], leaf, False
+        if index is not None:
+            table, rest = cams[index], parts[1:]
+        else:
+            table, rest = next(c for c in cams if c.get("name") == parts[1][0]), parts[2:]
+        if rest[0][0] == "segments":
+            return table["segments"][rest[0][1]], rest[1][0], True
+        if rest[0][0] in ("geometry", "compensation"):
+            return table[rest[0][0]], rest[1][0], True
+        return table, rest[0][0], False
+    if head == "camshaft":  # issue 38
+        if parts[1][0] == "section":
+            rows = doc["camshaft"]["section"]
+            if parts[1][1] is not None:
+                return rows[parts[1][1]], parts[2][0], False
+            return next(r for r in rows if r.get("cam") == parts[2][0]), parts[3][0], False
+        return doc["camshaft"], parts[1][0], False
+    if head == "clearance":  # issue 38
+        return next(r for r in doc["clearance"] if r.get("name") == parts[1][0]), parts[2][0], False
     if head in ("simulation", "machine") or (head == "cam" and parts[1][0] != "segments"):
         return doc[head], parts[1][0], False
     if head == "cam":

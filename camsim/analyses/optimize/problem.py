@@ -236,7 +236,9 @@ def parse_var(source, fixed: Sequence[str], text: str, log: bool, base, absorb: 
         start = _si_value(source, fixed, key, values[2], where)
         if not low <= start <= high:
             raise InputError(f"{where}: START ({start:.6g}) lies outside the bounds [{low:.6g}, {high:.6g}] (SI)")
-    probe = _si_value(source, fixed, key, repr(start), where) if not key.startswith("cam.segments") else start
+    angle = si_unit(base, key) == "rad"  # a bare angle is read in degrees: probe with its unit
+    probe = _si_value(source, fixed, key, f"{start!r} rad" if angle else repr(start), where) \
+        if not key.startswith("cam.segments") else start
     if not math.isclose(probe, start, rel_tol=1e-12, abs_tol=1e-300):
         raise InputError(f"{where}: {key}: a bare number is not read in SI for this key; it cannot be optimised")
     if log and low <= 0:

@@ -150,10 +150,29 @@ def machine_value(machine, key: str) -> Any:
         parts.append((m.group(1), None if m.group(2) is None else int(m.group(2))))
     try:
         head, head_index = parts[0]
+        cam_dict = d.get("cam")
+        if head == "cam" and "cams" in d:  # issue 38: cam.<name>.<key> (cam.speed is the shaft's)
+            names = [c["name"] for c in d["cams"]]
+            if head_index is not None:
+                cam_dict, parts = d["cams"][head_index], parts[:1] + parts[1:]
+            elif parts[1][0] in names and len(parts) > 2:
+                cam_dict, parts = d["cams"][names.index(parts[1][0])], parts[:1] + parts[2:]
+        if head == "camshaft":  # issue 38
+            if parts[1][0] == "section":
+                if parts[1][1] is not None:
+                    row, leaf = d["camshaft"]["sections"][parts[1][1]], parts[2][0]
+                else:
+                    row, leaf = next(r for r in d["camshaft"]["sections"] if r["cam"] == parts[2][0]), parts[3][0]
+                return row[leaf]
+            return d["camshaft"][parts[1][0]]
+        if head == "clearance":  # issue 38
+            return next(c for c in d["clearances"] if c["name"] == parts[1][0])[parts[2][0]]
         if head == "cam":
             leaf, index = parts[1]
+            if leaf == "phase":
+                return cam_dict[leaf]
             if leaf == "segments":
-                value = d["cam"]["segments"][index][parts[2][0]]
+                value = cam_dict["segments"][index][parts[2][0]]
                 if len(parts) == 4:  # issue 27: cam.segments[i].end.v, .start.a, .points[k].s
                     from camsim.cam.description import DERIVATIVE_KEYS
 
@@ -164,11 +183,11 @@ def machine_value(machine, key: str) -> Any:
                     return value.get(DERIVATIVE_KEYS[name])
                 return value
             if leaf in ("geometry", "compensation"):  # issue 14: cam.geometry.<key>[.<key>]; 27
-                value = d["cam"][leaf]
+                value = cam_dict[leaf]
                 for name, _ in parts[2:]:
                     value = value[name]
                 return value
-            return d["cam"][leaf]
+            return cam_dict[leaf]
         if head == "simulation":
             return d["simulation"][parts[1][0]]
         if head in ("mass", "element"):
@@ -509,7 +528,9 @@ def run_sweep(
         design_columns,  # issue 14: design columns with [cam.geometry]
     )
 
-    columns[-1:-1] = design_columns(base)  # before "status"
+    from camsim.run.camshaft import camshaft_columns  # issue 38: the camshaft's columns
+
+    columns[-1:-1] = design_columns(base) + camshaft_columns(base)  # before "status"
     if resume and keep_traces:
         raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
