@@ -234,6 +234,7 @@ def _trace_groups(view: RunView) -> list[tuple[str, str, list[str]]]:
     if forces:
         groups.append(("Element forces", "elements", forces))
     contact = [p for p in ("cam_contact/force", "transducer/force") if p in paths]
+    contact += [p for p in paths if p.startswith("cams/") and p.endswith("/contact_force")]  # issue 38
     if contact:
         groups.append(("Cam contact and transducer force", "contact", contact))
     return groups
@@ -243,6 +244,8 @@ def _series_label(path: str) -> str:
     parts = path.split("/")
     if path.startswith("masses/") or path.startswith("elements/"):
         return parts[1]
+    if path.startswith("cams/"):  # issue 38
+        return f"cam {parts[1]}"
     return {"cam/displacement": "cam (model axis)", "cam_contact/force": "cam contact", "transducer/force": "transducer"}.get(path, path)
 
 
@@ -426,6 +429,11 @@ def run_sections(source: Source) -> list[Section]:
     cam = cam_section(source, view)
     if cam is not None:
         out.append(cam)
+    from camsim.reports.camshaft import camshaft_section  # issue 38
+
+    shaft = camshaft_section(source, view)
+    if shaft is not None:
+        out.append(shaft)
     out.append(machine_section(source, attr_text(f, "machine_toml")))
     return out
 
