@@ -264,12 +264,14 @@ class CamshaftAccumulator:
         lo, hi = float(np.min(speed)), float(np.max(speed))
         self.speed_extremes = (lo, hi) if self.speed_extremes is None else (
             min(lo, self.speed_extremes[0]), max(hi, self.speed_extremes[1]))
+        shaft_angle = np.asarray(traces["camshaft/angle"][0], dtype=float)
         for c in self.machine.clearances:
             d = traces[f"clearances/{c.name}/distance"][0]
             value = _refined_min(d, time)
             old = self.clearance.get(c.name)
             if old is None or value[0] < old[0]:
-                self.clearance[c.name] = value
+                # the shaft's angle there (a dynamic shaft's own, not θ0 + ω̄·t)
+                self.clearance[c.name] = (*value, float(np.interp(value[1], time, shaft_angle)) % 360.0)
         if self._needs_more():
             n = int(np.count_nonzero(time <= self.period * (1.0 + 1e-12))) + 1
             self.first_time.append(time[:n])
@@ -357,8 +359,7 @@ class CamshaftAccumulator:
                 }
         out["clearances"] = {}
         for c in self.machine.clearances:
-            d, t = self.clearance.get(c.name, (None, None))
-            angle = None if t is None else math.degrees(float(self.machine.cams[0].start_angle) + self.omega * t) % 360.0
+            d, t, angle = self.clearance.get(c.name, (None, None, None))
             out["clearances"][c.name] = {"between": [c.a.node, c.b.node], "minimum_distance": d, "time": t,
                                          "shaft_angle_deg": angle, "allowed": c.minimum,
                                          "collides": d is not None and d < c.minimum}

@@ -34,10 +34,16 @@ from camsim.errors import SimulationError
 
 __all__ = ["ShaftModel", "ShaftSolution", "converge", "SPEED_TOL", "MAX_ITERATIONS"]
 
-#: The iteration stops when the drive's speed changes by less than this fraction of ω̄.
-SPEED_TOL = 1e-9
+#: The iteration stops when the drive's speed changes by less than this fraction of ω̄ (the
+#: level of the relaxation's own discretisation error at 20 kHz, docs/camshaft.md).
+SPEED_TOL = 1e-8
 #: Iterations before the relaxation is declared not to converge.
 MAX_ITERATIONS = 40
+#: A relaxation that stops improving below this change of the speed (relative to ω̄) has
+#: converged to the floor left by the stations' event location (1e-10 s) and sampling.
+STAGNATION_TOL = 1e-7
+#: Iterates kept by the Anderson acceleration.
+ANDERSON_DEPTH = 5
 
 
 class ShaftModel:
@@ -268,10 +274,12 @@ def converge(machine, run_once, t_rec: float, progress=None) -> tuple[ShaftSolut
         inertia is too small for its stations: the coupling is then too strong).
     """
     model = ShaftModel(machine)
-    previous = None
     y0 = None
     changes: list[float] = []
-    solution = None
+    solution = None  # the shaft's motion the stations run on (None: the rigid shaft)
+    x = None  # its states on the grid (zero deviations for the rigid shaft)
+    history: list[tuple[np.ndarray, np.ndarray]] = []  # (x, f = g(x) − x), scaled, for Anderson
+    best = None
     for iteration in range(1, MAX_ITERATIONS + 1):
         result = run_once(solution)
         t = result.time + t_rec
@@ -279,30 +287,59 @@ def converge(machine, run_once, t_rec: float, progress=None) -> tuple[ShaftSolut
         if not np.all(np.isfinite(torques)):
             raise SimulationError(f"{machine.source}: the stations' torque is not finite (iteration {iteration})")
         if y0 is None:
-            # start in steady rotation under the rigid shaft's mean torques over the first
-            # revolution, the same start for every iteration (updating it with each
-            # iteration's torques fed a motor's steep speed-torque sensitivity back into the
-            # iteration, which then diverged)
-            first = t <= t[0] + 2.0 * math.pi / model.omega
-            y0 = model.equilibrium(np.mean(torques[first], axis=0))
-        y = model.integrate(t, torques, y0)
-        solution = ShaftSolution(model, t, y, torques)
-        if previous is not None:
-            change = float(np.max(np.abs(y[:, 1] - previous[:, 1]))) / model.omega
-            changes.append(change)
-            if progress is not None:
-                progress(iteration, change)
-            if change <= SPEED_TOL:
-                return solution, {"iterations": iteration, "change": change, "changes": changes}
-            if len(changes) >= 4 and changes[-1] > 0.9 * changes[-4]:
-                raise SimulationError(
-                    f"{machine.source}: camshaft: the stations and the shaft do not converge (waveform relaxation: "
-                    f"speed change {changes[-1]:.3g} of ω̄ after {iteration} iterations); the shaft's inertia is "
-                    "too small for the stations it drives: raise camshaft.inertia (or flywheel), or use "
-                    'model = "rigid"')
-        previous = y
+            # start in steady rotation under the rigid shaft's mean torques over its last
+            # revolution (the settled one: a motor's speed follows the mean torque steeply),
+            # the same start for every iteration (updating it with each iteration's torques
+            # fed that sensitivity back into the iteration, which then diverged)
+            last = t >= t[-1] - 2.0 * math.pi / model.omega
+            y0 = model.equilibrium(np.mean(torques[last], axis=0))
+        g = model.integrate(t, torques, y0)
+        if x is None:
+            x = np.zeros_like(g)
+        f = g - x
+        change = float(np.max(np.abs(f[:, 1]))) / model.omega
+        changes.append(change)
+        if progress is not None:
+            progress(iteration, change)
+        if best is None or change < best[0]:
+            best = (change, ShaftSolution(model, t, g, torques), iteration)
+        if change <= SPEED_TOL:
+            return best[1], {"iterations": iteration, "change": change, "changes": changes}
+        if len(changes) >= 6 and min(changes[-3:]) > 0.5 * min(changes[:-3]):
+            if best[0] <= STAGNATION_TOL:  # at the floor the stations' event location leaves
+                return best[1], {"iterations": best[2], "change": best[0], "changes": changes}
+            raise SimulationError(
+                f"{machine.source}: camshaft: the stations and the shaft do not converge (waveform relaxation: "
+                f"speed change {changes[-1]:.3g} of ω̄ after {iteration} iterations); the shaft's inertia is "
+                "too small for the stations it drives: raise camshaft.inertia (or flywheel), or use "
+                'model = "rigid"')
+        x = _anderson(history, x, g, f, model.omega)
+        solution = ShaftSolution(model, t, x, torques)
     raise SimulationError(f"{machine.source}: camshaft: no convergence in {MAX_ITERATIONS} iterations "
                           f"(last speed change {changes[-1]:.3g} of ω̄)")
+
+
+def _anderson(history: list, x: np.ndarray, g: np.ndarray, f: np.ndarray, omega: float) -> np.ndarray:
+    """The next iterate by Anderson acceleration (depth :data:`ANDERSON_DEPTH`) of the fixed
+    point x = g(x): the combination of the last iterates whose residuals g − x cancel best in
+    the least-squares sense (Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715). Plain
+    relaxation converged by a factor 0.75 per iteration on a flywheel line (the stations'
+    torque acts on the shaft as a slow spring); accelerated, in a handful.
+
+    Speeds are scaled by 1/ω̄ against angles [rad] so that both count."""
+    scale = np.ones(x.shape[1])
+    scale[1::2] = 1.0 / omega
+    xs, fs = (x * scale).ravel(), (f * scale).ravel()
+    history.append((xs, fs))
+    if len(history) > ANDERSON_DEPTH + 1:
+        history.pop(0)
+    if len(history) < 2:
+        return g
+    dX = np.column_stack([history[k + 1][0] - history[k][0] for k in range(len(history) - 1)])
+    dF = np.column_stack([history[k + 1][1] - history[k][1] for k in range(len(history) - 1)])
+    gamma, *_ = np.linalg.lstsq(dF, fs, rcond=None)
+    nxt = xs + fs - (dX + dF) @ gamma
+    return nxt.reshape(x.shape) / scale
 
 
 def dynamics_summary(solution: ShaftSolution, info: dict) -> dict:
