@@ -66,8 +66,9 @@ class CamForceWatch:
         self.integrator = integrator
         model = integrator.model
         self.model = model
-        #: (driven mass, index of its cam) of every driven mass.
-        self.drives: list[tuple[str, int]] = list(model.drives.items())
+        #: (driven mass, index of its cam) of every driven mass, by cam name (two jumps at one
+        #: instant are recorded in that order, whatever the order of the cams in the file).
+        self.drives: list[tuple[str, int]] = sorted(model.drives.items(), key=lambda d: model.cam_names[d[1]])
         self.active = bool(self.drives)
         #: Per driven mass, (t [s], F_c [N]) at the end of the last watched piece (absent
         #: before the first).

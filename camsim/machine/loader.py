@@ -317,7 +317,8 @@ def reference_mass_of(element: Element) -> str:
     """Name of the mass whose value sets c = 2ζ√(k·m) for ``element`` (spec §3)."""
     if element.damping.reference_mass is not None:
         return element.damping.reference_mass
-    return element.lower if element.upper in FIXED_NODES else element.upper
+    fixed = (*FIXED_NODES, *element.cam_nodes)  # several cams (issue 38): every cam node
+    return element.lower if element.upper in fixed else element.upper
 
 
 def _cam_dict(cam) -> dict[str, Any]:

@@ -289,10 +289,12 @@ def linear_damping_ratio(e: float) -> float:
 def reduced_mass(machine, element) -> float:
     """m1·m2/(m1 + m2) of an element's two nodes [kg]; ground, the cam and a driven mass
     count as infinite (they do not yield to the contact)."""
-    driven = machine.cam.drives if machine.cam is not None else None
+    # the cam nodes and the driven masses of every cam (issue 38: several cams)
+    cams = {"cam", *getattr(machine, "cam_names", ())}
+    driven = set(getattr(machine, "driven_masses", {}) or ((machine.cam.drives,) if machine.cam is not None else ()))
     inverse = 0.0
     for node in (element.lower, element.upper):
-        if node in ("ground", "cam") or node == driven:
+        if node == "ground" or node in cams or node in driven:
             continue
         inverse += 1.0 / machine.mass_of(node)
     if inverse == 0.0:

@@ -123,7 +123,72 @@ def _nonlinear_static(model, integrator, config, u, t0):
         if sol.success and accepted(sol.x):
             best = sol.x
             break
+    if best is None and len(contacts) > 1:
+        best = _static_by_blocks(A21, L2, base, contacts, accepted)
     return best
+
+
+def _static_by_blocks(A21, L2, base, contacts, accepted):
+    """Static equilibrium of uncoupled parts solved one by one (issue 38: the stations on one
+    camshaft share no coordinate): the coordinates split into the blocks that no stiffness
+    and no contact couples, each solved as a machine of its own — a linear solve, the scalar
+    equation of one contact, or Powell's method — where the whole system's Powell iteration
+    with several contacts did not converge."""
+    from scipy import optimize
+
+    nq = A21.shape[0]
+    parent = list(range(nq))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def join(idx):
+        idx = list(idx)
+        for j in idx[1:]:
+            parent[find(j)] = find(idx[0])
+
+    for i, j in zip(*np.nonzero(A21)):
+        join((i, j))
+    for k, (_, c, _) in enumerate(contacts):
+        touched = np.flatnonzero((np.abs(c) > 0) | (np.abs(L2[:, k]) > 0))
+        if touched.size:
+            join(touched)
+    q = np.zeros(nq)
+    for root in {find(i) for i in range(nq)}:
+        idx = np.array([i for i in range(nq) if find(i) == root])
+        mine = [k for k, (_, c, _) in enumerate(contacts) if np.any(np.abs(c[idx]) > 0) or np.any(np.abs(L2[idx, k]) > 0)]
+        A, b = A21[np.ix_(idx, idx)], base[idx]
+        sub = [(contacts[k][0], contacts[k][1][idx], contacts[k][2]) for k in mine]
+        L = L2[np.ix_(idx, mine)] if mine else np.zeros((idx.size, 0))
+        if not sub:
+            try:
+                q[idx] = np.linalg.solve(A, -b)
+            except np.linalg.LinAlgError:
+                return None
+            continue
+        if len(sub) == 1:
+            part = _one_contact_static(A, L[:, 0], b, sub[0])
+            if part is not None:
+                q[idx] = part
+                continue
+
+        def residual(x, A=A, b=b, L=L, sub=sub):
+            fn = [element.nonlinear_force(np.array([c @ x + e]), np.zeros(1), None)[0] for element, c, e in sub]
+            return A @ x + b + L @ np.array(fn)
+
+        done = None
+        for scale in EQUILIBRIUM_STARTS:
+            sol = optimize.root(residual, np.zeros(idx.size) + scale, method="hybr", options={"xtol": 1e-14})
+            if sol.success:
+                done = sol.x
+                break
+        if done is None:
+            return None
+        q[idx] = done
+    return q if accepted(q) else None
 
 
 def _one_contact_static(A21, L2, base, contact):
