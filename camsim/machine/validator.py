@@ -125,7 +125,7 @@ class _Validator(ShaftReader):
                 raise self.error(f"{path}.name", f'duplicate element name "{name}"')
             kind = self.choice(row, "type", path, element_kinds.element_types(), required=True)
             self.check_keys(row, ELEMENT_COMMON_KEYS + element_kinds.type_keys(kind), path, f"for a {kind} element")
-            lower, upper = self.between(row, path, nodes)
+            lower, upper = self.between(row, path, nodes, mass_names)
             laws = element_kinds.laws_of(kind)
             law = None
             if laws:
@@ -179,7 +179,7 @@ class _Validator(ShaftReader):
         return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
                              strict=p.strict, example=p.example)
 
-    def between(self, row: dict, path: str, nodes: list[str]) -> tuple[str, str]:
+    def between(self, row: dict, path: str, nodes: list[str], mass_names: list[str] = ()) -> tuple[str, str]:
         where = f"{path}.between"
         if "between" not in row:
             raise self.error(where, 'missing required key (e.g. between = ["M2", "M3"], lower node first)')
@@ -193,8 +193,7 @@ class _Validator(ShaftReader):
         lower, upper = value
         if lower == upper:
             raise self.error(where, f'an element joins two different nodes, got "{lower}" twice')
-        masses = set(nodes) - set(FIXED_NODES)
-        if lower not in masses and upper not in masses or (lower in FIXED_NODES and upper in FIXED_NODES):
+        if lower not in mass_names and upper not in mass_names:
             raise self.error(where, f'joins "{lower}" and "{upper}": at least one end must be a mass')
         return lower, upper
 

@@ -472,6 +472,12 @@ class RunResult:
         out["peak_transducer_force"] = _extreme(self.transducer_force, self.time, np.argmax)
         out["max_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmax)
         out["min_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmin)
+        if self.cams is not None:  # issue 38: the extremes over every station
+            from camsim.run.camshaft import _station_forces
+
+            highs = [_extreme(f, self.time, np.argmax) for f in _station_forces(self).values() if f.size]
+            if highs:
+                out["max_cam_contact_force"] = max(highs, key=lambda e: e["value"])
         out["jump"] = self.follower_jumps()
         out["impacts"] = [e.to_dict() for e in self.impacts()]
         out["events"] = len(self.events)

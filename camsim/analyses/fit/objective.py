@@ -85,6 +85,9 @@ def scalar_units(machine) -> dict[str, str]:
             units[f"peak_{q}:{m.name}"] = u
     for e in machine.elements:
         units[f"first_impact_time:{e.name}"] = "s"
+    from camsim.run.camshaft import camshaft_columns  # issue 38: the camshaft's scalars
+
+    units.update(camshaft_columns(machine))
     return units
 
 
