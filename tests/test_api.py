@@ -147,7 +147,11 @@ def test_missing_extra_is_one_line(monkeypatch):
         require("xarray", "xarray")
 
 
-@pytest.mark.parametrize("path", MACHINES, ids=lambda p: p.stem)
+#: A dynamic camshaft is a relaxation of ~20 runs (issue 38): in CI, not in the default run.
+_AGREE = [pytest.param(p, marks=pytest.mark.slow) if "model = \"dynamic\"" in p.read_text() else p for p in MACHINES]
+
+
+@pytest.mark.parametrize("path", _AGREE, ids=lambda p: p.stem)
 def test_run_sweep_compare_agree(path, tmp_path):
     """Every shipped machine: run --json, a one-point sweep and compare report the same
     derived quantities (one computation, in RunResult)."""
