@@ -42,7 +42,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -53,13 +52,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-import scipy  # noqa: E402
 
 from camsim.machine.loader import load_machine  # noqa: E402
 from camsim.run.simulation import simulate  # noqa: E402
 from peer_models import (  # noqa: E402
-    CDTM, REF_RTOL, ROOT, SAMPLE_RATE, IvpDriver, Timeout, best_of, camsim_events, cpu_model, errors,
-    fmt_e, fmt_t, load_average, stored_reference, tight_atol,
+    CDTM, REF_RTOL, ROOT, SAMPLE_RATE, IvpDriver, Timeout, best_of, camsim_events, errors,
+    fmt_e, fmt_t, load_average, print_machine, stored_reference, tight_atol,
 )
 
 METHODS = ("RK45", "DOP853", "Radau", "LSODA")
@@ -131,19 +129,10 @@ def main(argv=None) -> int:
 
     blas = [f"{i.get('internal_api')} {i.get('version')} {i.get('architecture')}"
             for i in threadpoolctl.threadpool_info() if i.get("user_api") == "blas"]
-    print("camsim engine benchmark (issue 3): one CDTM revolution, 50 kHz output, from static equilibrium")
-    print(f"  CPU      {cpu_model()}, {os.cpu_count()} cores")
-    print(f"  Python   {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}")
-    print(f"  BLAS     {', '.join(blas) or '?'}; OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(unset)')} "
-          f"OPENBLAS_L2_SIZE={os.environ.get('OPENBLAS_L2_SIZE', '(unset)')}")
-    try:
-        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True,
-                             text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        rev = "?"
-    print(f"  camsim   {rev} (git describe --always --dirty)")
-    print(f"  load     {load_average()} (1/5/15 min) at start; 2 cores shared with other jobs inflate times",
-          flush=True)
+    print_machine("camsim engine benchmark (issue 3): one CDTM revolution, 50 kHz output, from static equilibrium",
+                  more=(f"BLAS     {', '.join(blas) or '?'}; "
+                        f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(unset)')} "
+                        f"OPENBLAS_L2_SIZE={os.environ.get('OPENBLAS_L2_SIZE', '(unset)')}",))
 
     machine = load_machine(CDTM)
 

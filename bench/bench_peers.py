@@ -44,10 +44,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import platform
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -55,13 +52,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-import scipy  # noqa: E402
 
 from camsim.machine.loader import load_machine  # noqa: E402
 from camsim.run.simulation import simulate  # noqa: E402
 from peer_models import (  # noqa: E402
-    CDTM, REF_RTOL, ROOT, SAMPLE_RATE, CvodeDriver, IvpDriver, Timeout, camsim_events, cpu_model, errors,
-    fmt_e, fmt_t, load_average, stored_reference, tight_atol,
+    CDTM, REF_RTOL, SAMPLE_RATE, CvodeDriver, IvpDriver, Timeout, camsim_events, errors,
+    fmt_e, fmt_t, load_average, print_machine, stored_reference, tight_atol,
 )
 
 #: (driver, method) of every peer, in table order.
@@ -116,18 +112,8 @@ def main(argv=None) -> int:
     camsim_n = 10 if quick else 30
 
     sundials = sundials_versions()
-    print("Peers benchmark (issue 37): one CDTM revolution, 50 kHz output, from static equilibrium")
-    print(f"  CPU      {cpu_model()}, {os.cpu_count()} cores")
-    print(f"  Python   {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
-          f"{sundials or 'scikit-sundae not installed'}")
-    try:
-        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True,
-                             text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        rev = "?"
-    print(f"  camsim   {rev} (git describe --always --dirty)")
-    print(f"  load     {load_average()} (1/5/15 min) at start; other jobs on the 2 cores inflate times",
-          flush=True)
+    print_machine("Peers benchmark (issue 37): one CDTM revolution, 50 kHz output, from static equilibrium",
+                  versions=f", {sundials or 'scikit-sundae not installed'}")
     peers = list(PEERS)
     if sundials is None:
         print("\nscikit-sundae is not installed, so the CVODE rows are skipped "
@@ -205,7 +191,7 @@ def main(argv=None) -> int:
 
     # ---- timing at the chosen rtols, each peer run followed by a camsim run
     print()
-    print(f"Timing: each peer {repeat} times at its rtol (3 when a run takes over 5 s), "
+    print(f"Timing: each peer {repeat} times at its rtol ({min(repeat, 3)} when a run takes over 5 s), "
           "each run followed by one camsim run", flush=True)
     rows: dict = {}
     for (bar, drv_name, method), best in found.items():

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 import platform
+import subprocess
 import sys
 import time
 from bisect import bisect_right
@@ -433,6 +434,30 @@ def load_average() -> str:
     try:
         return " ".join(f"{x:.2f}" for x in os.getloadavg())
     except OSError:
+        return "?"
+
+
+def print_machine(title: str, versions: str = "", more: tuple = ()) -> None:
+    """Print ``title`` and the machine: CPU, Python and library versions (+ ``versions``),
+    the lines ``more``, the checkout and the load average."""
+    import scipy
+
+    print(title)
+    print(f"  CPU      {cpu_model()}, {os.cpu_count()} cores")
+    print(f"  Python   {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}{versions}")
+    for line in more:
+        print(f"  {line}")
+    print(f"  camsim   {git_describe()} (git describe --always --dirty)")
+    print(f"  load     {load_average()} (1/5/15 min) at start; other jobs on the 2 cores inflate times",
+          flush=True)
+
+
+def git_describe() -> str:
+    """``git describe --always --dirty`` of the checkout, or '?'."""
+    try:
+        return subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
         return "?"
 
 
