@@ -26,6 +26,7 @@ import numpy as np
 from camsim.errors import ResultFileError
 from camsim.elements.events import Event, EventKind, EventTable
 from camsim.machine.description import CAM, Machine
+from camsim.run.checks import contact_stress_rows, rod_rows
 
 #: SI units of the per-mass kinematic quantities.
 QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
@@ -177,6 +178,9 @@ class RunResult:
     #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
     #: the cam design's energy quantities (issue 26).
     period_end: dict | None = None
+    #: Traces of compound elements besides their force: name → {quantity: samples}; a rod's
+    #: ``max_stress`` [Pa] (issue 39). A rod's ``elements`` entry is (N, 2): its end forces.
+    element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -200,9 +204,13 @@ class RunResult:
             if element.name not in self.elements:
                 continue
             sense = element.force_sense
+            where = " at its lower and upper ends (columns)" if element.compound else ""
             out[f"elements/{element.name}/force"] = Trace(
-                self.elements[element.name], "N", f"force of {element.name} ({sense})"
+                self.elements[element.name], "N", f"force of {element.name}{where} ({sense})"
             )
+            for quantity, data in self.element_traces.get(element.name, {}).items():  # issue 39: a rod
+                unit, long_name = element.result_quantities[quantity]
+                out[f"elements/{element.name}/{quantity}"] = Trace(data, unit, f"{long_name} {element.name}")
         if self.cam_contact_force is not None:
             out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
         if self.transducer_force is not None:
@@ -404,7 +412,23 @@ class RunResult:
         design = self.design_summary()  # issue 14: with [cam.geometry]
         if design is not None:
             out["design"] = design
+        rods, stress = self.rod_summary(), contact_stress_rows(self.machine, self.events)  # issue 39
+        if rods:
+            out["rods"] = rods
+        if stress:
+            out["contact_stress"] = stress
         return out
+
+    def rod_summary(self) -> dict[str, dict]:
+        """Each rod's discretisation (:func:`camsim.run.checks.rod_rows`) with its largest
+        stress and end force over the samples (``{"value", "time"}``, SI) (issue 39)."""
+        rows = rod_rows(self.machine)
+        for name, row in rows.items():
+            stress = self.element_traces.get(name, {}).get("max_stress")
+            force = self.elements.get(name)
+            row["max_stress"] = _extreme(stress, self.time, np.argmax)
+            row["max_end_force"] = _extreme(None if force is None else np.max(np.abs(force), axis=1), self.time, np.argmax)
+        return rows
 
     # ------------------------------------------------------------------ views
     def to_pandas(self):
@@ -509,6 +533,8 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                 "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
             ) from None
         elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
+        extra = {name: {q: g[f"elements/{name}/{q}"][()] for q in g[f"elements/{name}"] if q != "force"}
+                 for name in g.get("elements", {})}  # issue 39: a rod's max_stress
         cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
         transducer = g["transducer/force"][()] if "transducer/force" in g else None
         table = read_events(g) or {}
@@ -525,4 +551,5 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
             boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)),
+            element_traces={name: q for name, q in extra.items() if q},
         )

@@ -516,16 +516,21 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     """The traces of a run (or of a stretch of it) from its samples (element by element,
     so any split of the samples gives the same bits): keyword arguments of
     :class:`RunResult` ``time``, ``cam``, ``masses``, ``elements``,
-    ``cam_contact_force``, ``transducer_force``."""
+    ``cam_contact_force``, ``transducer_force``, ``element_traces``."""
     machine, model, cam = run.machine, run.model, run.cam
     masses: dict[str, dict[str, np.ndarray]] = {}
-    for m in machine.masses:
-        if m.name == model.driven:
-            masses[m.name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
+    for name in machine.node_names:  # the masses, then the rods' interior nodes (issue 39)
+        if name == model.driven:
+            masses[name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
         else:
-            k = model.index[m.name]
-            masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
-    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
+            k = model.index[name]
+            masses[name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
+    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements) if e.parent() is None}
+    element_traces: dict[str, dict[str, np.ndarray]] = {}
+    for name, compound in model.compounds.items():  # a rod: its end forces and largest stress
+        traces = compound.result_traces(forces[:, model.parts[name]])
+        elements[name] = traces.pop("force")
+        element_traces[name] = traces
     cam_force = model.cam_contact_force(forces, u[:, 2])
     transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
@@ -533,7 +538,14 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(time)
     cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
     return {"time": time, "cam": cam_traces, "masses": masses, "elements": elements,
-            "cam_contact_force": cam_force, "transducer_force": transducer}
+            "cam_contact_force": cam_force, "transducer_force": transducer, "element_traces": element_traces}
+
+
+def after_run_warnings(machine: Machine, events) -> list[str]:
+    """Rods that saw impacts too fast for their segments; Hertz contacts past yield (camsim.run.checks)."""
+    from camsim.run.checks import contact_stress_rows, rod_warnings, stress_warnings
+
+    return rod_warnings(machine, events) + stress_warnings(contact_stress_rows(machine, events))
 
 
 def period_end(run: RunSetup, state: State) -> dict | None:
@@ -602,6 +614,7 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     machine, model, cam, warnings = run.machine, run.model, run.cam, run.warnings
     cam_force = traces["cam_contact_force"]
     events = EventTable(_events(machine, model, cam, run.integrator.events, t_rec, run.t_end, time, traces["elements"]))
+    warnings += after_run_warnings(machine, events)  # issue 39: rods vs impacts, contacts vs yield
     if cam_force is not None:
         # jump rows are events of the integrator (camsim.engine.watch), located on the
         # exact solution like every other; here only the warning of the sampled minimum

@@ -40,6 +40,7 @@ from camsim.run.result import MASS_QUANTITIES, RunResult, scalar_columns
 from camsim.run.simulation import (
     RunSetup,
     _simulate,
+    after_run_warnings,
     boundaries_deg,
     johnson_annotate,
     negative_cam_force_warning,
@@ -158,6 +159,7 @@ class StreamedRun:
         self._masses = summary_masses
         self._extremes = extremes
         self._design = design  # camsim.cam.design.DesignAccumulator with [cam.geometry]
+        self.rods: dict[str, dict] = {}  # issue 39: each rod's discretisation and extremes
 
     def design_summary(self, cs: float | None = None) -> dict | None:
         """Cam design checks and dynamic quantities over every revolution (as
@@ -211,6 +213,13 @@ class StreamedRun:
         design = self.design_summary()
         if design is not None:
             out["design"] = design
+        from camsim.run.checks import contact_stress_rows  # issue 39
+
+        stress = contact_stress_rows(self.machine, self.events)
+        if self.rods:
+            out["rods"] = self.rods
+        if stress:
+            out["contact_stress"] = stress
         return out
 
     def open(self) -> RunResult:
@@ -309,6 +318,7 @@ class StreamAssembler:
         self._scalars: dict[str, Any] = {}
         self._jump_samples = False
         self._cam_min: tuple[float, float] | None = None
+        self._rods: dict[str, dict] = {}
 
     # ------------------------------------------------------------------ events
     def _ingest_events(self) -> None:
@@ -424,6 +434,11 @@ class StreamAssembler:
                 old = self._scalars.get(key)
                 self._scalars[key] = value if old is None or math.isnan(old) or value < old else old
         self._jump_samples = self._jump_samples or bool(scalars["jump"])
+        for name, row in summary.get("rods", {}).items():  # issue 39: a rod's extremes
+            mine = self._rods.setdefault(name, row)
+            for key in ("max_stress", "max_end_force"):
+                if row[key] is not None and (mine[key] is None or row[key]["value"] > mine[key]["value"]):
+                    mine[key] = row[key]
 
     # ------------------------------------------------------------------ the end
     def finish(self) -> StreamedRun:
@@ -444,18 +459,21 @@ class StreamAssembler:
                 run.warnings.append(negative_cam_force_warning(run.model.driven, *self._cam_min))
         # The event-derived scalars (impacts, their largest speed, a cam contact opening)
         # from the same code as an in-memory result, on a result without samples.
+        run.warnings.extend(after_run_warnings(run.machine, events))  # issue 39
         from_events = _empty_result(run, events).scalars()
         scalars: dict[str, Any] = {}
-        for name, _ in scalar_columns([m.name for m in run.machine.masses]):
+        for name, _ in scalar_columns(list(run.machine.node_names)):
             scalars[name] = self._scalars.get(name, from_events[name])
         scalars["jump"] = bool(self._jump_samples or from_events["jump"])
         scalars["impacts"] = from_events["impacts"]
         scalars["max_impact_velocity"] = from_events["max_impact_velocity"]
         # the span off the cam runs between events, to the end of the record when still open
         scalars["cam_separation_angle"] = _empty_result(run, events).separation_span(run.t_end - run.t_rec)
-        masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
-        return StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
-                           dict(self._extremes), self._samples, design=self._design)
+        masses = {name: {q: self._masses[name][q] for q in MASS_QUANTITIES} for name in run.machine.node_names}
+        streamed = StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
+                               dict(self._extremes), self._samples, design=self._design)
+        streamed.rods = self._rods
+        return streamed
 
     def close(self, result: StreamedRun) -> None:
         """Write the event table, attributes and summary once the result is complete."""
