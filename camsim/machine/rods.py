@@ -8,7 +8,10 @@ every element that shares a node with the rod and has a compliant impact
 link) is asked how long an undamped impact of its two nodes lasts,
 
 * each node's mass being its own plus half the mass of every rod ending there (the rod's
-  N-independent share; ground, the cam and a driven mass count as infinite), and
+  N-independent share; ground, the cam and a driven mass count as infinite) — and, when the
+  impact so estimated lasts longer than such a rod's wave round trip 2L/c, the whole rod and
+  the mass at its far end (the impact then moves them together: a screw backed by its
+  carrier), and
 * at the approach speed v: the largest of the cam's peak speed on the model axis, the
   ``[initial]`` speeds and √(2·g·h) of an ``[initial]`` drop height h with gravity
   (1 m/s when none of these is known).
@@ -54,12 +57,19 @@ def approach_speed(cam: Cam | None, initial: list[InitialCondition], simulation:
 
 def fastest_impact(rod: Element, elements: list[Element], node_mass, v: float) -> tuple[float, str] | None:
     """(τ [s], element name) of the shortest estimated impact among the elements that share a
-    node with ``rod`` (None when none has a compliant impact)."""
+    node with ``rod`` (None when none has a compliant impact).
+
+    ``node_mass(node, far)`` [kg]: the node's mass for the estimate, with (``far``) or without
+    the rods ending there and what they carry (module docstring).
+    """
     best = None
     for e in elements:
         if e is rod or e.compound or not set(e.nodes) & set(rod.nodes):
             continue
-        tau = e.impact_duration(node_mass(e.lower), node_mass(e.upper), v)
+        tau = e.impact_duration(node_mass(e.lower, False), node_mass(e.upper, False), v)
+        transits = [r.transit_time for r in elements if r.compound and set(r.nodes) & set(e.nodes)]
+        if tau is not None and transits and tau > min(transits):
+            tau = e.impact_duration(node_mass(e.lower, True), node_mass(e.upper, True), v)
         if tau is not None and tau > 0 and (best is None or tau < best[0]):
             best = (tau, e.name)
     return best
@@ -81,10 +91,17 @@ def resolve_segments(elements: list[Element], masses: list[Mass], cam: Cam | Non
         harmonic_n, harmonic = significant_harmonic(CamProgram(cam))
     v, v_from = approach_speed(cam, initial, simulation)
 
-    def node_mass(node: str) -> float:
+    def node_mass(node: str, far: bool = False) -> float:
         if node in FIXED_NODES or node == driven:
             return math.inf
-        return written[node] + sum(0.5 * e.rod_mass for e in compound if node in e.nodes)
+        if not far:
+            return written[node] + sum(0.5 * e.rod_mass for e in compound if node in e.nodes)
+        total = written[node]
+        for e in compound:
+            if node in e.nodes:
+                other = e.upper if e.lower == node else e.lower
+                total += e.rod_mass + (math.inf if other in FIXED_NODES or other == driven else written[other])
+        return total
 
     out = []
     for e in elements:
