@@ -193,6 +193,17 @@ def rank_materials(machine: Machine, contact: str | None = None, pairs: list[tup
         raise InputError(f"{machine.source}: rank_materials needs a machine loaded from a machine file")
     pairs = [tuple(p) for p in (pairs or candidate_pairs())]
     from camsim.analyses.executors import make_executor
+    from camsim.machine.loader import assignments, load_machine_text
+
+    from camsim.errors import MachineFileError
+
+    for pair in dict.fromkeys(pairs):  # a bad name is bad input (exit 2), not a failed row
+        try:
+            load_machine_text(machine.text, source=machine.source, base_dir=Path(machine.base_dir),
+                              overrides=assignments({f"element.{contact}.materials": list(pair)}))
+        except MachineFileError as exc:
+            why = exc.message.split(" (value from --set")[0]
+            raise InputError(f"{machine.source}: materials {pair[0]},{pair[1]} for {contact}: {why}") from None
 
     tasks = [(machine.text, machine.source, machine.base_dir, contact, pair) for pair in pairs]
     executor = make_executor(workers, len(tasks), None, None)

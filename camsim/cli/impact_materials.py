@@ -57,9 +57,10 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
         return
     table = Table(title=escape(f"{ranking.machine}: material pairs for {ranking.contact} ({ranking.geometry}), "
                                "best first"), title_justify="left")
-    for col in ("#", "body / flat", "E* [GPa]", "peak force [N]", "approach [m/s]", "peak pressure [MPa]",
-                "first yield [MPa]", "p/p_yield", "rebound", "duration [us]"):
-        table.add_column(escape(col), justify="left" if col == "body / flat" else "right")
+    for col in ("#", "body / flat", "E* [GPa]", "peak force [N]", "peak pressure [MPa]", "first yield [MPa]",
+                "p/p_yield", "rebound", "duration [us]"):
+        table.add_column(escape(col), justify="left" if col == "body / flat" else "right",
+                         no_wrap=col == "body / flat")
 
     def g(value, fmt=".4g", scale=1.0):
         return "–" if value is None or (isinstance(value, float) and not math.isfinite(value)) else format(value * scale, fmt)
@@ -67,12 +68,16 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
     for i, r in enumerate(ranking.rows, 1):
         if r.status != "ok":
             table.add_row(str(i), escape(" / ".join(r.materials)), g(r.e_star, scale=1e-9), escape(r.status),
-                          *["–"] * 6)
+                          *["–"] * 5)
             continue
         flag = " yields" if r.yields else ""
         table.add_row(str(i), escape(" / ".join(r.materials)), g(r.e_star, scale=1e-9), g(r.peak_force),
-                      g(r.approach_velocity), g(r.peak_pressure, scale=1e-6), g(r.yield_pressure, scale=1e-6),
+                      g(r.peak_pressure, scale=1e-6), g(r.yield_pressure, scale=1e-6),
                       g(r.pressure_ratio, ".3g") + flag, g(r.rebound, ".3g"), g(r.contact_duration, ".4g", 1e6))
     err_console.print(table)
+    speeds = [r.approach_velocity for r in ranking.rows if r.status == "ok"]
+    if speeds:
+        err_console.print(f"approach speed of the largest impact: {min(speeds):.4g} to {max(speeds):.4g} m/s",
+                          markup=False)
     err_console.print("ranked: below first yield before yielding, then by peak force, then by rebound "
                       "(docs/impact.md, materials)", markup=False)
