@@ -268,22 +268,25 @@ class Rod(Element):
                             segments=segments)
 
     # ------------------------------------------------------------------ results
-    #: Result quantities besides ``force``: name → (unit, long name).
+    #: The rod's result traces: name → (unit, long name) (docs/results.md).
     result_quantities: ClassVar[dict[str, tuple[str, str]]] = {
-        "max_stress": ("Pa", "largest |axial stress| along the rod"),
+        "force_lower": ("N", "axial force at the lower end (tension-positive) of"),
+        "force_upper": ("N", "axial force at the upper end (tension-positive) of"),
+        "max_stress": ("Pa", "largest |axial stress| along"),
     }
 
     def result_traces(self, segment_forces: np.ndarray) -> dict[str, np.ndarray]:
         """The rod's traces from its segments' tensions (N_samples, N) [N].
 
-        ``force`` (N_samples, 2): the axial force at the lower and the upper end
-        (tension-positive; the end segments' tensions); ``max_stress``: max over the
+        ``force_lower``, ``force_upper``: the axial force at the lower and the upper end
+        (tension-positive; the end segments' tensions) [N]; ``max_stress``: max over the
         segments of |tension|/A [Pa].
         """
-        force = np.column_stack([segment_forces[:, 0], segment_forces[:, -1]]) if segment_forces.size else np.zeros((0, 2))
-        stress = (np.max(np.abs(segment_forces), axis=1) / self.cross_section if segment_forces.size
-                  else np.zeros(0))
-        return {"force": force, "max_stress": stress}
+        if not segment_forces.size:
+            empty = np.zeros(segment_forces.shape[0])
+            return {"force_lower": empty, "force_upper": empty.copy(), "max_stress": empty.copy()}
+        return {"force_lower": segment_forces[:, 0].copy(), "force_upper": segment_forces[:, -1].copy(),
+                "max_stress": np.max(np.abs(segment_forces), axis=1) / self.cross_section}
 
     def describe(self) -> dict:
         out = super().describe()

@@ -109,7 +109,8 @@ TABLES: dict[str, tuple[Param, ...]] = {
     ),
     "mass": (
         Param("name", "string", "unique, non-empty, not `ground` or `cam`", required=True),
-        Param("mass", "mass", "> 0", required=True),
+        Param("mass", "mass", "> 0; `\"0 kg\"` for a node that only holds a rod end (the rod gives it m/(2N))",
+              required=True),
     ),
     "simulation": (
         Param("cycles", "integer", "≥ 1; recorded revolutions", default=1),

@@ -178,8 +178,8 @@ class RunResult:
     #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
     #: the cam design's energy quantities (issue 26).
     period_end: dict | None = None
-    #: Traces of compound elements besides their force: name → {quantity: samples}; a rod's
-    #: ``max_stress`` [Pa] (issue 39). A rod's ``elements`` entry is (N, 2): its end forces.
+    #: Traces of compound elements, which have no single force: name → {quantity: samples};
+    #: a rod's ``force_lower``, ``force_upper`` [N] and ``max_stress`` [Pa] (issue 39).
     element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -204,11 +204,11 @@ class RunResult:
             if element.name not in self.elements:
                 continue
             sense = element.force_sense
-            where = " at its lower and upper ends (columns)" if element.compound else ""
             out[f"elements/{element.name}/force"] = Trace(
-                self.elements[element.name], "N", f"force of {element.name}{where} ({sense})"
+                self.elements[element.name], "N", f"force of {element.name} ({sense})"
             )
-            for quantity, data in self.element_traces.get(element.name, {}).items():  # issue 39: a rod
+        for element in self.machine.elements:  # issue 39: a rod's end forces and largest stress
+            for quantity, data in self.element_traces.get(element.name, {}).items():
                 unit, long_name = element.result_quantities[quantity]
                 out[f"elements/{element.name}/{quantity}"] = Trace(data, unit, f"{long_name} {element.name}")
         if self.cam_contact_force is not None:
@@ -424,10 +424,10 @@ class RunResult:
         stress and end force over the samples (``{"value", "time"}``, SI) (issue 39)."""
         rows = rod_rows(self.machine)
         for name, row in rows.items():
-            stress = self.element_traces.get(name, {}).get("max_stress")
-            force = self.elements.get(name)
-            row["max_stress"] = _extreme(stress, self.time, np.argmax)
-            row["max_end_force"] = _extreme(None if force is None else np.max(np.abs(force), axis=1), self.time, np.argmax)
+            traces = self.element_traces.get(name, {})
+            ends = [traces[k] for k in ("force_lower", "force_upper") if k in traces]
+            row["max_stress"] = _extreme(traces.get("max_stress"), self.time, np.argmax)
+            row["max_end_force"] = _extreme(np.max(np.abs(ends), axis=0) if ends else None, self.time, np.argmax)
         return rows
 
     # ------------------------------------------------------------------ views
@@ -532,9 +532,10 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                 f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
                 "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
             ) from None
-        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
+        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})
+                    if "force" in g[f"elements/{name}"]}
         extra = {name: {q: g[f"elements/{name}/{q}"][()] for q in g[f"elements/{name}"] if q != "force"}
-                 for name in g.get("elements", {})}  # issue 39: a rod's max_stress
+                 for name in g.get("elements", {})}  # issue 39: a rod's end forces and max_stress
         cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
         transducer = g["transducer/force"][()] if "transducer/force" in g else None
         table = read_events(g) or {}

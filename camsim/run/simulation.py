@@ -527,10 +527,8 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
             masses[name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
     elements = {e.name: forces[:, i] for i, e in enumerate(model.elements) if e.parent() is None}
     element_traces: dict[str, dict[str, np.ndarray]] = {}
-    for name, compound in model.compounds.items():  # a rod: its end forces and largest stress
-        traces = compound.result_traces(forces[:, model.parts[name]])
-        elements[name] = traces.pop("force")
-        element_traces[name] = traces
+    for name, compound in model.compounds.items():  # a rod: its end forces and largest stress (1-D each)
+        element_traces[name] = compound.result_traces(forces[:, model.parts[name]])
     cam_force = model.cam_contact_force(forces, u[:, 2])
     transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
