@@ -36,6 +36,7 @@ from camsim.machine.description import (
     Segment,
     Simulation,
 )
+from camsim.machine.materials import MaterialKeys
 from camsim.units import QuantityError, to_si, ureg
 
 # --------------------------------------------------------------------------------------
@@ -115,7 +116,7 @@ def _angle_to_si(value: Any) -> float:
     return to_si(value, "angle", bare_unit="deg")
 
 
-class _Validator:
+class _Validator(MaterialKeys):
     """Walk a parsed document and build the Machine, raising on the first problem."""
 
     def __init__(self, source: str, base_dir: Path):
@@ -699,79 +700,6 @@ class _Validator:
         dimension = f"power_coefficient:{values['exponent']!r}" if p.dimension == "power_coefficient" else p.dimension
         return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
                              strict=p.strict, example=p.example)
-
-    # -- issue 39: materials and rods -------------------------------------------------
-    def material_tables(self, doc: dict) -> dict:
-        """The file's ``[[material]]`` tables, by name (physics.materials.Material, SI)."""
-        from camsim.physics.materials import LIBRARY, Material
-
-        out: dict[str, Material] = {}
-        for i, row in enumerate(self.rows(doc, "material", "material")):
-            path = f"material[{i}]"
-            self.check_keys(row, schema.keys("material"), path)
-            name = self.string(row, "name", path, required=True)
-            if not name.strip():
-                raise self.error(f"{path}.name", "must not be empty")
-            if name in LIBRARY:
-                raise self.error(f"{path}.name", f'"{name}" is a library material; give yours another name '
-                                 "(the library's values: docs/impact.md)")
-            if name in out:
-                raise self.error(f"{path}.name", f'duplicate material name "{name}"')
-            nu = self.number(row, "poisson_ratio", path, required=True, minimum=0.0)
-            if not nu < 0.5:
-                raise self.error(f"{path}.poisson_ratio", f"must be below 0.5, got {_fmt(row['poisson_ratio'])}")
-            out[name] = Material(
-                name=name,
-                youngs_modulus=self.quantity(row, "youngs_modulus", path, "pressure", required=True, minimum=0.0,
-                                             strict=True, example='"206.8 GPa"'),
-                poisson_ratio=nu,
-                density=self.quantity(row, "density", path, "density", minimum=0.0, strict=True),
-                yield_strength=self.quantity(row, "yield_strength", path, "pressure", minimum=0.0, strict=True),
-            )
-        return out
-
-    def material_value(self, row: dict, p: Param, path: str):
-        """A ``material`` key (one name) or ``materials`` key (two names), resolved."""
-        from camsim.physics.materials import library_names, lookup
-
-        where = f"{path}.{p.key}"
-        if p.key not in row:
-            if p.required:
-                hint = f" (e.g. {p.key} = {p.example})" if p.example else ""
-                raise self.error(where, f"missing required key{hint}")
-            return None
-        value = row[p.key]
-        names = [value] if p.dimension == "material" else value
-        if p.dimension == "materials" and not (isinstance(value, list) and len(value) == 2):
-            raise self.error(where, f'expected two material names [body, flat], got {_fmt(value)}')
-        known = [*self.materials, *library_names()]
-        found = []
-        for name in names:
-            if not isinstance(name, str):
-                raise self.error(where, f"expected a material name, got {_fmt(name)}")
-            try:
-                found.append(lookup(name, self.materials))
-            except KeyError:
-                raise self.error(where, f'unknown material "{name}"; {_suggest(name, known)}') from None
-        return found[0] if p.dimension == "material" else tuple(found)
-
-    def distributed(self, elements: list[Element], masses: list[Mass], cam: Cam | None, simulation: Simulation,
-                    initial: list[InitialCondition]) -> list[Element]:
-        """Rods: their default segments resolved; interior node names free; 0 kg only at rod ends."""
-        from camsim.machine.rods import resolve_segments
-
-        elements = resolve_segments(elements, masses, cam, simulation, initial)
-        taken = {m.name: f"mass {m.name}" for m in masses} | {e.name: f"element {e.name}" for e in elements}
-        for i, e in enumerate(elements):
-            for node in e.interior_nodes():
-                if node in taken:
-                    raise self.error(f"element[{i}].name", f"the rod's interior node {node} has the name of "
-                                     f"{taken[node]}; rename one of them")
-        for i, m in enumerate(masses):
-            if m.mass == 0.0 and not any(e.node_mass(m.name) > 0.0 for e in elements):
-                raise self.error(f"mass[{i}].mass", "must be greater than 0 (0 kg only for a node that holds a "
-                                 "rod end, whose mass the rod gives it)")
-        return elements
 
     def between(self, row: dict, path: str, nodes: list[str]) -> tuple[str, str]:
         where = f"{path}.between"
