@@ -33,7 +33,9 @@ Z = A * math.sqrt(E * RHO)
 T2 = 2 * L / C
 
 
-def _rod(lower: str, upper: str, n: int) -> str:
+def _rod(lower: str, upper: str, n: int | None) -> str:
+    """The test rod between two nodes, with ``n`` segments (None: camsim's default)."""
+    segments = "" if n is None else f"segments = {n}"
     return f"""
 [[element]]
 name = "rod"
@@ -43,7 +45,7 @@ length = "{L} m"
 area = "{A} m^2"
 modulus = "{E} Pa"
 density = "{RHO} kg/m^3"
-segments = {n}
+{segments}
 """
 
 
@@ -65,8 +67,9 @@ def _order(n, err) -> list:
 STRIKE_N = (12, 25, 50, 100)
 
 
-def strike_numbers(n: int) -> dict:
-    text = f"""
+def strike_text(n: int | None, rate: str = "5 MHz") -> str:
+    """M at −v0 on the upper end of a rod fixed at the lower: the rod's end is M itself."""
+    return f"""
 schema = 1
 [machine]
 name = "mass striking a fixed rod"
@@ -79,8 +82,13 @@ displacement = "0 m"
 velocity = "{-V0} m/s"
 [simulation]
 duration = "{0.95 * T2} s"
-sample_rate = "5 MHz"
+sample_rate = "{rate}"
 """
+
+
+def strike_numbers(n: int) -> dict:
+    """Errors of the struck end's force against Z·v0·e^(−Z·t/M) over t ∈ [0.1, 0.9]·2L/c (of Z·v0)."""
+    text = strike_text(n)
     r, cpu = _simulate(text)
     t, force = r.time, -r.element_traces["rod"]["force_upper"]
     exact = Z * V0 * np.exp(-Z * t / M)
@@ -114,9 +122,9 @@ def contact_reference():
     return float(np.max(K * sol.sol(t)[0])), lambda tt: K * sol.sol(tt)[0]
 
 
-def contact_numbers(n: int | None, reference=None) -> dict:
-    segments = f"segments = {n}" if n is not None else ""
-    text = f"""
+def contact_text(n: int | None, k: float = K) -> str:
+    """The strike through a linear contact k [N/m] on the rod's massless tip."""
+    return f"""
 schema = 1
 [machine]
 name = "mass striking a fixed rod through a contact"
@@ -126,12 +134,12 @@ mass = "{M} kg"
 [[mass]]
 name = "tip"
 mass = "0 kg"
-{_rod("ground", "tip", 1).replace("segments = 1", segments)}
+{_rod("ground", "tip", n)}
 [[element]]
 name = "contact"
 type = "contact"
 between = ["tip", "M"]
-stiffness = "{K} N/m"
+stiffness = "{k} N/m"
 [initial.M]
 displacement = "0 m"
 velocity = "{-V0} m/s"
@@ -142,6 +150,11 @@ velocity = "0 m/s"
 duration = "{0.95 * T2} s"
 sample_rate = "20 MHz"
 """
+
+
+def contact_numbers(n: int | None, reference=None) -> dict:
+    """Peak contact force (and largest trace error against ``reference(t)``, of Z·v0) with n segments."""
+    text = contact_text(n)
     r, cpu = _simulate(text)
     (impact,) = r.impacts()
     trace = float(np.max(np.abs(r.elements["contact"] - reference(r.time)))) / (Z * V0) if reference else math.nan
@@ -167,10 +180,9 @@ def contact_block(v) -> str:
 WALL_N = (12, 25, 50, 100)
 
 
-def wall_numbers(n: int) -> dict:
-    from camsim.model.assembly import Model
-
-    text = f"""
+def wall_text(n: int) -> str:
+    """A free rod (0-kg end nodes) at v0 onto a rigid wall (e = 0: the end stops, no bounce)."""
+    return f"""
 schema = 1
 [machine]
 name = "free rod into a rigid wall"
@@ -197,6 +209,13 @@ velocity = "{-V0} m/s"
 duration = "{1.2 * T2} s"
 sample_rate = "10 MHz"
 """
+
+
+def wall_numbers(n: int) -> dict:
+    """Contact time / (2L/c), mean and largest deviation of the wall force (of Z·v0), rebound / v0."""
+    from camsim.model.assembly import Model
+
+    text = wall_text(n)
     r, cpu = _simulate(text)
     impact = next(e for e in r.events if e.kind == "impact")
     release = next(e for e in r.events if e.kind == "release")
