@@ -169,6 +169,17 @@ def impact_command(
         help=_UNITS_HELP + '"386.4 in/s**2": for --drop-height and Burr\'s weight. Default 9.80665 m/s**2.',
     ),
     json_out: bool = typer.Option(False, "--json", help="Print the estimates as JSON on stdout."),
+    materials: bool = typer.Option(False, "--materials", help="Rank material pairs for a Hertz contact of a machine "
+                                   "(--machine) by simulated peak force, contact stress against yield, and rebound."),
+    machine: Path = typer.Option(None, "--machine", metavar="FILE", help="With --materials: the machine file."),
+    contact: str = typer.Option(None, "--contact", metavar="NAME", help="With --materials: the contact (default: the "
+                                "machine's only law = \"hertz\" contact)."),
+    pair: list[str] = typer.Option([], "--pair", metavar="BODY,FLAT", help="With --materials: a pair to try "
+                                   "(repeatable); default every pair of the library."),
+    candidates: str = typer.Option(None, "--candidates", metavar="A,B,...", help="With --materials: every pair of "
+                                   "these materials."),
+    set_: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="With --materials: override a machine key."),
+    workers: int = typer.Option(1, "--workers", min=1, help="With --materials: processes running the pairs."),
 ) -> None:
     """Estimate the peak force of a striking impact.
 
@@ -194,6 +205,17 @@ def impact_command(
         "eta": eta,
         "gravity": gravity,
     }
+    if materials:  # issue 39: the thesis's third recommendation as a command
+        from camsim.cli.impact_materials import materials_command
+
+        extra = [name for name, value in given.items() if value != _CALCULATOR_DEFAULTS[name]]
+        if extra:
+            raise fail(f"--{extra[0].replace('_', '-')} is a calculator option; --materials takes a machine file")
+        with user_errors():
+            materials_command(machine, contact, pair, candidates, set_, workers, json_out)
+        return
+    if any((machine, contact, pair, candidates, set_)):
+        raise fail("--machine, --contact, --pair, --candidates and --set go with --materials")
     if ctx.invoked_subcommand is not None:
         extra = [name for name, value in given.items() if value != _CALCULATOR_DEFAULTS[name]]
         if extra:

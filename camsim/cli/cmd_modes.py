@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
@@ -25,13 +26,14 @@ def modes_command(
     closed power-law contact list only their linear part (marked nonlinear).
     """
     from camsim.machine.loader import load_machine
-    from camsim.analyses.modes import machine_modes, modes_to_dict
+    from camsim.analyses.modes import machine_modes, modes_to_dict, rod_modes
 
     with user_errors():
         loaded = load_machine(machine, overrides=set_)
         modes = machine_modes(loaded)
+        rods = rod_modes(loaded)
     if json_:
-        print_json(modes_to_dict(modes))
+        print_json(modes_to_dict(modes, rods))
         return
     table = Table(title=f"{loaded.name}: modes per configuration", title_justify="left")
     table.add_column("configuration")
@@ -49,3 +51,12 @@ def modes_command(
             f"{m.stiffness_ratio:.3g}" if m.stiffness_ratio else "–",
         )
     err_console.print(table)
+    for rod in rods:  # issue 39: each rod's own axial modes, free at both ends
+        t = Table(title=escape(f"rod {rod['rod']}: {rod['segments_reason']}"), title_justify="left")
+        for col in ("mode", "lumped [Hz]", "continuum j*c/2L [Hz]", "error", "damping ratio"):
+            t.add_column(escape(col), justify="right")
+        for j, (f, g, e, z) in enumerate(zip(rod["lumped_hz"], rod["continuum_hz"], rod["error"], rod["damping_ratios"]), 1):
+            t.add_row(str(j), f"{f:.5g}", f"{g:.5g}", f"{100 * e:+.3g} %", f"{z:.3g}")
+        err_console.print(t)
+        err_console.print(f"highest mode of the discretisation: {rod['highest_hz']:.5g} Hz (the machine's configurations "
+                          "above include the rod, coupled to its nodes)", markup=False)

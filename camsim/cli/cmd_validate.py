@@ -74,6 +74,10 @@ def _param_text(p: Param, value) -> str:
         return p.key
     if isinstance(value, str):
         return f"{p.key} {value}"
+    if p.dimension in ("material", "materials"):  # issue 39: materials by name
+        return f"{p.key} " + "/".join(m.name for m in (value if isinstance(value, tuple) else (value,)))
+    if p.dimension == "integer":
+        return f"{p.key} {value}"
     unit = p.unit.replace("exponent", "a") if p.unit else ""
     return f"{p.key} {value:.6g} {unit}".strip()
 
@@ -152,6 +156,13 @@ def _print_machine(machine: Machine) -> None:
             damping = e.damping_note() or "none"
         elements.add_row(*(escape(x) for x in (e.name, kind, f"{e.lower} -> {e.upper}", params, damping)))
     err_console.print(elements)
+    for e in machine.elements:  # issue 39: how each rod is discretised, and why
+        if e.compound:
+            err_console.print(
+                f"rod {e.name}: {e.segments_reason}; c = {e.wave_speed:.5g} m/s, Z = A*sqrt(E*rho) = "
+                f"{e.impedance:.5g} N*s/m, mass {e.rod_mass:.5g} kg, 2L/c = {e.transit_time:.4g} s, interior nodes "
+                + (f"{e.interior_nodes()[0]} ... {e.interior_nodes()[-1]}" if e.interior_nodes() else "none"),
+                markup=False)
 
     sim = machine.simulation
     run = (f"{_g(sim.duration, 's')} recorded" if sim.duration is not None else f"{sim.cycles} cycle(s) recorded")

@@ -138,11 +138,18 @@ class Machine:
         return self.rebuild(self, values)
 
     def mass_of(self, name: str) -> float:
-        """Mass [kg] of the mass called ``name``."""
+        """Mass [kg] of the node called ``name``: the mass as written plus what the elements lump
+        there (a rod's end adds m/(2N): the node's mass in the model, issue 39)."""
         for m in self.masses:
             if m.name == name:
-                return m.mass
+                return m.mass + sum(e.node_mass(name) for e in self.elements)
         raise KeyError(name)
+
+    @property
+    def node_names(self) -> tuple[str, ...]:
+        """Every mass node of the model, as the results name them: the masses, then each
+        rod's interior nodes ``<rod>[1]`` … (issue 39)."""
+        return (*(m.name for m in self.masses), *(n for e in self.elements for n in e.interior_nodes()))
 
     @property
     def free_masses(self) -> tuple[Mass, ...]:

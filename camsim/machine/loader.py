@@ -119,6 +119,10 @@ def assignments(values: dict[str, Any]) -> list[str]:
             text = "true" if value else "false"
         elif isinstance(value, (int, float)):
             text = repr(value)
+        elif isinstance(value, (list, tuple)):  # e.g. a contact's materials (issue 39)
+            import tomli_w
+
+            text = tomli_w.dumps({"v": list(value)}).split("=", 1)[1].strip()
         else:
             text = '"' + str(value).replace("\\", "\\\\").replace('"', '\\"') + '"'
         out.append(f"{key}={text}")

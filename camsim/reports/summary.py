@@ -49,12 +49,16 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
     for quantity, (unit, _) in units.items():
         table.add_column(escape(f"peak |{quantity[:5]}.| [{unit}]"), justify="right")
         table.add_column(escape("at t [s]"), justify="right")
+    interior = {n for e in result.machine.elements for n in e.interior_nodes()}  # issue 39: rods
     for name, entry in summary["masses"].items():
+        if name in interior:
+            continue
         row = [escape(name)]
         for quantity, (_, scale) in units.items():
             row += [_fmt(entry[quantity]["peak"] * scale), _fmt(entry[quantity]["time"], ".5f")]
         table.add_row(*row)
     console.print(table)
+    render_rods(summary, console, system)
     if summary["peak_transducer_force"]:
         p = summary["peak_transducer_force"]
         console.print(f"peak transducer force: {_lbf(p['value'], system)} at t = {p['time']:.5f} s", markup=False)
@@ -101,6 +105,35 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
 
     for warning in result.warnings:
         console.print(f"warning: {in_system(warning, system)}", style="yellow", markup=False)
+
+
+def render_rods(summary: dict, console: Console, system: str = "si") -> None:
+    """Rods (discretisation, largest stress and end force) and Hertz contacts against yield (issue 39)."""
+    f_unit, f_scale = shown("N", system)
+    for name, row in summary.get("rods", {}).items():
+        stress, force = row.get("max_stress"), row.get("max_end_force")
+        inner = row["interior_nodes"]
+        text = (f"rod {name}: {row['segments_reason']}; interior nodes {inner[0]} … {inner[-1]} in the file"
+                if inner else f"rod {name}: {row['segments_reason']}")
+        console.print(text, markup=False)
+        if stress is not None:
+            limit = row.get("yield_strength")
+            versus = f" ({100 * stress['value'] / limit:.3g} % of the yield strength)" if limit else ""
+            console.print(f"  largest |axial stress| {stress['value'] / 1e6:.4g} MPa at t = {stress['time']:.6f} s{versus}; "
+                          f"largest end force {force['value'] * f_scale:.4g} {f_unit} at t = {force['time']:.6f} s",
+                          markup=False)
+    rows = summary.get("contact_stress", [])
+    if rows:
+        t = Table(title="contact stress at the largest impact (Hertz)", title_justify="left")
+        for col in ("element", "materials", f"peak force [{f_unit}]", "peak pressure [MPa]", "first yield [MPa]",
+                    "ratio"):
+            t.add_column(escape(col), justify="right")
+        for r in rows:
+            t.add_row(escape(r["element"]), escape(" / ".join(r["materials"])), _fmt(r["peak_force"] * f_scale),
+                      _fmt(r["peak_pressure"] / 1e6),
+                      "–" if r["yield_pressure"] is None else f"{r['yield_pressure'] / 1e6:.4g} ({escape(r['yields_first'])})",
+                      _fmt(r["ratio"], ".3g"))
+        console.print(t)
 
 
 def _at(value, fmt=".4g", unit="deg") -> str:

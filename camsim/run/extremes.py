@@ -37,8 +37,13 @@ class Observables:
     def __init__(self, run: RunSetup):
         self.run = run
         model, machine = run.model, run.machine
-        paths = [f"masses/{m.name}/{q}" for m in machine.masses for q in MASS_QUANTITIES]
-        paths += [f"elements/{e.name}/force" for e in model.elements]
+        paths = [f"masses/{name}/{q}" for name in machine.node_names for q in MASS_QUANTITIES]
+        #: the elements of the machine (a rod's segments are parts of it: its traces instead)
+        self.elements = [i for i, e in enumerate(model.elements) if e.parent() is None]
+        paths += [f"elements/{model.elements[i].name}/force" for i in self.elements]
+        self.compound_traces = [(name, q) for name, compound in model.compounds.items()
+                                for q in compound.result_quantities]
+        paths += [f"elements/{name}/{q}" for name, q in self.compound_traces]
         self.has_cam_contact = bool(model.driven)
         if self.has_cam_contact:
             paths.append("cam_contact/force")
@@ -64,8 +69,9 @@ class Observables:
         lam = config.lam(Z, U, fn)
         forces = model.element_forces(branches, x, v, U[:, 0], U[:, 1], lam, config, v_impacts)
         traces = derived_traces(run, x, v, a, U, forces)
-        cols = [traces["masses"][m.name][q] for m in run.machine.masses for q in MASS_QUANTITIES]
-        cols += [forces[:, i] for i in range(len(model.elements))]
+        cols = [traces["masses"][name][q] for name in run.machine.node_names for q in MASS_QUANTITIES]
+        cols += [forces[:, i] for i in self.elements]
+        cols += [traces["element_traces"][name][q] for name, q in self.compound_traces]
         if self.has_cam_contact:
             cols.append(traces["cam_contact_force"])
         if self.transducer:
@@ -85,6 +91,8 @@ def observable_units(path: str) -> str:
         return QUANTITY_UNITS[path.rsplit("/", 1)[1]]
     if path == "camshaft/torque":
         return "N*m"
+    if path.endswith("/max_stress"):
+        return "Pa"
     return "N"
 
 

@@ -25,6 +25,7 @@ from camsim.model.rigidity import check_cam_resolvable, check_not_rigid
 from camsim.run.assemble import (  # noqa: F401 - also this module's names (tests, camsim.run.stream)
     RunSetup,
     _assemble,
+    after_run_warnings,
     boundaries_deg,
     johnson_annotate,
     negative_cam_force_warning,
