@@ -8,6 +8,7 @@ import typer
 
 from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.units_option import check_units, units_option
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
@@ -37,7 +38,7 @@ def run_command(
     summary_only: bool = typer.Option(False, "--summary-only", help="Store no traces: the event table and the summary (/summary) only."),
     compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
+    units: str = units_option(),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
     cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
@@ -59,7 +60,6 @@ def run_command(
     """
     from camsim.run.budget import check_budget, estimate_run, parse_size, record_fraction
     from camsim.cli.progress import FractionBar
-    from camsim.reports.display import check_unit_system
     from camsim.errors import InputError
     from camsim.io.atomic import check_writable, remove_stale_temps
     from camsim.run.lifecycle import sigterm_as_interrupt
@@ -70,7 +70,7 @@ def run_command(
     rate = parse_sample_rate(sample_rate)
     patterns = [p.strip() for item in record for p in item.split(",") if p.strip()]
     with user_errors(), sigterm_as_interrupt():
-        check_unit_system(units)
+        check_units(units)
         limit = parse_size(max_output)
         if summary_only and (patterns or record_last is not None):
             raise InputError("--summary-only: stores no traces; it cannot be combined with --record or --record-last")
@@ -118,7 +118,7 @@ def run_command(
         else:
             render_run_summary(result, err_console, units, cs=cs)
             err_console.print(f"wrote {target}")
-        write_report_page([target], report, quiet=json_)
+        write_report_page([target], report, quiet=json_, units=units)
         if check_against is not None:
             from camsim.analyses.check import check_files, render_report
 
