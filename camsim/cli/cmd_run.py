@@ -8,7 +8,7 @@ import typer
 
 from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
-from camsim.cli.units_option import check_units, units_option
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
@@ -124,6 +124,6 @@ def run_command(
 
             kwargs = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
             report = check_files(target, check_against, **kwargs)
-            render_report(report, err_console)
+            render_report(report, err_console, units=machine_units(units, loaded))
             if not report.passed:
                 raise typer.Exit(code=1)

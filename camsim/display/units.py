@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 __all__ = [
-    "SYSTEMS", "SI", "US", "DisplayUnits", "Unit", "si_dimension", "typographic", "compose", "system_units",
+    "SYSTEMS", "SI", "US", "DisplayUnits", "Unit", "si_dimension", "typographic", "pint_text", "compose", "system_units",
 ]
 
 #: Choices of ``--units``: the machine file's own units, SI, US customary.
@@ -138,6 +138,13 @@ def typographic(text: str) -> str:
     for power, sup in _SUPERSCRIPT.items():
         text = text.replace(f"**{power}", sup).replace(f"^{power}", sup)
     return text.replace("*", "·")
+
+
+def pint_text(text: str) -> str:
+    """A display unit text as pint reads it: ``lbf·s²/in`` → ``lbf*s**2/in`` (for files written in it)."""
+    for power, sup in _SUPERSCRIPT.items():
+        text = text.replace(sup, f"**{power}")
+    return text.replace("·", "*")
 
 
 def si_dimension(si_unit: str) -> tuple[str, float] | None:
@@ -263,6 +270,14 @@ class DisplayUnits:
             return "–"
         unit, k = self.shown(si_unit)
         return f"{format(value * k, fmt)} {unit}".rstrip()
+
+    def power_coefficient(self, exponent: float) -> tuple[str, float]:
+        """(printed unit, factor from SI) of a power-law coefficient C of F = C·δ^a [N/m^a]:
+        the force and the stiffness's length unit, ``lbf/in^1.425``."""
+        force, stiffness = self.unit("force"), self.unit("stiffness")
+        length = stiffness.text.rsplit("/", 1)[-1]
+        length_size = force.size / stiffness.size
+        return f"{force.text}/{length}^{exponent:g}", length_size**exponent / force.size
 
     def header(self, name: str, si_unit: str) -> str:
         """``"force [lbf]"``: a column header with its display unit (no brackets for numbers)."""
