@@ -77,6 +77,7 @@ def run_command(
         if record and not patterns:
             raise InputError("--record: give at least one pattern, e.g. 'transducer/*'")
         loaded = load_machine(machine, overrides=set_)
+        shown = machine_units(units, loaded)  # also the units of the errors below
         if record_last is not None and loaded.cam is None:
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")
         target = output if output is not None else default_output(machine)
@@ -116,7 +117,7 @@ def run_command(
             payload["output"] = str(target)
             print_json(payload)
         else:
-            render_run_summary(result, err_console, units, cs=cs)
+            render_run_summary(result, err_console, shown, cs=cs)
             err_console.print(f"wrote {target}")
         write_report_page([target], report, quiet=json_, units=units)
         if check_against is not None:
@@ -124,6 +125,6 @@ def run_command(
 
             kwargs = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
             report = check_files(target, check_against, **kwargs)
-            render_report(report, err_console, units=machine_units(units, loaded))
+            render_report(report, err_console, units=shown)
             if not report.passed:
                 raise typer.Exit(code=1)

@@ -38,15 +38,40 @@ def check_units(system: str) -> str:
     return system
 
 
+#: The display units of the command being run, once it knows them: errors that quote a value
+#: (composed in SI deep in the library) are printed in them (:func:`error_text`).
+_ERROR_UNITS: list = []
+
+
 def machine_units(system: str, machine, options: Iterable[str] = ()) -> DisplayUnits:
     """Display units of output about ``machine`` (a Machine, or None), with ``options``' units
-    (the command-line values, e.g. ``element.K23.preload=20,28.12lbf``) first."""
+    (the command-line values, e.g. ``element.K23.preload=20,28.12lbf``) first.
+
+    They also become the units the command's errors are printed in (:func:`error_text`).
+    """
     from camsim.display import display_units, system_units
 
     check_units(system)
-    if system != "file":
-        return system_units(system)
     options = [o for o in options if o]
-    if not options and machine is not None:
-        return machine.display_units
-    return display_units("file", getattr(machine, "text", None), options)
+    if system != "file":
+        shown = system_units(system)
+    elif not options and machine is not None:
+        shown = machine.display_units
+    else:
+        shown = display_units("file", getattr(machine, "text", None), options)
+    _ERROR_UNITS[:] = [shown]
+    return shown
+
+
+def reset_error_units() -> None:
+    """Forget the units of a previous command (each command starts with SI messages as composed)."""
+    _ERROR_UNITS.clear()
+
+
+def error_text(text: str) -> str:
+    """An error message with its SI quantities in the running command's display units, once known."""
+    if not _ERROR_UNITS:
+        return text
+    from camsim.display import in_units
+
+    return in_units(text, _ERROR_UNITS[0])

@@ -53,7 +53,8 @@ def in_units(text: str, display: DisplayUnits) -> str:
 
     A number directly followed by one of the SI unit texts camsim's messages use (N, N/m,
     N·s/m, m, mm, m/s, m/s², m/s³, kg, rad, rad/s, Pa, MPa, N·m, J) is converted, keeping at
-    least the digits it was written with; everything else is left as it is.
+    least the digits it was written with; everything else — text in double quotes, the
+    user's own input echoed — is left as it is.
     """
 
     def convert(m: re.Match) -> str:
@@ -63,7 +64,11 @@ def in_units(text: str, display: DisplayUnits) -> str:
         digits = significant(m.group("num"))
         return f"{float(m.group('num')) * k:.{digits}g} {unit}"
 
-    return typographic_units(_QUANTITY.sub(convert, text))
+    # What the user wrote is echoed in double quotes (got "0.0625 m"): left as written.
+    parts = text.split('"')
+    for i in range(0, len(parts), 2):
+        parts[i] = typographic_units(_QUANTITY.sub(convert, parts[i]))
+    return '"'.join(parts)
 
 
 def typographic_units(text: str) -> str:

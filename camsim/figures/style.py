@@ -101,10 +101,16 @@ def axis_label(name: str, units: str) -> str:
 
 
 def shown(si_unit: str, units: DisplayUnits | None) -> tuple[str, float]:
-    """(unit shown, factor from SI) of values stored in ``si_unit`` (SI when ``units`` is None)."""
-    from camsim.display import system_units
+    """(unit shown, factor from SI) of values stored in ``si_unit``; as stored (SI, factor 1)
+    when ``units`` is None (a figure function called on its own from Python), but speeds in
+    rpm and angles in deg even then."""
+    if units is None:
+        if si_unit in ("rad/s", "rad"):
+            from camsim.display import system_units
 
-    return (units or system_units("si")).shown(si_unit)
+            return system_units("si").shown(si_unit)
+        return pretty_units(si_unit), 1.0
+    return units.shown(si_unit)
 
 
 def displayed(name: str, si_unit: str, units: DisplayUnits | None) -> tuple[str, float]:
