@@ -48,12 +48,17 @@ _QUANTITY = re.compile(
 )
 
 
+#: A frequency in Hz written in exponent form (7.96e+07 Hz), shown with a prefix (79.6 MHz).
+_HERTZ = re.compile(r"(?<![\w.])(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+) Hz(?!\w)")
+
+
 def in_units(text: str, display: DisplayUnits) -> str:
     """``text`` with its SI quantities shown in ``display``: ``"-12.5 N"`` → ``"-2.81 lbf"``.
 
     A number directly followed by one of the SI unit texts camsim's messages use (N, N/m,
     N·s/m, m, mm, m/s, m/s², m/s³, kg, rad, rad/s, Pa, MPa, N·m, J) is converted, keeping at
-    least the digits it was written with; everything else — text in double quotes, the
+    least the digits it was written with; a frequency in exponent form gets a prefix
+    (``7.96e+07 Hz`` → ``79.6 MHz``); everything else — text in double quotes, the
     user's own input echoed — is left as it is.
     """
 
@@ -64,10 +69,13 @@ def in_units(text: str, display: DisplayUnits) -> str:
         digits = significant(m.group("num"))
         return f"{float(m.group('num')) * k:.{digits}g} {unit}"
 
+    def hertz(m: re.Match) -> str:
+        return engineering(float(m.group("num")), "Hz", max(3, significant(m.group("num")) - 1))
+
     # What the user wrote is echoed in double quotes (got "0.0625 m"): left as written.
     parts = text.split('"')
     for i in range(0, len(parts), 2):
-        parts[i] = typographic_units(_QUANTITY.sub(convert, parts[i]))
+        parts[i] = typographic_units(_HERTZ.sub(hertz, _QUANTITY.sub(convert, parts[i])))
     return '"'.join(parts)
 
 
