@@ -101,7 +101,7 @@ def cam_command(
         "-o",
         "--output",
         help=(
-            "Write one revolution of s [m], v [m/s], a [m/s^2], j [m/s^3] on the model axis "
+            "Write one revolution of s [m], v [m/s], a [m/s²], j [m/s³] (SI) on the model axis "
             "against time [s] and cam angle [deg]: .h5 (HDF5) or .csv. With [cam.geometry] the "
             ".h5 file also holds /cam/pressure_angle [deg], /cam/pitch_radius_of_curvature, "
             "/cam/surface_radius_of_curvature [m], /cam/pitch_curve, /cam/surface (N, 2) [m]."

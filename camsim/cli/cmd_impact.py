@@ -17,7 +17,6 @@ from rich.table import Table
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.units_option import check_units, units_option
-from camsim.display import display_units
 from camsim.errors import InputError
 from camsim.units import QuantityError, to_si
 
@@ -211,6 +210,8 @@ def impact_command(
     with user_errors():
         check_units(units)
         inputs, estimates = _calculate(**given)
+        from camsim.display import display_units
+
         shown = display_units(units, None, [v for v in given.values() if v is not None])
     if json_out:
         print_json(_payload(inputs, estimates))
@@ -413,7 +414,7 @@ def fit_command(
         metavar="DATA",
         help='Force-deflection samples; header with units in brackets, e.g. "deflection [in],force [lbf]".',
     ),
-    json_out: bool = typer.Option(False, "--json", help="Print C, a and R^2 as JSON on stdout."),
+    json_out: bool = typer.Option(False, "--json", help="Print C, a and R² as JSON on stdout."),
     units: str = units_option("Units of C in the table: file (the data file's, e.g. lbf/in^a for a header "
                               "\"deflection [in],force [lbf]\"; the default), si (N/m^a) or us (lbf/in^a). --json has both."),
 ) -> None:
@@ -463,6 +464,8 @@ def fit_command(
     if units == "file":
         table.add_row("C", f"{file_coefficient:.6g}", escape(file_unit.replace("**", "^")))
     else:
+        from camsim.display import display_units
+
         c_unit, c_k = display_units(units).power_coefficient(fit.exponent)
         table.add_row("C", f"{fit.coefficient * c_k:.6g}", escape(c_unit))
     table.add_row("a", f"{fit.exponent:.6g}", "-")

@@ -371,6 +371,10 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     return s, names
 
 
+#: The short axis labels of the SVAJ panels.
+SVAJ_SYMBOL = {"displacement": "s", "velocity": "v", "acceleration": "a", "jerk": "j"}
+
+
 def cam_section(source: Source, view: RunView) -> Section | None:
     """SVAJ over one revolution, and the cam drawn to scale when its geometry is given."""
     angle = view.data("cam/angle")
@@ -387,7 +391,7 @@ def cam_section(source: Source, view: RunView) -> Section | None:
         x, yy, _ = envelope(angle[one], y[one] * scale)
         # A short label (s, v, a, j; the title names the quantity): a low plot, lower still on
         # paper, never cuts it ("displacem").
-        p = xy_figure(source.name(f"svaj-{q}"), f"Cam {q} (model axis)", "cam angle [deg]", f"{q[0]} [{unit}]", [(q, x, yy)],
+        p = xy_figure(source.name(f"svaj-{q}"), f"Cam {q} (model axis)", "cam angle [deg]", f"{SVAJ_SYMBOL[q]} [{unit}]", [(q, x, yy)],
                       height=190, x_range=x_range)
         x_range = p.x_range
         p.legend.visible = False

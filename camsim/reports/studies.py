@@ -214,6 +214,10 @@ def fit_sections(source: Source) -> list[Section]:
 
     _, models = bokeh()
     result, machine_path, machine_text = source.obj
+    if source.units is None:  # the machine file's own units (a page built from Python)
+        from camsim.display import written_units
+
+        source.units = written_units(machine_text)
     extra = [("machine file", f"<code>{esc(machine_path)}</code>"), ("simulations", fmt(result.n_evaluations)),
              ("cost", fmt(result.cost, ".6g")), ("solver", esc(result.message))]
     out = [header_section(source, _machine_name(machine_text, machine_path), extra)]

@@ -156,18 +156,26 @@ def test_fit_page_sections_and_numbers(tmp_path):
 
     from camsim.reports.build import build_report_from
 
+    from camsim.units import registry
+
+    ureg = registry()
     result = _fit_result()
     out = build_report_from((result, CDTM, CDTM.read_text()), "fit", tmp_path / "fit.html")
     page = parse(out)
     assert {"header", "verdicts", "parameters", "channels", "machine"} <= set(page.sections)
     rows = page.tables["parameter-table"]["rows"]
+    # issue 36: in the machine file's units (cdtm.toml: lbf/in), converted back here by pint
+    assert [row[1] for row in rows] == ["lbf/in", "-"]
     for i, row in enumerate(rows):
+        si = (lambda v: ureg.Quantity(v, row[1]).to(result.units[i]).magnitude) if row[1] != "-" else (lambda v: v)
         assert row[0] == result.keys[i]
-        assert math.isclose(num(row[4]), result.values[i], rel_tol=1e-6)
-        assert math.isclose(num(row[5]), result.stderr[i], rel_tol=5e-3)
-        lo, hi = (num(x) for x in row[6].split(" to "))
+        assert math.isclose(si(num(row[4])), result.values[i], rel_tol=1e-6)
+        assert math.isclose(si(num(row[5])), result.stderr[i], rel_tol=5e-3)
+        lo, hi = (si(num(x)) for x in row[6].split(" to "))
         assert math.isclose(lo, result.ci95[i, 0], rel_tol=1e-6) and math.isclose(hi, result.ci95[i, 1], rel_tol=1e-6)
     text = out.read_text()
+    # the page is titled and headed with the machine's name, not the machine file's path
+    assert "<dd>CDTM with impact and over-travel</dd>" in text and f"<dd>{CDTM}</dd>" not in text
     assert 'data-plot="correlation"' in text and 'data-plot="fit-0-residual"' in text and "a warning line" in text
 
 
