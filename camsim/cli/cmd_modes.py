@@ -10,6 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.units_option import check_units, units_option
 
 
 @app.command("modes")
@@ -17,6 +18,8 @@ def modes_command(
     machine: Path = typer.Argument(..., help="Machine file (TOML)."),
     set_: list[str] = typer.Option([], "--set", help="Override a machine key (repeatable)."),
     json_: bool = typer.Option(False, "--json", help="Print the modes as JSON on stdout."),
+    units: str = units_option("Units of the human output, as for every command: file (the default), si or us. Natural "
+                              "frequencies are in Hz and damping ratios are numbers in every system."),
 ) -> None:
     """Natural frequencies [Hz] and damping ratios of every branch configuration.
 
@@ -29,6 +32,7 @@ def modes_command(
     from camsim.analyses.modes import machine_modes, modes_to_dict, rod_modes
 
     with user_errors():
+        check_units(units)
         loaded = load_machine(machine, overrides=set_)
         modes = machine_modes(loaded)
         rods = rod_modes(loaded)

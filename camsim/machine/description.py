@@ -9,8 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING
 
 from camsim.errors import InputError
+
+if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
 
 # Elements are the element kinds' own classes (camsim/elements/); re-exported here because
 # a Machine is made of them.
@@ -136,6 +141,17 @@ class Machine:
         if self.rebuild is None:
             raise InputError(f"{self.source}: with_values needs a machine loaded from a machine file (camsim.load_machine)")
         return self.rebuild(self, values)
+
+    @cached_property
+    def display_units(self) -> DisplayUnits:
+        """The units this machine's file was written in, per dimension (issue 36).
+
+        What human output shows by default (``--units file``): counted from :attr:`text` by
+        :func:`camsim.display.written_units` (docs/units.md); SI for a machine without text.
+        """
+        from camsim.display import written_units
+
+        return written_units(self.text)
 
     def mass_of(self, name: str) -> float:
         """Mass [kg] of the node called ``name``: the mass as written plus what the elements lump
