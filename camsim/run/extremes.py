@@ -130,6 +130,11 @@ class _Window:
         self.event.peak_time = float((top, bottom)[k][1] - t_rec)
 
 
+#: Records held before they are folded into the run's extremes (bounded memory in long
+#: streamed runs; a revolution of the CDTM is about a dozen).
+BUFFER = 256
+
+
 class ExtremesFolder:
     """Folds the stretches' records into the run's located extremes and impact peaks.
 
@@ -145,6 +150,7 @@ class ExtremesFolder:
         n = len(observables.paths)
         self.best: dict[int, list[tuple[float, float] | None]] = {1: [None] * n, -1: [None] * n}
         self.windows: list[_Window] = []
+        self._waiting: list[StretchExtremes] = []
 
     def open_impact(self, event, element, t_close: float) -> None:
         """An impact at ``t_close`` [s, simulation clock] on ``element`` (its row ``event``)."""
@@ -162,17 +168,13 @@ class ExtremesFolder:
                 w.event.contact_duration = t_open - w.t_close
 
     def add(self, record: StretchExtremes | None) -> None:
-        """Fold one stretch's record."""
+        """Fold one stretch's record (the run's extremes once :data:`BUFFER` records are
+        waiting, or at :meth:`finish`; the impact windows at once)."""
         if record is None:
             return
-        for sense in (1, -1):
-            best = self.best[sense]
-            for j in range(len(best)):
-                if best[j] is not None and sense * record.bound(j, sense) <= sense * best[j][0]:
-                    continue
-                value, t = record.extreme(j, sense)
-                if best[j] is None or sense * value > sense * best[j][0]:
-                    best[j] = (value, t)
+        self._waiting.append(record)
+        if len(self._waiting) >= BUFFER:
+            self._fold_waiting()
         still = []
         for w in self.windows:
             w.add(record)
@@ -182,9 +184,28 @@ class ExtremesFolder:
                 still.append(w)
         self.windows = still
 
+    def _fold_waiting(self) -> None:
+        """The waiting records into the run's extremes, per observable the record with the best
+        node value first: its located value then prunes most others by their bounds (in time
+        order, every record would be refined until the best so far is high)."""
+        records, self._waiting = self._waiting, []
+        for sense in (1, -1):
+            best = self.best[sense]
+            for j in range(len(best)):
+                nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
+                for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
+                    r = records[k]
+                    if best[j] is not None and sense * r.bound(j, sense) <= sense * best[j][0]:
+                        continue
+                    value, t = r.extreme(j, sense)
+                    if (best[j] is None or sense * value > sense * best[j][0]
+                            or (value == best[j][0] and t < best[j][1])):
+                        best[j] = (value, t)
+
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);
         windows still open (the contact outlasts the record) are closed at its end."""
+        self._fold_waiting()
         for w in self.windows:
             w.finish(self.t_rec)
         self.windows = []
