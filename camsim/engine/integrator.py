@@ -56,7 +56,7 @@ class Integrator(EngineContext):
     ----------
     model : Model
     cam : CamProgram
-        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+        Provides ``svaj(t)`` and ``break_times(t0, t1)``.
     step : float
         Internal grid step h [s]; the grid is t_ref + k·h.
     t_ref : float
@@ -197,7 +197,7 @@ class Integrator(EngineContext):
         state = self.settle(state)
         if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
             on_stop(state)
-        joins = [float(t) for t in self.cam.boundary_times(state.t - self.h, t_end + self.h)]
+        joins = [float(t) for t in self.cam.break_times(state.t - self.h, t_end + self.h)]  # joins and inner kinks
         self._joins = set(joins)
         self._join_array = sorted(joins)
         joins = [t for t in joins if state.t < t < t_end]
