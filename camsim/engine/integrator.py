@@ -139,7 +139,7 @@ class Integrator(EngineContext):
 
     # ------------------------------------------------------------------ driver
     def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
-            on_stretch=None):
+            on_stretch=None, check=None):
         """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
@@ -150,6 +150,9 @@ class Integrator(EngineContext):
         every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
         and later stretches' samples all lie at or after ``t`` (camsim.run.stream). The consumer
         may remove the events it has read from :attr:`events` (the integrator only appends).
+
+        ``check(state)``, when given, sees the state after every stretch and raises to stop
+        the run (the physical bounds of camsim.run.bounds: a comparison per stretch).
         """
         stretches: list[Stretch] = []
         state = self.settle(state)
@@ -187,6 +190,8 @@ class Integrator(EngineContext):
                 state = self.settle(state)
             if on_stretch is not None and kept is not None:  # streaming hook (camsim.run.stream)
                 on_stretch(kept, state.t)
+            if check is not None:
+                check(state)
             if progress is not None:
                 progress(state.t)
             count += 1
