@@ -157,6 +157,7 @@ def fit_command(
     accept_misfit: bool = typer.Option(False, "--accept-misfit", help="Write the fitted file (exit 0) even when a --target is missed by more than its sigma or the residual variance of a trace fit is above 2 (the misfit is printed as a warning)."),
     fresh: bool = typer.Option(False, "--fresh", help="Discard the evaluations an interrupted fit left (FITTED.toml.evaluations.h5) and start again."),
     force: bool = typer.Option(False, "--force", help="Replace an existing FITTED.toml that is not the result of a fit (a machine file written by hand or by lump)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (each iteration on a terminal, the latest every 10 s elsewhere)."),
 ) -> None:
     """Calibrate MACHINE to MEASURED traces: fit the --param keys by weighted least squares.
 
@@ -172,7 +173,9 @@ def fit_command(
     from camsim.io.atomic import check_writable
 
     rate = parse_sample_rate(sample_rate)
-    show = err_console.print if err_console.is_terminal else None
+    from camsim.cli.progress import Lines
+
+    show = Lines(quiet)
     with user_errors():
         target_path = output if output is not None else _default_output(machine)
         from camsim.io.outputs import FIGURES, HDF5, TOML, check_journal, check_output, output_format
@@ -211,7 +214,7 @@ def fit_command(
             starts=starts,
             seed=seed,
             max_evaluations=max_evaluations,
-            progress=(lambda line: show(line, markup=False)) if show else None,
+            progress=show,
             evaluations=evaluation_store_for(target_path),
             resume=resume,
         )
