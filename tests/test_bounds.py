@@ -8,6 +8,7 @@ the limit: a margin of at least BOUND_FACTOR).
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,33 +25,11 @@ from camsim.run.bounds import BOUND_FACTOR, physical_bounds
 from camsim.run.simulation import initial_state, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from cli.test_run_cli import OSCILLATOR as _OSC  # noqa: E402 - one mass on a spring to the cam
 
-OSCILLATOR = """
-schema = 1
-[machine]
-name = "oscillator"
-[cam]
-speed = "300 rpm"
-segments = [
-  { motion = "rise", law = "cycloidal", duration = "90 deg", lift = "10 mm" },
-  { motion = "dwell", duration = "90 deg" },
-  { motion = "fall", law = "cycloidal", duration = "90 deg", lift = "10 mm" },
-  { motion = "dwell", duration = "90 deg" },
-]
-[[mass]]
-name = "m"
-mass = "2 kg"
-[[element]]
-name = "k"
-type = "spring"
-between = ["cam", "m"]
-stiffness = "20000 N/m"
-damping_ratio = 0.5
-[simulation]
-cycles = 2
-warmup_cycles = 0
-sample_rate = "5 kHz"
-"""
+# The base-excited oscillator of the CLI tests, damped at ζ = 0.5 (negated below), two revolutions.
+OSCILLATOR = _OSC.replace("damping_ratio = 0.05", "damping_ratio = 0.5").replace("cycles = 1\n", "cycles = 2\n")
 
 
 def _bounds(machine):
