@@ -22,7 +22,8 @@ from camsim.errors import SimulationError
 from camsim.machine.loader import load_machine
 from camsim.model.assembly import Model
 from camsim.run.bounds import BOUND_FACTOR, physical_bounds
-from camsim.run.simulation import initial_state, simulate
+from camsim.run.initial import initial_state
+from camsim.run.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
