@@ -25,6 +25,7 @@ from camsim.model.rigidity import check_cam_resolvable, check_not_rigid
 from camsim.run.assemble import (  # noqa: F401 - also this module's names (tests, camsim.run.stream)
     RunSetup,
     _assemble,
+    after_run_warnings,
     boundaries_deg,
     johnson_annotate,
     negative_cam_force_warning,
@@ -34,6 +35,7 @@ from camsim.run.assemble import (  # noqa: F401 - also this module's names (test
     stretch_samples,
 )
 from camsim.run.bounds import physical_bounds
+from camsim.run.extremes import Observables
 from camsim.run.initial import _one_contact_static, initial_state, static_equilibrium  # noqa: F401 - tests
 from camsim.run.result import RunResult
 
@@ -159,6 +161,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     substeps = max(1, math.ceil(steps_per_sample), math.ceil(h_out / motion_step * (1 - 1e-12)))
     integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
+    run = replace(run, observables=Observables(run))  # the located extremes' quantities (spec §4)
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)
     bounds = physical_bounds(model, cam, state, t_end)  # a state beyond them is a divergence (issue 34)
@@ -205,12 +208,12 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
-                                          check=bounds.check)
+                                          observe=run.observables, record_to=t_end, check=bounds.check)
             result = _assemble(run, stretches)
-            peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
+            peak = lambda name, quantity: result.extreme(f"masses/{name}/{quantity}", "abs")[0]  # noqa: E731 - located (spec §4)
         else:
             integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
-                           on_stretch=consumer.on_stretch, check=bounds.check)
+                           on_stretch=consumer.on_stretch, observe=run.observables, record_to=t_end, check=bounds.check)
             result = consumer.finish()
             peak = result.peak
     if t_period_end is not None and round(t_period_end, 9) in saved:
