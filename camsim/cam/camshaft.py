@@ -69,7 +69,14 @@ class CamshaftInput:
 
     def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
         """Times in (t_start, t_end) where any cam passes a segment join, sorted, merged."""
-        parts = [p.boundary_times(t_start, t_end) for p in self.programs]
+        return self._merged([p.boundary_times(t_start, t_end) for p in self.programs])
+
+    def break_times(self, t_start: float, t_end: float) -> np.ndarray:
+        """Times in (t_start, t_end) where any cam's motion is not smooth (its joins and its
+        laws' inner kinks, :meth:`CamProgram.break_times`), sorted, merged."""
+        return self._merged([p.break_times(t_start, t_end) for p in self.programs])
+
+    def _merged(self, parts) -> np.ndarray:
         times = np.unique(np.concatenate(parts)) if parts else np.zeros(0)
         if times.size < 2:
             return times
@@ -150,7 +157,16 @@ class WarpedProgram:
 
     def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
         """Times in (t_start, t_end) where θ(t) passes a segment start of the program."""
-        starts = self.base.boundary_angles()
+        return self._times_of(self.base.boundary_angles(), t_start, t_end)
+
+    def break_times(self, t_start: float, t_end: float) -> np.ndarray:
+        """:meth:`boundary_times` and the times θ(t) passes a law's inner kink (as
+        :meth:`CamProgram.break_times`)."""
+        breaks = getattr(self.base, "_breaks", np.zeros(0))
+        return self._times_of(np.concatenate([self.base.boundary_angles(), breaks]), t_start, t_end)
+
+    def _times_of(self, starts: np.ndarray, t_start: float, t_end: float) -> np.ndarray:
+        """Times in (t_start, t_end) where θ(t) passes one of the cam angles ``starts`` + 2πk."""
         if self.kind != "segments" or not starts.size or not t_end > t_start:
             return np.zeros(0)
         lo, hi = self.angle(np.array([t_start, t_end]))

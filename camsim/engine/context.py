@@ -75,7 +75,7 @@ class EngineContext:
     model : Model
     cam : CamProgram or a camshaft input
         Provides ``channels(t, side)`` — the cam input at times t, (N, 4·c) — and
-        ``boundary_times(t0, t1)`` (where any cam's derivatives may jump).
+        ``break_times(t0, t1)`` (where any cam's motion is not smooth).
     step : float
         Internal grid step h [s]; the grid is t_ref + k·h.
     t_ref : float
@@ -97,7 +97,8 @@ class EngineContext:
         self._deltas: dict[tuple[tuple[Branch, ...], int], tuple[Affine, Affine]] = {}
         self._instant_count = 0
         self._instant_time = -math.inf
-        self.rtol_nonlinear = 1e-11
+        #: DOP853's relative tolerance in a closed nonlinear contact (see camsim.engine.nonlinear.RTOL).
+        self.rtol_nonlinear = 3e-13
         self._chunk = 512
         self._input_cache: dict[float, np.ndarray] = {}
         self._grid_cache: dict[int, np.ndarray] = {}  # cam input on the grid, per block
@@ -128,16 +129,16 @@ class EngineContext:
         and s⃛ inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
         return self.cam.channels(np.array([float(t)]))[0]
 
-    def analytic_inputs_at(self, t: np.ndarray, step_end: float) -> np.ndarray:
-        """[s, ṡ, s̈, s⃛] at times t from the cam laws: (N, 4); a time at or past ``step_end``
-        takes the limit from the left (the end of a stretch may be a cam segment join)."""
+    def analytic_inputs_at(self, t: np.ndarray, step_end) -> np.ndarray:
+        """The input channels ([s, ṡ, s̈, s⃛] per cam) at times t from the cam laws:
+        (N, 4·c); a time at or past ``step_end`` (a float, or one per time) takes the limit
+        from the left (the end of a stretch may be a cam segment join)."""
         t = np.asarray(t, dtype=float)
         right = t < step_end
-        out = np.empty((t.size, N_INPUT))
+        out = np.empty((t.size, self.n_input))
         for side, mask in (("right", right), ("left", ~right)):
             if np.any(mask):
-                s_, v_, a_, j_ = self.cam.svaj(t[mask], side=side)
-                out[mask] = np.stack([s_, v_, a_, j_], axis=-1)
+                out[mask] = self.cam.channels(t[mask], side=side)
         return out
 
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
@@ -302,9 +303,9 @@ class EngineContext:
 
     @staticmethod
     def nonlinear_atol(dim: int) -> np.ndarray:
-        """Absolute tolerances of a nonlinear phase's state: 1e-13 m on the positions,
-        1e-10 m/s on the velocities (DOP853's, and the collocation's local-error test)."""
-        return np.concatenate([np.full(dim // 2, 1e-13), np.full(dim // 2, 1e-10)])
+        """Absolute tolerances of a nonlinear phase's state: 3e-15 m on the positions,
+        3e-12 m/s on the velocities (DOP853's, and the collocation's local-error test)."""
+        return np.concatenate([np.full(dim // 2, 3e-15), np.full(dim // 2, 3e-12)])
 
     def dop853_max_step(self) -> float:
         """Largest DOP853 step of a nonlinear phase [s] (four grid steps)."""

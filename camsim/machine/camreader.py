@@ -87,7 +87,8 @@ class CamReader(Reader):
         if "geometry" in table:  # issue 14: [cam.geometry]
             from camsim.cam.arrangement import parse_geometry
 
-            geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm, path=f"{path}.geometry")
+            geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm, path=f"{path}.geometry",
+                                      materials=getattr(self, "materials", {}))
         compensation = None
         if "compensation" in table:  # issue 27
             compensation = self.compensation(table["compensation"], speed, drives, mass_names)

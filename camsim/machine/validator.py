@@ -29,6 +29,7 @@ from camsim.machine.description import (
     Mass,
     Simulation,
 )
+from camsim.machine.materials import MaterialKeys
 from camsim.machine.reading import _fmt, _suggest  # noqa: F401 - _suggest re-exported
 from camsim.machine.shaft import ShaftReader
 
@@ -47,8 +48,12 @@ _DAMPING_KEYS = ("damping", "damping_ratio", "reference_mass")
 SCHEMA_VERSION = 1
 
 
-class _Validator(ShaftReader):
+class _Validator(ShaftReader, MaterialKeys):
     """Walk a parsed document and build the Machine, raising on the first problem."""
+
+    def __init__(self, source: str, base_dir: Path):
+        super().__init__(source, base_dir)
+        self.materials: dict = {}  # the file's [[material]] tables (issue 39)
 
     # -- document -----------------------------------------------------------------
     def machine(self, doc: dict) -> Machine:
@@ -65,6 +70,7 @@ class _Validator(ShaftReader):
             raise self.error("machine.name", "must not be empty")
         self.string(head, "description", "machine")
 
+        self.materials = self.material_tables(doc)  # issue 39: [[material]]
         masses = self.masses(doc)
         mass_names = [m.name for m in masses]
         cams, camshaft, multi = self.cam_tables(doc, mass_names)
@@ -73,6 +79,7 @@ class _Validator(ShaftReader):
         simulation = self.simulation(doc, cam)
         initial = self.initial(doc, mass_names, cams)
         self.connectivity(masses, elements, cams)
+        elements = self.distributed(elements, masses, cam, simulation, initial, cams=cams)  # issue 39: rods
         clearances = self.clearances(doc, mass_names, cams)
         return Machine(
             name=name,
@@ -104,8 +111,10 @@ class _Validator(ShaftReader):
                 raise self.error(f"{path}.name", f'"{name}" is a reserved node name (ground, cam)')
             if any(m.name == name for m in result):
                 raise self.error(f"{path}.name", f'duplicate mass name "{name}"')
-            mass = self.quantity(row, "mass", path, "mass", required=True, minimum=0.0, strict=True,
-                                 example='"1.6388 lb"')
+            # 0 kg is allowed for a node that only holds a rod end (checked in distributed())
+            mass = self.quantity(row, "mass", path, "mass", required=True, example='"1.6388 lb"')
+            if not mass >= 0.0:
+                raise self.error(f"{path}.mass", f"must be greater than 0, got {_fmt(row['mass'])}")
             result.append(Mass(name=name, mass=mass))
         return result
 
@@ -175,6 +184,14 @@ class _Validator(ShaftReader):
         if p.dimension == "choice":
             value = self.choice(row, p.key, path, p.choices, required=p.required)
             return p.default if value is None else value
+        if p.dimension == "integer":
+            if p.key not in row:
+                if p.required:
+                    raise self.error(f"{path}.{p.key}", "missing required key (a whole number)")
+                return p.default
+            return self.integer(row, p.key, path, p.default, int(p.minimum or 0))
+        if p.dimension in ("material", "materials"):  # issue 39
+            return self.material_value(row, p, path)
         dimension = f"power_coefficient:{values['exponent']!r}" if p.dimension == "power_coefficient" else p.dimension
         return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
                              strict=p.strict, example=p.example)

@@ -69,26 +69,44 @@ def cam_forces(result) -> dict[str, np.ndarray]:
     """Per cam, the force it exerts on what it touches along the model axis [N] (the force
     conjugate to its ṡ in the power balance); zeros for a cam that touches nothing."""
     machine = result.machine
-    model = _model(result)
-    n = result.time.size
-    out = {name: np.zeros(n) for name in model.cam_names}
     contact = getattr(result, "cam_contact_forces", None) or {}
-    for driven, q in model.drives.items():
+    if not machine.multi_cam and result.cam_contact_force is not None:
+        contact = {machine.cams[0].name: result.cam_contact_force}
+    return forces_on_cams(_model(result), contact, result.elements, result.time.size)
+
+
+def forces_on_cams(model, contact: dict, elements: dict, n: int) -> dict[str, np.ndarray]:
+    """:func:`cam_forces` from the traces' parts: ``contact`` cam name → the contact force
+    on the mass it drives, ``elements`` element name → force, ``n`` samples (the located
+    extremes evaluate it on the solution, :mod:`camsim.run.extremes`)."""
+    out = {name: np.zeros(n) for name in model.cam_names}
+    for _driven, q in model.drives.items():
         name = model.cam_names[q]
-        force = contact.get(name) if machine.multi_cam else result.cam_contact_force
+        force = contact.get(name)
         if force is not None:
             out[name] = out[name] + np.asarray(force, dtype=float)
     for element in model.elements:
         for node in element.nodes:
-            if node not in model.cam_index or element.name not in result.elements:
+            if node not in model.cam_index or element.name not in elements:
                 continue
-            f = np.asarray(result.elements[element.name], dtype=float)
+            f = np.asarray(elements[element.name], dtype=float)
             # force of the element on the node: a contact F acts +F on its upper node, a
             # tension f −f; the cam supplies the opposite to keep its motion
             on_upper = f if element.unilateral else -f
             on_node = on_upper if node == element.upper else -on_upper
             out[node] = out[node] - on_node
     return out
+
+
+def station_force(machine, name: str, contact: dict, elements: dict) -> np.ndarray | None:
+    """The cam force of station ``name`` reported as its contact force: that of the mass
+    it drives, else the sum of the contacts it touches (None: neither)."""
+    if name in contact:
+        return np.asarray(contact[name], dtype=float)
+    names = [e.name for e in machine.elements if e.unilateral and name in e.nodes and e.name in elements]
+    if not names:
+        return None
+    return np.sum([np.asarray(elements[n], dtype=float) for n in names], axis=0)
 
 
 def _cam_rates(result) -> dict[str, np.ndarray | float]:
@@ -306,8 +324,12 @@ class CamshaftAccumulator:
             t, p = np.append(t, period), np.append(p, power[k - 1] + frac * (power[k] - power[k - 1]))
         return t, p
 
-    def summary(self) -> dict:
-        """The camshaft section of the run summary (SI; None where a value does not apply)."""
+    def summary(self, located: dict | None = None) -> dict:
+        """The camshaft section of the run summary (SI; None where a value does not apply).
+        ``located``: the run's located extremes (spec §4, :mod:`camsim.run.extremes`); a
+        rigid shaft's torques and each station's cam force are located there, the rest (and
+        a dynamic shaft's torques) are the extreme samples."""
+        located = located or {}
         out: dict = {"model": self.machine.camshaft.model if self.machine.camshaft is not None else "rigid",
                      "mean_speed": self.omega}
         reasons: dict[str, str] = {}
@@ -315,6 +337,12 @@ class CamshaftAccumulator:
 
         def peak(name):
             hit = self.peaks.get(name)
+            path = {"camshaft": "camshaft/torque", "motor": "camshaft/torque"}.get(name, f"cams/{name[4:]}/torque")
+            where = located.get(path) if hit is not None else None  # a rigid shaft's only
+            if where is not None:
+                top, bottom = where["max"], where["min"]
+                best = top if abs(top.value) >= abs(bottom.value) else bottom
+                return abs(best.value), best.time
             return (None, None) if hit is None else hit
 
         out["peak_torque"], out["peak_torque_time"] = peak("camshaft")
@@ -350,6 +378,9 @@ class CamshaftAccumulator:
             for cam in self.machine.cams:
                 p_, t_ = peak(f"cam:{cam.name}")
                 hi_f, lo_f = self.force_max.get(cam.name), self.force_min.get(cam.name)
+                where = located.get(f"cams/{cam.name}/contact_force")
+                if where is not None:
+                    hi_f, lo_f = (where["max"].value, where["max"].time), (where["min"].value, where["min"].time)
                 out["cams"][cam.name] = {
                     "phase_deg": math.degrees(cam.phase), "drives": cam.drives,
                     "peak_torque": p_, "peak_torque_time": t_, "rms_torque": rms.get(f"cam:{cam.name}"),
@@ -366,9 +397,9 @@ class CamshaftAccumulator:
         out["reasons"] = {k: v for k, v in reasons.items() if out.get(k) is None}
         return out
 
-    def row(self) -> dict:
+    def row(self, located: dict | None = None) -> dict:
         """The :func:`camshaft_columns` scalars (NaN where they do not apply)."""
-        s = self.summary()
+        s = self.summary(located)
         nan = float("nan")
 
         def f(x):
@@ -399,15 +430,12 @@ class CamshaftAccumulator:
 
 
 def _station_forces(result) -> dict[str, np.ndarray]:
-    """Per cam, its station's cam force: the contact force of the mass it drives, else the
-    sum of the contacts it touches (as :attr:`RunResult.cam_force` of a one-cam machine)."""
+    """Per cam, its station's cam force (:func:`station_force`; as :attr:`RunResult.cam_force`
+    of a one-cam machine)."""
     contact = getattr(result, "cam_contact_forces", None) or {}
     out = {}
     for cam in result.machine.cams:
-        if cam.name in contact:
-            out[cam.name] = np.asarray(contact[cam.name], dtype=float)
-            continue
-        names = [e.name for e in result.machine.elements if e.unilateral and cam.name in e.nodes and e.name in result.elements]
-        if names:
-            out[cam.name] = np.sum([np.asarray(result.elements[n], dtype=float) for n in names], axis=0)
+        force = station_force(result.machine, cam.name, contact, result.elements)
+        if force is not None:
+            out[cam.name] = force
     return out

@@ -26,6 +26,7 @@ import numpy as np
 from camsim.errors import ResultFileError
 from camsim.elements.events import Event, EventKind, EventTable
 from camsim.machine.description import Machine
+from camsim.run.checks import contact_stress_rows, rod_rows
 
 #: SI units of the per-mass kinematic quantities.
 QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
@@ -62,6 +63,14 @@ class Trace:
     data: np.ndarray
     units: str
     long_name: str
+
+
+@dataclass
+class Extreme:
+    """A located maximum or minimum (spec §4): its value [SI] and instant [s, recorded clock]."""
+
+    value: float
+    time: float
 
 
 def missing_scalar(name: str):
@@ -196,6 +205,13 @@ class RunResult:
     cam_speeds: dict[str, np.ndarray] | None = None
     drive_torque: np.ndarray | None = None
     shaft_dynamics: dict | None = None
+    #: Extremes located on the solution (spec §4, camsim.run.extremes): path →
+    #: {"max": Extreme, "min": Extreme}, values SI, times on the recorded clock; None for a
+    #: result without them (the extremes then come from the samples).
+    located: dict | None = None
+    #: Traces of compound elements, which have no single force: name → {quantity: samples};
+    #: a rod's ``force_lower``, ``force_upper`` [N] and ``max_stress`` [Pa] (issue 39).
+    element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -236,6 +252,10 @@ class RunResult:
             out[f"elements/{element.name}/force"] = Trace(
                 self.elements[element.name], "N", f"force of {element.name} ({sense})"
             )
+        for element in self.machine.elements:  # issue 39: a rod's end forces and largest stress
+            for quantity, data in self.element_traces.get(element.name, {}).items():
+                unit, long_name = element.result_quantities[quantity]
+                out[f"elements/{element.name}/{quantity}"] = Trace(data, unit, f"{long_name} {element.name}")
         if self.cam_contact_force is not None:
             out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
         if self.transducer_force is not None:
@@ -305,6 +325,25 @@ class RunResult:
             return None
         return np.sum([np.asarray(self.elements[n], dtype=float) for n in names], axis=0)
 
+    def _station_extreme(self, which: str) -> tuple[float, float] | None:
+        """(value, time) of the largest (``"max"``) or smallest (``"min"``) cam force over
+        every station of a multi-cam machine: each station's located extreme (spec §4) when
+        the run located it, else its extreme sample (issue 38)."""
+        from camsim.run.camshaft import _station_forces
+
+        hits = []
+        for name, force in _station_forces(self).items():
+            hit = (self.located or {}).get(f"cams/{name}/contact_force")
+            if hit is not None:
+                hits.append((hit[which].value, hit[which].time))
+            elif force.size:
+                k = int(np.argmax(force)) if which == "max" else int(np.argmin(force))
+                hits.append((float(force[k]), float(self.time[k])))
+        if not hits:
+            return None
+        pick = max if which == "max" else min
+        return pick(hits, key=lambda h: h[0])
+
     @property
     def _cam_contacts(self) -> list:
         return [e for e in self.machine.elements if e.unilateral and e.at_cam]
@@ -327,28 +366,55 @@ class RunResult:
         """
         return dict(self._scalars)
 
+    def extreme(self, path: str, which: str) -> tuple[float, float] | None:
+        """(value, time) of the largest (``which = "max"``), smallest (``"min"``) or largest
+        absolute (``"abs"``) value of a quantity: located on the solution (spec §4) when the
+        run located it, else its extreme sample (first occurrence); None without samples.
+
+        ``path`` is a trace path (``"masses/M3/acceleration"``, ``"transducer/force"``...)
+        or ``"cam_force"`` (:attr:`cam_force`); times on the recorded clock [s].
+        """
+        hit = (self.located or {}).get(path)
+        if hit is None and path == "cam_force" and self.cam_contact_force is not None:
+            hit = (self.located or {}).get("cam_contact/force")
+        if hit is not None:
+            top, bottom = hit["max"], hit["min"]
+            if which == "max":
+                return top.value, top.time
+            if which == "min":
+                return bottom.value, bottom.time
+            return (abs(top.value), top.time) if abs(top.value) >= abs(bottom.value) else (abs(bottom.value), bottom.time)
+        data = self.cam_force if path == "cam_force" else self._traces.get(path, Trace(np.zeros(0), "", "")).data
+        if data is None or not data.size:
+            return None
+        values = np.abs(data) if which == "abs" else data
+        k = int(np.argmin(values)) if which == "min" else int(np.argmax(values))
+        return float(values[k]), float(self.time[k])
+
     @cached_property
     def _scalars(self) -> dict[str, Any]:
         nan = float("nan")
         out: dict[str, Any] = {}
-        for name, traces in self.masses.items():
-            for quantity in MASS_QUANTITIES:
-                data = traces[quantity]
-                out[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
-        tf = self.transducer_force
-        out["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
-        cf = self.cam_force
-        out["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
-        out["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
-        if self.cams is not None:  # issue 38: the extremes over every station
-            from camsim.run.camshaft import _station_forces
 
-            forces = [f for f in _station_forces(self).values() if f.size]
-            if forces:
-                out["max_cam_contact_force"] = max(float(np.max(f)) for f in forces)
+        def value(path, which):
+            hit = self.extreme(path, which)
+            return hit[0] if hit is not None else nan
+
+        for name in self.masses:
+            for quantity in MASS_QUANTITIES:
+                out[f"peak_{quantity}:{name}"] = value(f"masses/{name}/{quantity}", "abs")
+        out["peak_transducer_force"] = value("transducer/force", "max") if self.transducer_force is not None else nan
+        cf = self.cam_force
+        out["max_cam_contact_force"] = value("cam_force", "max") if cf is not None else nan
+        out["min_cam_contact_force"] = value("cam_force", "min") if cf is not None else nan
+        if self.cams is not None:  # issue 38: the extremes over every station
+            for which in ("max", "min"):
+                hit = self._station_extreme(which)
+                if hit is not None:
+                    out[f"{which}_cam_contact_force"] = hit[0]
         cam_contacts = {e.name for e in self._cam_contacts}
         out["jump"] = bool(
-            (cf is not None and cf.size and float(np.min(cf)) < 0)
+            (cf is not None and out["min_cam_contact_force"] < 0)
             or any(ev.kind == EventKind.RELEASE and ev.element in cam_contacts for ev in self.events)
         )
         out["cam_separation"], out["cam_separation_angle"] = self._cam_separation()
@@ -361,7 +427,7 @@ class RunResult:
 
         out.update(design_row(self))
         if self.camshaft_accumulator() is not None:  # issue 38
-            out.update(self.camshaft_accumulator().row())
+            out.update(self.camshaft_accumulator().row(self.located))
         return out
 
     def camshaft_accumulator(self, cs: float | None = None):
@@ -382,7 +448,7 @@ class RunResult:
     def camshaft_summary(self, cs: float | None = None) -> dict | None:
         """The camshaft section of the summary (torques, work, E_k, flywheel, motor, clearances)."""
         acc = self.camshaft_accumulator(cs)
-        return None if acc is None else acc.summary()
+        return None if acc is None else acc.summary(self.located)
 
     def missing_reasons(self) -> dict[str, str]:
         """Why each scalar without a value (NaN in :meth:`scalars`) is absent (issue 26)."""
@@ -465,19 +531,24 @@ class RunResult:
         out: dict = {"machine": self.machine.name, "no_impact": self.no_impact, "masses": {}}
         for name, traces in self.masses.items():
             entry = {}
-            for quantity, data in traces.items():
-                k = int(np.argmax(np.abs(data))) if data.size else 0
-                entry[quantity] = {"peak": float(np.abs(data[k])) if data.size else 0.0, "time": float(self.time[k]) if data.size else 0.0}
+            for quantity in traces:
+                hit = self.extreme(f"masses/{name}/{quantity}", "abs")
+                entry[quantity] = {"peak": hit[0], "time": hit[1]} if hit is not None else {"peak": 0.0, "time": 0.0}
             out["masses"][name] = entry
-        out["peak_transducer_force"] = _extreme(self.transducer_force, self.time, np.argmax)
-        out["max_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmax)
-        out["min_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmin)
-        if self.cams is not None:  # issue 38: the extremes over every station
-            from camsim.run.camshaft import _station_forces
 
-            highs = [_extreme(f, self.time, np.argmax) for f in _station_forces(self).values() if f.size]
-            if highs:
-                out["max_cam_contact_force"] = max(highs, key=lambda e: e["value"])
+        def extreme(path, which, present):
+            hit = self.extreme(path, which) if present else None
+            return {"value": hit[0], "time": hit[1]} if hit is not None else None
+
+        out["peak_transducer_force"] = extreme("transducer/force", "max", self.transducer_force is not None)
+        out["max_cam_contact_force"] = extreme("cam_force", "max", self.cam_force is not None)
+        out["min_cam_contact_force"] = extreme("cam_force", "min", self.cam_force is not None)
+        if self.cams is not None:  # issue 38: the extremes over every station
+            for which in ("max", "min"):
+                hit = self._station_extreme(which)
+                if hit is not None:
+                    out[f"{which}_cam_contact_force"] = {"value": hit[0], "time": hit[1]}
+        out["located"] = self.located is not None
         out["jump"] = self.follower_jumps()
         out["impacts"] = [e.to_dict() for e in self.impacts()]
         out["events"] = len(self.events)
@@ -487,12 +558,31 @@ class RunResult:
         design = self.design_summary()  # issue 14: with [cam.geometry]
         if design is not None:
             out["design"] = design
+        rods, stress = self.rod_summary(), contact_stress_rows(self.machine, self.events)  # issue 39
+        if rods:
+            out["rods"] = rods
+        if stress:
+            out["contact_stress"] = stress
         shaft = self.camshaft_summary()  # issue 38: several cams, or a [camshaft]
         if shaft is not None:
             if self.shaft_dynamics is not None:
                 shaft["dynamics"] = self.shaft_dynamics
             out["camshaft"] = shaft
         return out
+
+    def rod_summary(self) -> dict[str, dict]:
+        """Each rod's discretisation (:func:`camsim.run.checks.rod_rows`) with its largest
+        stress and end force (``{"value", "time"}``, SI; located, spec §4) (issue 39)."""
+        rows = rod_rows(self.machine)
+        for name, row in rows.items():
+            traces = self.element_traces.get(name, {})
+            stress = self.extreme(f"elements/{name}/max_stress", "max") if "max_stress" in traces else None
+            row["max_stress"] = {"value": stress[0], "time": stress[1]} if stress is not None else None
+            ends = [self.extreme(f"elements/{name}/{k}", "abs") for k in ("force_lower", "force_upper") if k in traces]
+            ends = [e for e in ends if e is not None]
+            top = max(ends, key=lambda e: e[0]) if ends else None
+            row["max_end_force"] = {"value": top[0], "time": top[1]} if top is not None else None
+        return rows
 
     # ------------------------------------------------------------------ views
     def to_pandas(self):
@@ -539,13 +629,6 @@ class RunResult:
         )
 
 
-def _extreme(values: np.ndarray | None, time: np.ndarray, pick) -> dict | None:
-    if values is None or not values.size:
-        return None
-    k = int(pick(values))
-    return {"value": float(values[k]), "time": float(time[k])}
-
-
 # ---------------------------------------------------------------------- reading back
 def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunResult:
     """Read a run file (or one side of a comparison file) back as a :class:`RunResult`.
@@ -584,24 +667,24 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             machine = load_machine_text(text, source=f"{path}:machine_toml", base_dir=Path(path).parent)
         except MachineFileError as exc:
             raise ResultFileError(f"{path}: cannot rebuild its machine from machine_toml ({exc})") from None
-        extra: dict[str, Any] = {}
+        stations: dict[str, Any] = {}
         try:
             time = g["time"][()]
             quantities = ("angle", "displacement", "velocity", "acceleration", "jerk")
             if machine.multi_cam:  # issue 38: /cams/<name>/...
-                extra["cams"] = {c.name: {q: g[f"cams/{c.name}/{q}"][()] for q in quantities} for c in machine.cams}
-                extra["cam_contact_forces"] = {c.name: g[f"cams/{c.name}/contact_force"][()] for c in machine.cams
-                                               if f"cams/{c.name}/contact_force" in g}
-                cam = extra["cams"][machine.cams[0].name]
+                stations["cams"] = {c.name: {q: g[f"cams/{c.name}/{q}"][()] for q in quantities} for c in machine.cams}
+                stations["cam_contact_forces"] = {c.name: g[f"cams/{c.name}/contact_force"][()] for c in machine.cams
+                                                  if f"cams/{c.name}/contact_force" in g}
+                cam = stations["cams"][machine.cams[0].name]
             else:
                 cam = {q: g[f"cam/{q}"][()] for q in quantities}
             if "camshaft/angle" in g and machine.camshaft is not None and machine.camshaft.model == "dynamic":
-                extra["shaft_angle"] = g["camshaft/angle"][()]
-                extra["shaft_speed"] = g["camshaft/speed"][()]
-                extra["drive_torque"] = g["camshaft/motor_torque"][()]
-                extra["cam_speeds"] = ({c.name: g[f"cams/{c.name}/speed"][()] for c in machine.cams
-                                        if f"cams/{c.name}/speed" in g} if machine.multi_cam else
-                                       {machine.cams[0].name: g["cam/speed"][()]} if "cam/speed" in g else None) or None
+                stations["shaft_angle"] = g["camshaft/angle"][()]
+                stations["shaft_speed"] = g["camshaft/speed"][()]
+                stations["drive_torque"] = g["camshaft/motor_torque"][()]
+                stations["cam_speeds"] = ({c.name: g[f"cams/{c.name}/speed"][()] for c in machine.cams
+                                           if f"cams/{c.name}/speed" in g} if machine.multi_cam else
+                                          {machine.cams[0].name: g["cam/speed"][()]} if "cam/speed" in g else None) or None
             masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
         except KeyError:  # a run stored with --record or --summary-only (camsim.run.stream)
             import json
@@ -611,7 +694,10 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                 f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
                 "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
             ) from None
-        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
+        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})
+                    if "force" in g[f"elements/{name}"]}
+        extra = {name: {q: g[f"elements/{name}/{q}"][()] for q in g[f"elements/{name}"] if q != "force"}
+                 for name in g.get("elements", {})}  # issue 39: a rod's end forces and max_stress
         cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
         transducer = g["transducer/force"][()] if "transducer/force" in g else None
         table = read_events(g) or {}
@@ -623,10 +709,25 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                                    for name, v in row.items()}))
         boundaries = g["cam/boundaries_deg"][()] if "cam/boundaries_deg" in g else (
             g["camshaft/boundaries_deg"][()] if "camshaft/boundaries_deg" in g else np.zeros(0))
+        located = read_extremes(g)
         residual = float(g.attrs.get("periodicity_residual", float("nan")))
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
-            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), **extra,
+            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
+            element_traces={name: q for name, q in extra.items() if q}, **stations,
         )
+
+
+def read_extremes(group) -> dict | None:
+    """The ``extremes`` table of a run layout as :attr:`RunResult.located` (None without one)."""
+    from camsim.io.hdf5 import read_table
+
+    if "extremes" not in group:
+        return None
+    table = read_table(group["extremes"])
+    return {
+        str(q): {"max": Extreme(float(a), float(ta)), "min": Extreme(float(b), float(tb))}
+        for q, a, ta, b, tb in zip(table["quantity"], table["max"], table["max_time"], table["min"], table["min_time"])
+    }
