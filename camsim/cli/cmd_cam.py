@@ -255,10 +255,9 @@ def cam_command(
                 written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {tol * 1e6:.4g} um, {unit})")
         if plot is not None:
             from camsim.figures.cam import plot_cam_design
-            from camsim.io.atomic import atomic_path
+            from camsim.figures.style import save_figure
 
             fmt = plot.suffix.lower().lstrip(".")
-            metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
             figures = []
             if geometry is not None and output_program is None:
                 figures.append((plot, plot_cam_design(geometry, program, title=f"{machine.name}: cam design")))
@@ -273,12 +272,11 @@ def cam_command(
                 figures.append((plot, plot_svaj(curves, title=f"{machine.name}: SVAJ on the model axis")))
                 if geometry is not None:
                     design = plot.with_name(f"{plot.stem}-design{plot.suffix}")
-                    check_writable(design)
+                    check_output(design, fmt, owner="figure", inputs=inputs, option="--plot (its design figure)")
                     figures.append((design, plot_cam_design(geometry, program, title=f"{machine.name}: "
                                                                                       "compensated cam design")))
             for path_, fig in figures:
-                with atomic_path(path_) as tmp:
-                    fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+                save_figure(fig, path_, fmt, dpi=150)
                 written.append(str(path_))
         if not as_json:
             for line in written:

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, user_errors
+from camsim.errors import InputError
 
 
 @app.command("report")
@@ -14,6 +15,7 @@ def report_command(
     results: list[Path] = typer.Argument(..., metavar="RESULT.h5...", help="camsim result files: run, compare, sweep, study, or an optimize history (several give one page)."),
     output: Path = typer.Option(None, "-o", "--output", help="The HTML page. Default: the first result's name with .html."),
     pdf: Path = typer.Option(None, "--pdf", help="Also print the page to this PDF through the local Chromium (see docs/report.md)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing HTML page that camsim did not write (a file of another kind or an input is never replaced)."),
 ) -> None:
     """Write one self-contained, interactive HTML page of RESULT.h5: verdicts, tables, zoomable traces.
 
@@ -22,7 +24,15 @@ def report_command(
     page, an unwritable output, no browser for --pdf); nothing is written then.
     """
     with user_errors():
+        from camsim.io.outputs import HTML, PDF, check_output, output_format, same_file
+
         target = output if output is not None else results[0].with_suffix(".html")
+        inputs = [(f"result file {p}" if len(results) > 1 else "result file", p) for p in results]
+        check_output(target, output_format(target, HTML), owner="report", inputs=inputs, force=force)
+        if pdf is not None:
+            if same_file(pdf, target):
+                raise InputError(f"{pdf}: --pdf and -o name the same file; give each output its own name")
+            check_output(pdf, output_format(pdf, PDF, "--pdf"), owner="report", inputs=inputs, option="--pdf")
         from camsim.reports.build import build_report
 
         build_report(results, target, pdf=pdf)

@@ -125,6 +125,8 @@ def study_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
+    max_runs: int = typer.Option(100_000, "--max-runs", min=1, help="Refuse (exit 2, before anything runs) a study of more simulation runs (--samples, x (d + 2) with --sensitivity)."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run a study above --max-runs (or whose runs exceed the 2 GB output estimate)."),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
@@ -213,15 +215,13 @@ def study_command(
                 resume=resume,
                 progress=bar,
                 on_start=start,
+                max_runs=math.inf if yes else max_runs,
+                max_output=math.inf if yes else None,
             )
         except StudyInterrupted as exc:
             bar.close()
-            if exc.lost:
-                raise fail(
-                    f"{exc.lost} runs did not run (a worker process failed); {exc.done} of {exc.total} are kept in "
-                    f"{exc.store} (and its .journal); run the same command with --resume to run the rest",
-                    1,
-                ) from None
+            if not exc.done:
+                raise fail(f"interrupted before any of the {exc.total} runs finished: nothing was kept", 130) from None
             raise fail(
                 f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store} (and its .journal); "
                 "run the same command with --resume to finish",
@@ -243,6 +243,10 @@ def study_command(
             _render(result, err_console, units)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
         write_report_page([Path(result.output)], report, quiet=json_)
+        if result.not_run:
+            raise fail(f"incomplete: {result.not_run} of {result.n_runs} runs did not run (a worker process failed); "
+                       f"{result.output} keeps the others and its .journal; run the same command with --resume to "
+                       "run them (no probability is concluded meanwhile)", 1)
         if result.failed:
             raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
                        "'status'); no probability is concluded from the others", 1)

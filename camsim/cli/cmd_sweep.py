@@ -151,6 +151,7 @@ def sweep_command(
     or SIGTERM (finished rows are written, the rest marked "cancelled").
     """
     from camsim.cli.app import parse_sample_rate
+    from camsim.errors import FileSystemError
     from camsim.io.atomic import check_writable
     from camsim.cli.progress import Bar
     from camsim.run.lifecycle import sigterm_as_interrupt
@@ -193,7 +194,12 @@ def sweep_command(
             )
         finally:
             bar.close()
-        h5_path, csv_path = write_sweep(result, target)
+        try:
+            h5_path, csv_path = write_sweep(result, target)
+        except FileSystemError as exc:  # the journal has every finished row
+            again = "--fresh (the traces of --keep-traces are not in the journal)" if keep_traces else "--resume"
+            raise exc.with_advice(f"{result.journal} keeps the finished rows: free space and run the same command "
+                                  f"with {again}") from None
         finish_sweep(result)
         if json_:
             print_json(
@@ -217,6 +223,8 @@ def sweep_command(
         write_report_page([h5_path], report, quiet=json_)
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
+            if not done:
+                raise fail(f"interrupted before any of the {len(result.rows)} variants finished: nothing was kept", 130)
             raise fail(
                 f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled'); rerun with --resume to complete it",
                 130,

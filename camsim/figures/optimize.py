@@ -151,14 +151,6 @@ def plot_optimize(result):
 
 def save_optimize_plot(result, path: str | os.PathLike[str], dpi: float = 120.0) -> Path:
     """Write the figure atomically (format from the suffix: png, svg, pdf)."""
-    import matplotlib
+    from camsim.figures.style import save_figure
 
-    from camsim.figures.style import _METADATA
-    from camsim.io.atomic import atomic_path
-
-    target = Path(path)
-    fmt = target.suffix.lower().lstrip(".")
-    fig = plot_optimize(result)
-    with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
-    return target
+    return save_figure(plot_optimize(result), Path(path), dpi=dpi)

@@ -78,6 +78,8 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
                 _fmt(e.contact_duration * 1e3 if not math.isnan(e.contact_duration) else float("nan")),
             )
         console.print(t)
+        for note in _dash_notes(shown_rows):  # issue 35: every "–" says why
+            console.print(note, markup=False)
         if len(impacts) > len(shown_rows):
             console.print(f"... {len(impacts) - len(shown_rows)} more impacts: all are in the file's /events table and in --json")
     else:
@@ -101,6 +103,23 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
 
     for warning in result.warnings:
         console.print(f"warning: {in_system(warning, system)}", style="yellow", markup=False)
+
+
+def _dash_notes(impacts) -> list[str]:
+    """Why an impact row shows "–": one line per column that has one."""
+    notes = []
+    if any(math.isnan(e.contact_duration) for e in impacts):
+        notes.append("duration –: the contact is still closed when the recording ends (it outlasts the recorded "
+                     "revolutions; record more with --cycles to see it open)")
+    if any(math.isnan(e.peak_force) for e in impacts):
+        notes.append("simulated peak –: no output sample fell inside the contact (sample faster with --sample-rate "
+                     "to resolve it)")
+    if any(math.isnan(e.johnson_lower) or math.isnan(e.johnson_upper) for e in impacts):
+        notes.append("Johnson –: no common-velocity estimate for this contact (its law has no closed form; the "
+                     "simulated peak is the figure)")
+    if any(math.isnan(e.relative_velocity) for e in impacts):
+        notes.append("approach –: the contact closed without relative speed (a closing at rest)")
+    return notes
 
 
 def _at(value, fmt=".4g", unit="deg") -> str:

@@ -609,6 +609,9 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
         if np.min(cam_force) < 0:
             k = int(np.argmin(cam_force))
             warnings.append(negative_cam_force_warning(model.driven, cam_force[k], time[k]))
+    from camsim.machine.compensation import assumption_warnings
+
+    warnings.extend(assumption_warnings(machine, events))  # issue 35: the compensation checks itself
     return RunResult(
         machine=machine, **traces, events=events,
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,

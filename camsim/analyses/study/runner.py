@@ -171,6 +171,8 @@ class StudyResult:
     output: Path | None = None
     csv: Path | None = None
     limit_texts: list[str] = field(default_factory=list)
+    #: Runs that did not run (their worker process failed; ``--resume`` runs them).
+    not_run: int = 0
 
     @property
     def outputs(self) -> list[str]:
@@ -195,6 +197,7 @@ class StudyResult:
             "output": None if self.output is None else str(self.output),
             "csv": None if self.csv is None else str(self.csv),
             "failed": self.failed,
+            "not_run": self.not_run,
             "incomplete": self.failed > 0,
             "outputs": self.stats,
             "limits": self.limits,
@@ -266,6 +269,8 @@ def study(
     resume: bool = False,
     progress: Callable[[int, int], None] | None = None,
     on_start: Callable[[int, int, str], None] | None = None,
+    max_runs: float | None = None,
+    max_output: float | None = None,
 ) -> StudyResult:
     """Run a tolerance study of a machine: statistics, limit probabilities, Sobol' indices.
 
@@ -386,10 +391,20 @@ def study(
         raise InputError(f"--workers {workers}: needs at least 1")
     source = machine if isinstance(machine, MachineSource) else MachineSource.from_path(machine)
 
+    # Know before you start (issue 35): the runs, and the size of each (held in memory).
+    from camsim.run.budget import DEFAULT_MAX_OUTPUT, DEFAULT_MAX_RUNS, check_budget, check_runs, estimate_run
+
+    total_runs = n_runs(samples, len(parsed), sensitivity)
+    counted = f"--samples {samples}" + (f" x (d + 2) = {samples} x {len(parsed) + 2} for --sensitivity" if sensitivity else "")
+    check_runs(total_runs, DEFAULT_MAX_RUNS if max_runs is None else max_runs, "study", counted,
+               "make fewer runs with fewer --samples" + (" (or without --sensitivity)" if sensitivity else ""))
+
     # The nominal machine: key checks, the output columns.
     from camsim.run.simulation import simulate
 
     base = _check_keys(source, fixed, parsed)
+    check_budget(estimate_run(base, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate),
+                 DEFAULT_MAX_OUTPUT if max_output is None else max_output, str(source.source or "study"))
     try:
         nominal_result = simulate(base, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     except SimulationError as exc:
@@ -475,13 +490,21 @@ def study(
     interrupted, lost = _run_missing(executor, tasks, todo, store, lambda i, row: _stored_row(i, design[i], keys, values[i], row, column_names),
                                total, progress, on_start, name)
     stored = store.rows()
-    if interrupted or lost:
-        store.close()
+    if interrupted:
+        if stored:
+            store.close()
+        else:  # nothing finished: no journal to resume (a rerun starts afresh)
+            store.remove_journal()
         raise StudyInterrupted(len(stored), total, h5_path, lost=lost)
+    not_run = [i for i in range(total) if i not in stored]
+    rows = dict(stored)
+    for i in not_run:  # a worker process died: no result, and no conclusion drawn without it
+        rows[i] = _stored_row(i, design[i], keys, values[i],
+                              {"status": "not run: its worker process failed (--resume runs it)"}, column_names)
 
     import pandas as pd
 
-    frame = pd.DataFrame([_complete(stored[i], columns) for i in range(total)], columns=[c for c, _ in columns])
+    frame = pd.DataFrame([_complete(rows[i], columns) for i in range(total)], columns=[c for c, _ in columns])
     frame = _typed(frame)
     stats, limit_rows, sens, ranking, notes = _analyse(frame, output_names, parsed_limits, keys, samples, sensitivity, int(seed))
     result = StudyResult(
@@ -507,13 +530,15 @@ def study(
         output=h5_path,
         csv=csv_path,
         limit_texts=list(limits),
+        not_run=len(not_run),
     )
     if output is not None:
         from camsim.analyses.study.files import write_study
 
-        store.close(complete=True)
+        store.close(complete=not not_run)
         write_study(result, h5_path, csv_path)  # replaces the view with the final file
-        store.remove_journal()
+        if not not_run:  # kept for --resume otherwise
+            store.remove_journal()
     else:
         store.close()
     return result
