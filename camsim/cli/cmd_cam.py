@@ -283,4 +283,16 @@ def cam_command(
                 err_console.print(f"wrote {line}", markup=False)
 
 
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, FIGURES, DXF
+declare("cam", reads=[Reads("machine_file", "machine", fixture="geometry")], force=True,
+        writes=[Writes("output", "-o", {**HDF5, **CSV}, "cam", optional=True),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True),
+                Writes("profile", "--profile", CSV, "csv", optional=True),
+                Writes("dxf", "--dxf", DXF, "dxf", optional=True)],
+        example=("cam", "{in:machine_file}", "--points", "60", "-o", "{out:-o}", "--plot", "{out:--plot}",
+                 "--profile", "{out:--profile}", "--tolerance", "10um", "--dxf", "{out:--dxf}"))
+
+
 __all__ = ["cam_command", "write_cam_csv", "write_cam_hdf5"]

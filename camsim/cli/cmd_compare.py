@@ -139,3 +139,12 @@ def compare_command(
             if output is not None:
                 err_console.print(f"wrote {output}")
         write_report_page([output] if output is not None else list(inputs), report, quiet=json_)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, HTML
+declare("compare", reads=[Reads("inputs", "machine"),
+                          Reads("inputs", "result", ("run",), fixture="run", example=("compare", "{in:inputs}", "{run}"))],
+        writes=[Writes("output", "-o", HDF5, "compare"), Writes("report", "--report", HTML, "report", optional=True)],
+        force=True, example=("compare", "{in:inputs}", "-o", "{out:-o}", "-q", "--report", "{out:--report}"))

@@ -245,3 +245,16 @@ def fit_command(
         written = write_fitted(target_path, text, result, source=str(machine))
         if not json_:
             err_console.print(f"wrote {written}" + (f" and {report}" if report is not None else ""), markup=False)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, TOML, FIGURES
+declare("fit", reads=[Reads("machine", "machine"),
+                      Reads("measured", "csv", fixture="measured",
+                            example=("fit", "{machine}", "{in:measured}", "--param", "element.K.preload=0:100", "-o", "{out:-o}"))],
+        writes=[Writes("output", "-o", TOML, "fit"), Writes(None, "-o", HDF5, "fit", beside="-o:+.evaluations.h5", journal=True,
+                                                           transient=True),
+                Writes("report", "--report", FIGURES, "figure", optional=True)],
+        force=True, example=("fit", "{in:machine}", "--target", "max_cam_contact_force=100N", "--param", "element.K.preload=0:100",
+                             "-o", "{out:-o}", "--report", "{out:--report}"))

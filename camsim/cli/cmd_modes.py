@@ -49,3 +49,8 @@ def modes_command(
             f"{m.stiffness_ratio:.3g}" if m.stiffness_ratio else "–",
         )
     err_console.print(table)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, declare
+declare("modes", reads=[Reads("machine", "machine")], example=("modes", "{in:machine}"))

@@ -185,3 +185,13 @@ def optimize_command(
         if not result.feasible:
             unwritten = f"{out} was not written" if out is not None else "no machine file is written"
             raise fail(f"no candidate meets the constraints (the least-violating one is reported); {unwritten}", 1)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, TOML, FIGURES
+declare("optimize", reads=[Reads("machine", "machine")], force=True,
+        writes=[Writes("out", "-o", TOML, "optimize", optional=True), Writes("history", "-r", HDF5, "optimize", journal=True, optional=True),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True)],
+        example=("optimize", "{in:machine}", "--var", "element.K.preload=20:60N", "--minimize", "max_cam_contact_force",
+                 "--method", "local", "--budget", "3", "--workers", "1", "-q", "-o", "{out:-o}", "-r", "{out:-r}", "--plot", "{out:--plot}"))

@@ -37,3 +37,11 @@ def report_command(
 
         build_report(results, target, pdf=pdf)
     err_console.print(f"wrote {target}" + (f" and {pdf}" if pdf is not None else ""), markup=False)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HTML, PDF
+declare("report", reads=[Reads("results", "result", ("run", "compare", "sweep", "study", "optimize"), fixture="run")], force=True,
+        writes=[Writes("output", "-o", HTML, "report"), Writes("pdf", "--pdf", PDF, "report", optional=True)],
+        example=("report", "{in:results}", "-o", "{out:-o}", "--pdf", "{out:--pdf}"), slow=True)

@@ -250,3 +250,14 @@ def study_command(
         if result.failed:
             raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
                        "'status'); no probability is concluded from the others", 1)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, FIGURES, HTML
+declare("study", reads=[Reads("machine", "machine"), Reads("config", "config", fixture="config",
+                                                           example=("study", "--config", "{in:config}", "-o", "{out:-o}"))],
+        writes=[Writes("out", "-o", HDF5, "study", journal=True), Writes(None, "-o", CSV, "csv", beside="-o:.csv"),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True), Writes("report", "--report", HTML, "report", optional=True)],
+        force=True, example=("study", "{in:machine}", "--dist", "element.K.preload=normal:40N:1N", "-n", "3", "--workers", "1", "-q",
+                             "-o", "{out:-o}", "--plot", "{out:--plot}", "--report", "{out:--report}"))

@@ -241,3 +241,13 @@ def sweep_command(
                 "holds the reason); no conclusion is drawn from them",
                 1,
             )
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, HTML
+declare("sweep", reads=[Reads("machine", "machine")], force=True,
+        writes=[Writes("output", "-o", HDF5, "sweep", journal=True), Writes(None, "-o", CSV, "csv", beside="-o:.csv"),
+                Writes("report", "--report", HTML, "report", optional=True)],
+        example=("sweep", "{in:machine}", "--vary", "cam.speed=100:140:20rpm", "--workers", "1", "-q", "-o", "{out:-o}",
+                 "--report", "{out:--report}"))

@@ -11,7 +11,7 @@ target, which can prove it abandoned because that process no longer exists
 
 A writer is handed a :class:`Target`, never a path: it writes through the target's
 opened file (:meth:`Target.text`, :meth:`Target.binary`, :meth:`Target.h5`,
-:meth:`Target.write_bytes`). Every byte goes through one function (:meth:`Sink.write`),
+:meth:`Target.put_bytes`). Every byte goes through one function (:meth:`Sink.write`),
 so the file system's refusals (no space, a quota, an I/O error) are met in one place.
 
 HDF5 and a full disk
@@ -321,11 +321,13 @@ class Target:
         self._wrappers.append(wrapper)
         return wrapper
 
-    def write_bytes(self, data: bytes) -> None:
+    def put_bytes(self, data: bytes) -> None:
+        """The whole file at once."""
         with self.binary() as fh:
             fh.write(data)
 
-    def write_text(self, text: str) -> None:
+    def put_text(self, text: str) -> None:
+        """The whole file at once, as UTF-8 text."""
         with self.text() as fh:
             fh.write(text)
 

@@ -352,7 +352,7 @@ def writing(
     ------
     Target
         The opened temporary file: ``target.h5()``, ``target.text()``, ``target.binary()``,
-        ``target.write_bytes(...)``; ``target.check()`` raises a write error early.
+        ``target.put_bytes(...)``; ``target.check()`` raises a write error early.
 
     Raises
     ------

@@ -345,7 +345,7 @@ class RowStore:
                 header = {"rowstore": FORMAT, "columns": columns, "meta": meta}
                 if info:
                     header["info"] = _jsonable(dict(info))
-                target.write_bytes(_encode(header))
+                target.put_bytes(_encode(header))
             _fsync_directory(journal.parent)
             fd = open_journal(journal)
             _lock(fd, journal)

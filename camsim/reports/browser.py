@@ -84,6 +84,6 @@ def print_pdf(html: str | os.PathLike[str], pdf: str | os.PathLike[str]) -> Path
         finally:
             browser.close()
     with writing(pdf, "pdf", owner="report", option="--pdf") as target:
-        target.write_bytes(data)
+        target.put_bytes(data)
     return Path(pdf)
 

@@ -206,7 +206,7 @@ def write_page(text: str, output: str | os.PathLike[str]) -> Path:
 
     out = Path(output)
     with writing(out, "html", owner="report") as target:
-        target.write_text(text)
+        target.put_text(text)
     return out
 
 

@@ -226,5 +226,5 @@ def write_fitted(path: str | os.PathLike[str], text: str, result, source: str = 
     content = fitted_text(text, result, source)
     target = Path(path)
     with writing(target, "toml", owner="fit") as out:
-        out.write_text(content)
+        out.put_text(content)
     return target

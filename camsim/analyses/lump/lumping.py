@@ -133,7 +133,7 @@ def write_machine(result: LumpResult, target: str | Path, *, validate: bool = Tr
     if validate:  # the text as the output's folder will read it, before anything is written
         _validate_text(result, text, Path(target).parent)
     with writing(target, "toml", owner="lump") as out:
-        out.write_text(text)
+        out.put_text(text)
     return Path(target)
 
 

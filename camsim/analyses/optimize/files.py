@@ -70,7 +70,7 @@ def write_optimised(result, path: Path) -> Path:
 
     content = optimised_text(result)
     with writing(path, "toml", owner="optimize") as target:
-        target.write_text(content)
+        target.put_text(content)
     return path
 
 
