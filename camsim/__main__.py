@@ -12,9 +12,62 @@ def main() -> None:
     try:
         from camsim.cli import main as cli_main
     except KeyboardInterrupt:
-        sys.stderr.write("camsim: interrupted; nothing was written\n")
-        sys.exit(130)
-    cli_main()
+        _exit_interrupted("camsim: interrupted; nothing was written\n")
+    _keep_interrupts()
+    code: object = 0
+    try:
+        cli_main()
+    except SystemExit as exc:
+        code = exc.code
+    except KeyboardInterrupt:  # before a command took over (typer building the command line)
+        _exit_interrupted("camsim: interrupted; nothing was written\n")
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the command is over: a late Ctrl-C changes nothing
+    if code == 130:
+        _exit_interrupted()
+    sys.exit(code)
+
+
+def _keep_interrupts() -> None:
+    """A Ctrl-C that lands where Python cannot raise it (a deallocator, a callback of a C
+    library: "Exception ignored in ... KeyboardInterrupt") is delivered again to the main
+    thread instead of being printed as a traceback and lost."""
+    default = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            import _thread
+
+            _thread.interrupt_main()
+            return
+        default(unraisable)
+
+    sys.unraisablehook = hook
+
+
+def _exit_interrupted(message: str = "") -> None:
+    """Exit 130, the documented code of an interrupted command.
+
+    CPython ends a process whose main code saw a KeyboardInterrupt -- even one handled, when
+    it arrived inside an import evaluated by ``PyRun_String`` -- by killing itself with
+    SIGINT at exit; camsim's Ctrl-C is a handled, orderly exit 130 (docs/results.md).
+    """
+    import atexit
+
+    if message:
+        sys.stderr.write(message)
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        import os
+
+        os._exit(130)
 
 
 if __name__ == "__main__":

@@ -87,9 +87,16 @@ class _OneLineErrors(typer.core.TyperGroup):
                               "please report it with the command line (CAMSIM_TRACEBACK=1 shows the traceback)",
                               markup=False, highlight=False)
             rv = 1
+        if rv == 130 and not _INTERRUPT_REPORTED[0]:  # Ctrl-C outside a command's user_errors: typer's silent 130
+            err_console.print("camsim: interrupted; nothing was written", markup=False)
+        _INTERRUPT_REPORTED[0] = False
         if not standalone_mode:
             return rv
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+#: Set when a command said why it stops after Ctrl-C (the group says it otherwise).
+_INTERRUPT_REPORTED = [False]
 
 
 def _environment(exc: OSError) -> str:
@@ -145,6 +152,8 @@ def _main(
 def fail(message: str, code: int = 2) -> typer.Exit:
     """Print ``camsim: error: message`` on stderr and return the Exit to raise."""
     err_console.print(f"camsim: error: {message}", markup=False, highlight=False)
+    if code == 130:
+        _INTERRUPT_REPORTED[0] = True
     return typer.Exit(code=code)
 
 
@@ -165,6 +174,7 @@ def user_errors() -> Iterator[None]:
         raise fail(_environment(exc), 1) from None
     except KeyboardInterrupt:
         err_console.print("camsim: interrupted; nothing was written under the output name")
+        _INTERRUPT_REPORTED[0] = True
         raise typer.Exit(code=130) from None
 
 

@@ -145,7 +145,6 @@ def cam_command(
     """
     from camsim.cam import CamProgram
     from camsim.cam.files import write_cam_csv, write_cam_hdf5
-    from camsim.io.atomic import check_writable
 
     with user_errors():
         from camsim.io.outputs import CSV, FIGURES, HDF5, check_output, output_format, same_file

@@ -48,6 +48,11 @@ def render_design_comparison(rows, console) -> None:
         table.add_row(row["quantity"], fmt(row["impact"]), fmt(row["no_impact"]), unit,
                       "–" if change is None else f"{change:+.3g}")
     console.print(table)
+    for row in rows:  # issue 35: every "–" says why
+        if row["impact"] is None or row["no_impact"] is None:
+            console.print(f"– in {row['quantity']}: {row.get('reason') or 'not computed for that run'}", markup=False)
+        elif row["change_percent"] is None:
+            console.print(f"– change of {row['quantity']}: the no-impact value is 0 (no relative change)", markup=False)
 
 
 @app.command("compare")

@@ -181,9 +181,9 @@ def fit_command(
         inputs = [("machine file", machine), ("measured file", measured)]
         check_output(target_path, output_format(target_path, TOML), owner="fit", force=force, inputs=inputs)
         store = evaluation_store_for(target_path)
-        # the store has no file_kind (a row-store view); only its kind and the inputs are checked
+        # the store is a row-store view with file_kind "fit": another file there needs --force
         check_output(store, output_format(store, HDF5), owner="fit", inputs=inputs, option="-o (its evaluation store)",
-                     force=True)
+                     force=force)
         check_journal(target_path, journal_path_for(store), resume=resume, fresh=fresh, what="fit")
         if report is not None and report.suffix.lower() in (".html", ".htm"):
             from camsim.cli.report_option import check_report_target

@@ -49,6 +49,19 @@ def modes_command(
             f"{m.stiffness_ratio:.3g}" if m.stiffness_ratio else "–",
         )
     err_console.print(table)
+    for note in _dash_notes(modes):  # issue 35: every "–" says why
+        err_console.print(note, markup=False)
+
+
+def _dash_notes(modes) -> list[str]:
+    notes = []
+    if any(not m.frequencies for m in modes):
+        notes.append("natural frequencies –: no mass is free to move in that configuration")
+    if any(math.isnan(z) for m in modes for z in m.damping_ratios) or any(not m.damping_ratios for m in modes):
+        notes.append("damping ratios –: a rigid-body mode (0 Hz) has no damping ratio")
+    if any(not m.stiffness_ratio for m in modes):
+        notes.append("stiffness ratio –: needs two non-zero natural frequencies")
+    return notes
 
 
 # What the command reads and writes (camsim.cli.contracts; the conformance suite's source).

@@ -85,6 +85,9 @@ def _render(result) -> None:
             err.print("  " + "  ".join(f"{g.text} = {_fmt(c.objectives[k])}" for k, g in enumerate(p.goals)), markup=False)
     for n in result.notes:
         err.print(f"note: {n}", markup=False)
+    if result.best is not None and (any(not math.isfinite(o) for o in result.best.objectives if isinstance(o, float))
+                                    or result.best.status != "ok"):  # issue 35: every "—" says why
+        err.print(f"—: no value: {result.best.status if result.best.status != 'ok' else 'the run gave none'}", markup=False)
 
 
 @app.command("optimize")

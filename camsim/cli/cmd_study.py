@@ -55,6 +55,10 @@ def _render(result, err, system: str = "si") -> None:
             Text(v(s["percentiles"]["99"])), Text(v(s["min"])), Text(v(s["max"])),
         )
     err.print(table)
+    shown_values = [x for s in result.stats.values() for x in (s["mean"], *s["ci95"]["mean"], s["std"], s["min"], s["max"])]
+    if any(_fmt(x) == "—" for x in shown_values):  # issue 35: every "—" says why
+        err.print("—: not defined for these runs (one run has no spread and no bootstrap interval; a statistic of "
+                  "runs that all failed has no value)", markup=False)
     for lim in result.limits:
         if lim.get("reason"):
             err.print(f"P({lim['expr']}): not determined: {lim['reason']}", markup=False)

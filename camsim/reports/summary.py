@@ -149,6 +149,10 @@ def render_geometry_checks(summary: dict, console: Console, title: str = "cam ge
         table.add_row("contact from axis", f"{1e3 * summary['face_min_contact']:.4g} to {1e3 * summary['face_max_contact']:.4g}",
                       "mm", "", "")
     console.print(table)
+    for key in ("min_pitch_radius", "min_surface_radius", "min_concave_radius"):  # issue 35: every "–" says why
+        if (roller or key != "min_pitch_radius") and summary.get(key) is None:
+            console.print(f"{key.replace('_', ' ')} –: " + {"min_concave_radius": "the cam has no concave part",
+                                                            }.get(key, "no convex part of the curve"), markup=False)
     for warning in summary.get("warnings", ()):
         console.print(f"warning: {warning}", style="yellow")
 

@@ -22,7 +22,6 @@ read-only tmpfs as root, a mode-0555 folder otherwise.
 
 from __future__ import annotations
 
-import errno
 import fcntl
 import os
 import random
@@ -39,45 +38,15 @@ import pytest
 from typer.testing import CliRunner
 
 import camsim.cli  # noqa: F401 - registers every command and its contract
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from filesystem import MACHINE, fill, inject_enospc, mount_tmpfs, umount  # noqa: E402
 from camsim.cli import app
 from camsim.cli.contracts import CONTRACTS, PROTECTED
 
 ROOT = Path(__file__).resolve().parents[2]
 CI = os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get("CAMSIM_SLOW") == "1"
 runner = CliRunner()
-
-#: The machine of most examples: one driven mass on a spring (tests/fit/machines.py), fast.
-MACHINE = """\
-schema = 1
-
-[machine]
-name = "conformance machine"
-
-[cam]
-speed = "120 rpm"
-drives = "M"
-segments = [
-  { motion = "rise", law = "harmonic", duration = "180 deg", lift = "10 mm" },
-  { motion = "fall", law = "harmonic", duration = "180 deg", lift = "10 mm" },
-]
-
-[[mass]]
-name = "M"
-mass = "2 kg"
-
-[[element]]
-name = "K"
-type = "spring"
-between = ["ground", "M"]
-stiffness = "5 N/mm"
-preload = "40 N"
-damping = 0
-
-[simulation]
-cycles = 1
-warmup_cycles = 0
-sample_rate = "500 Hz"
-"""
 
 OUT_CASES = ("input", "other_kind", "foreign", "readonly", "locked", "full_disk", "sigkill", "sigint")
 IN_CASES = ("truncated", "empty", "foreign_hdf5", "csv", "attributes_only", "missing_dataset")
@@ -122,19 +91,6 @@ def _lock_holder(path: Path) -> tuple[int, int]:
     pid = os.getppid()  # a live process that is not this one
     os.write(fd, f"{pid}\n".encode())
     return fd, pid
-
-
-def _mount_tmpfs(path: Path, options: str) -> bool:
-    """Mount a tmpfs at ``path`` (root only); False when it cannot."""
-    if os.geteuid() != 0 or shutil.which("mount") is None:
-        return False
-    path.mkdir(parents=True, exist_ok=True)
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(path)], capture_output=True)
-    return r.returncode == 0
-
-
-def _umount(path: Path) -> None:
-    subprocess.run(["umount", "-l", str(path)], capture_output=True)
 
 
 # ------------------------------------------------------------------------------ the cases
@@ -367,7 +323,7 @@ def _case_foreign(c, w, keep, inputs, paths, target, tmp, **_):
 def _case_readonly(c, w, keep, inputs, paths, target, tmp, **_):
     """In a read-only folder: exit 2 before anything is computed, nothing written."""
     ro = tmp / "ro"
-    mounted = _mount_tmpfs(ro, "ro,size=64k")
+    mounted = mount_tmpfs(ro, "ro,size=64k")
     if not mounted:
         if os.geteuid() == 0:
             pytest.skip("running as root without permission to mount a read-only tmpfs")
@@ -381,7 +337,7 @@ def _case_readonly(c, w, keep, inputs, paths, target, tmp, **_):
         assert not target.exists()
     finally:
         if mounted:
-            _umount(ro)
+            umount(ro)
         else:
             ro.chmod(0o755)
 
@@ -408,16 +364,9 @@ def _case_full_disk(c, w, keep, inputs, paths, target, tmp, monkeypatch, **_):
     """Onto a full disk: exit 1, one line naming a file there and the cause, nothing under the
     output's name, no temporary file; never a signal, never "internal error"."""
     full = tmp / "full"
-    if _mount_tmpfs(full, "size=256k"):
+    if mount_tmpfs(full, "size=256k"):
         try:
-            filler = full / "filler"
-            with open(filler, "wb") as fh:
-                try:
-                    while True:
-                        fh.write(b"\0" * 65536)
-                        fh.flush()
-                except OSError:
-                    pass
+            fill(full)
             _move_outputs(c, w, paths, full)
             target = _target(c, w, paths, inputs)
             line = _one_line_error(_invoke(_args(c, paths, inputs, keep)), 1)
@@ -425,14 +374,9 @@ def _case_full_disk(c, w, keep, inputs, paths, target, tmp, monkeypatch, **_):
             assert not target.exists()
             _no_temps(full)
         finally:
-            _umount(full)
+            umount(full)
         return
-    import camsim.io.atomic as atomic
-
-    def enospc(fd, data, offset=None):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-    monkeypatch.setattr(atomic, "raw_write", enospc)
+    inject_enospc(monkeypatch)
     line = _one_line_error(_invoke(_args(c, paths, inputs, keep)), 1)
     assert str(tmp) in line and "no space left" in line, line
     assert not target.exists()
@@ -461,8 +405,7 @@ def _case_signal(c, w, keep, inputs, paths, target, tmp, case, **_):
         else:
             assert proc.returncode in (0, -signal.SIGKILL), proc.returncode
         _valid_or_absent(w, target)
-        journal = target.with_name(target.name + ".journal")
-        again = args + (["--resume"] if journal.exists() else [])
+        again = args + (["--resume"] if list(tmp.rglob("*.journal")) else [])
         r = subprocess.run([sys.executable, "-m", "camsim", *again], cwd=tmp, env=env, capture_output=True, timeout=300)
         assert r.returncode == 0, r.stderr.decode(errors="replace")
         _valid_or_absent(w, target, present=not w.transient and (not w.optional or keep == w.option))

@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parents[2]
 CDTM = ROOT / "machines" / "cdtm.toml"
 runner = CliRunner()
 
-#: A driven one-mass machine (tests/fit/machines.py): each run takes milliseconds.
-MACHINE = (Path(__file__).parent / "test_conformance.py").read_text().split('MACHINE = """\\\n', 1)[1].split('"""', 1)[0]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from filesystem import MACHINE, fill, inject_enospc, mount_tmpfs, umount  # noqa: E402
 
 
 def _err(result) -> list[str]:
@@ -142,37 +142,16 @@ def test_readers_refuse_a_result_missing_a_mass_or_its_events(run_h5, tmp_path, 
 
 
 # ------------------------------------------------------------------------------ environment errors
-def _fill(folder: Path) -> None:
-    with open(folder / "filler", "wb") as fh:
-        try:
-            while True:
-                fh.write(b"\0" * 65536)
-                fh.flush()
-        except OSError:
-            pass
-
-
 @pytest.fixture
 def full_disk(tmp_path):
     """A full file system: a small tmpfs (as root), else None (the test injects ENOSPC)."""
     folder = tmp_path / "full"
-    folder.mkdir()
-    if os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", "size=512k", "tmpfs", str(folder)],
-                                            capture_output=True).returncode == 0:
-        _fill(folder)
+    if mount_tmpfs(folder, "size=512k"):
+        fill(folder)
         yield folder
-        subprocess.run(["umount", "-l", str(folder)], capture_output=True)
+        umount(folder)
     else:
         yield None
-
-
-def _inject_enospc(monkeypatch) -> None:
-    import camsim.io.atomic as atomic
-
-    def enospc(fd, data, offset=None):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-    monkeypatch.setattr(atomic, "raw_write", enospc)
 
 
 def test_full_disk_is_the_users_not_a_bug(machine, tmp_path, full_disk, monkeypatch):
@@ -180,7 +159,7 @@ def test_full_disk_is_the_users_not_a_bug(machine, tmp_path, full_disk, monkeypa
     line naming the file and the cause, exit 1, nothing under the output's name."""
     where = full_disk if full_disk is not None else tmp_path
     if full_disk is None:
-        _inject_enospc(monkeypatch)
+        inject_enospc(monkeypatch)
     out = where / "r.h5"
     r = runner.invoke(app, ["run", str(machine), "-o", str(out), "-q"])
     assert r.exit_code == 1, r.stderr
