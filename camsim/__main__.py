@@ -38,8 +38,13 @@ def _keep_interrupts() -> None:
     def hook(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             import _thread
+            import threading
 
-            _thread.interrupt_main()
+            # a moment later, from another thread: the main thread raises it at a step of its
+            # own, not inside this hook (where it would be ignored again)
+            timer = threading.Timer(0.05, _thread.interrupt_main)
+            timer.daemon = True
+            timer.start()
             return
         default(unraisable)
 

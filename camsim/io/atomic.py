@@ -36,7 +36,6 @@ import errno
 import io
 import os
 import re
-import secrets
 from pathlib import Path
 from typing import Any
 
@@ -75,6 +74,8 @@ def temp_path_for(target: str | os.PathLike[str]) -> Path:
     ``.<name>.<pid>.<8 hex>.tmp`` in the target's directory (same file system, so the
     final ``os.replace`` is atomic). :func:`remove_stale_temps` recognises it.
     """
+    import secrets  # here, not at start-up: every command imports this module
+
     target = Path(target)
     return target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
 
