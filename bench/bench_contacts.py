@@ -38,6 +38,7 @@ import numpy as np  # noqa: E402
 import scipy  # noqa: E402
 
 import camsim.engine.integrator as integrate  # noqa: E402
+import camsim.engine.nonlinear as nonlinear  # noqa: E402
 from camsim.machine.loader import load_machine, load_machine_text  # noqa: E402
 from camsim.physics.restitution import linear_damping_ratio  # noqa: E402
 from camsim import simulate  # noqa: E402
@@ -103,14 +104,14 @@ def accuracy(power) -> None:
         for label, stepper, tol in (("reference DOP853 rtol 1e-13", False, 1e-13),
                                     ("DOP853 rtol 1e-11 (before issue 12)", False, 1e-11),
                                     ("iterated-remainder stepper", True, 1e-11)):
-            integrate.NONLINEAR_STEPPER = stepper
+            nonlinear.ENABLED = stepper
             rtol["value"] = tol
             t = time.perf_counter()
             runs[label] = simulate(power, cycles=1, warmup_cycles=0)
             print(f"  {label:38s} {time.perf_counter() - t:7.3f} s", file=sys.stderr)
     finally:
         integrate.Integrator.__init__ = orig_init
-        integrate.NONLINEAR_STEPPER = True
+        nonlinear.ENABLED = True
     ref = runs.pop("reference DOP853 rtol 1e-13")
     print("accuracy against DOP853 rtol 1e-13:", file=sys.stderr)
     for label, run in runs.items():

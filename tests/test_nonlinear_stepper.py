@@ -38,7 +38,7 @@ def test_stepper_against_independent_solver():
 
     nonlinear._propagate = counting
     try:
-        assert integrate.NONLINEAR_STEPPER
+        assert nonlinear.ENABLED
         result = simulate(load_machine_text(TEXT))
     finally:
         nonlinear._propagate = original
@@ -129,7 +129,7 @@ def test_cdtm_power_against_tight_dop853(monkeypatch):
         self.rtol_nonlinear = 1e-13
 
     monkeypatch.setattr(integrate.Integrator, "__init__", tight)
-    monkeypatch.setattr(integrate, "NONLINEAR_STEPPER", False)
+    monkeypatch.setattr(nonlinear, "ENABLED", False)
     ref = simulate(machine, cycles=1, warmup_cycles=0)
     assert [e.kind for e in run.events] == [e.kind for e in ref.events]
     assert len(ref.events) >= 16
@@ -203,7 +203,7 @@ def test_anderson_solves_a_linear_fixed_point():
     iterations, 100 times closer to the solution of (I − M)·x = b (numpy's solve) than the
     plain iteration; _solve_small against numpy's solve on a ridge-shifted 3×3 Gram
     matrix (1e-12)."""
-    from camsim.engine.nonlinear import _Anderson, _solve_small
+    from camsim.engine.remainder import _Anderson, _solve_small
 
     rng = np.random.default_rng(3)
     n = 30
@@ -235,7 +235,9 @@ def test_fast_input_projection_is_the_input():
     integ = integrate.Integrator(Model(machine), CamProgram(machine.cam), 2e-5, t_ref=0.0)
     t0 = integ.t_ref + 3.3 * integ.h
     t1 = integ.t_ref + 7.0 * integ.h
-    fast = nonlinear._FastInput(integ, t0, t1)
+    from camsim.engine.bounce import _FastInput
+
+    fast = _FastInput(integ, t0, t1)
     g = np.array([1.0, -2e-3, 3e-5, 1e-7])
     at = fast.project(g)
     for t in np.linspace(t0, t1, 17):

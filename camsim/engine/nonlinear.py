@@ -43,16 +43,19 @@ exactly as before (to ~1e-12 s).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from camsim.engine.bounce import COLLOC_STEPS, _releasing, bounce_span
 from camsim.engine.collocation import Collocation, collocation_steps
-from camsim.engine.windows import INTERP_TOL, LADDER, _first_hit, _fresh
-from camsim.model.assembly import N_INPUT
-from camsim.engine.recurrence import linear_recurrences
+from camsim.engine.remainder import _Anderson, _LinearLaw, _propagate, _RemainderResponse, _step_affine
 from camsim.engine.state import TIME_EPS, State, Stretch
-from camsim.engine.stepping import _FACT, _P, StepMaps, exact_partial, forcing_coefficients, step_input_derivatives
+from camsim.engine.stepping import StepMaps, step_input_derivatives
+from camsim.engine.windows import INTERP_TOL, LADDER, _first_hit, _fresh
+
+#: The exponential stepper on (False: DOP853 throughout, camsim.engine.rk; the reference of
+#: the stepper's tests and benchmark).
+ENABLED = True
 
 #: A window keeps the previous window's linear law while the tangent values stay within
 #: this relative distance of it (fewer step maps to build).
@@ -109,25 +112,9 @@ ONSET_COLLOC = False
 AFTER_ONSET = True
 #: Grid steps handed to DOP853 where the iteration does not converge.
 FALLBACK_STEPS = 8
-#: Grid steps per call of the collocation (solved together, camsim.engine.collocation).
-COLLOC_STEPS = 8
 
 
-@dataclass
-class _LinearLaw:
-    """A configuration-like linear system (the attributes StepMaps and exact_partial use)."""
-
-    A: np.ndarray
-    B: np.ndarray
-    b: np.ndarray
-    cache: dict = field(default_factory=dict)
-
-    @property
-    def dim(self) -> int:
-        return self.A.shape[0]
-
-
-class PowerContactStepper:
+class ClosedContact:
     """Per-configuration data of the iterated-remainder stepper (cached on the integrator)."""
 
     def __init__(self, integrator, config):
@@ -181,38 +168,6 @@ class PowerContactStepper:
         return d, dd, F, kt, ct
 
 
-def _kept_modes(maps):
-    """(μ, to_modes, from_modes) of a modal StepMaps' kept modes: their multipliers, the
-    projection z → w and the reconstruction w → z (weights folded in), cached on the maps."""
-    modes = maps.__dict__.get("_kept_modes")
-    if modes is None:
-        keep = maps.keep
-        modes = maps._kept_modes = (maps.mu[keep], maps.Vinv[keep].T.copy(),
-                                    (maps.V[:, keep] * maps.weights[keep]).T.copy())
-    return modes
-
-
-def _releasing(delta, rate, h):
-    """A contact unloading so fast that it releases within one collocation call at its
-    present rate (the collocation would refuse the step; DOP853 goes on)."""
-    return rate < 0.0 and delta + rate * COLLOC_STEPS * h < 0.0
-
-
-def _propagate(maps, z0, g):
-    """z_{k+1} = Φ·z_k + g_k for all k (modal recurrence when available)."""
-    K = g.shape[0]
-    if maps.modal:
-        mu, to_modes, from_modes = _kept_modes(maps)
-        W = linear_recurrences(mu, g @ to_modes, z0 @ to_modes)
-        return (W @ from_modes).real
-    out = np.empty((K, z0.size))
-    z = z0
-    for k in range(K):
-        z = maps.Phi @ z + g[k]
-        out[k] = z
-    return out
-
-
 def advance_power(integrator, state, config, z0, guards, t_stop, record):
     """Integrate a configuration with one closed power-law contact (see module docstring).
 
@@ -224,7 +179,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
     steppers = integ.__dict__.setdefault("_power_steppers", {})
     stepper = steppers.get(config.branches)
     if stepper is None:
-        stepper = PowerContactStepper(integ, config)
+        stepper = ClosedContact(integ, config)
         steppers[config.branches] = stepper
     h = integ.h
     chi = stepper.chi(state.v_impacts)
@@ -279,7 +234,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         t_lim = min(t_stop, integ.t_ref + k_end * h)
         t_more = min(t_stop, t_lim + releasing_steps * h) if releasing_steps else None
         gs = guards if just_started else _fresh(guards)
-        t_end, z_end, stretch, fired = dop853_span(integ, t_from, cur, config, z_from, gs, t_lim, record, stepper,
+        t_end, z_end, stretch, fired = bounce_span(integ, t_from, cur, config, z_from, gs, t_lim, record, stepper,
                                                    releasing_to=t_more)
         if stretch is not None:
             pieces.append((stretch.t, stretch.z, stretch.u))
@@ -508,346 +463,15 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         window = min(window * 2, MAX_WINDOW)
 
 
-class _RemainderResponse:
-    """The part of a window's states driven by the remainder (from zero), given (r, h·ṙ)
-    at the nodes, each step's input being r's cubic Hermite on it.
+class ExponentialStepper:
+    """The stepper of a configuration with one closed nonlinear contact whose law gives its
+    tangent (``nonlinear_tangent``): :func:`advance_power`."""
 
-    Each iteration needs only its projection on δ, δ̇ and δ̈'s linear part (``proj_z``),
-    which :meth:`project` forms in modal coordinates (the forcing is linear in the
-    step's end values: one product with constant matrices per iteration, no state
-    vectors); :meth:`states` builds the states of the last call once, at the end.
-    """
+    exact = False
 
-    def __init__(self, maps, WL, proj_z, h, steps, first_map, last_map, K, n):
-        self.maps, self.WL, self.proj_z, self.h = maps, WL, proj_z, h
-        self.first_map, self.last_map, self.K, self.n = first_map, last_map, K, n
-        self.tau_first, self.tau_last = float(steps[0]), float(steps[-1])
-        self.modal = _modal_remainder(maps, WL, proj_z, h) if maps.modal else None
-        self._last = None
+    def applies(self, ctx, config) -> bool:
+        return bool(ENABLED and len(config.power_contacts) == 1 and config.dim
+                    and hasattr(ctx.model.elements[config.power_contacts[0]], "nonlinear_tangent"))
 
-    def cut(self, K, last_map):
-        """The window now ends at node K (its last step a full one, ``last_map``)."""
-        self.K, self.last_map, self.tau_last = K, last_map, self.h
-
-    def _hermite(self, xa, xb, tau):
-        """(r, ṙ, r̈, r⃛) at a step's start from (r, h·ṙ) at its ends, step length tau."""
-        h = self.h
-        ra, rda, rb, rdb = xa[0], xa[1] / h, xb[0], xb[1] / h
-        c2 = (3.0 * (rb - ra) / tau - 2.0 * rda - rdb) / tau
-        c3 = (2.0 * (ra - rb) / tau + rda + rdb) / (tau * tau)
-        return np.array([ra, rda, 2.0 * c2, 6.0 * c3])
-
-    def project(self, X):
-        """(K + 1, 3): the remainder's part of [δ, δ̇, δ̈'s linear part] (the columns of
-        ``proj_z``) at the nodes."""
-        K = self.K
-        ends = X[[0, 1, K - 1, K]].tolist()
-        z1 = self._hermite(ends[0], ends[1], self.tau_first) @ self.first_map[2]
-        Yr = np.zeros((K + 1, self.proj_z.shape[1]))
-        Yr[1] = z1 @ self.proj_z
-        if K > 2:
-            if self.modal is not None:
-                mu, to_modes, from_modes, H, from_proj = self.modal
-                # forcing of the middle steps in modal coordinates, from the rows
-                # [r_k, h·ṙ_k, r_k+1, h·ṙ_k+1] (a strided view of X, no copy)
-                X = np.ascontiguousarray(X)
-                pairs = np.ndarray((K - 2, 4), dtype=float, buffer=X, offset=2 * X.itemsize, strides=(2 * X.itemsize, X.itemsize))
-                forcing = (pairs @ H).view(complex)
-                W = linear_recurrences(mu, forcing, z1 @ to_modes)
-                Yr[2:K] = W.view(float) @ from_proj
-                z_before = (W[-1] @ from_modes).real
-            else:
-                xs = X.tolist()
-                R = np.empty((K - 2, 4))
-                for k in range(1, K - 1):
-                    R[k - 1] = self._hermite(xs[k], xs[k + 1], self.h)
-                W = _propagate(self.maps, z1, R @ self.WL)
-                Yr[2:K] = W @ self.proj_z
-                z_before = W[-1]
-        else:
-            W, z_before = None, z1
-        zK = self.last_map[0] @ z_before + self._hermite(ends[2], ends[3], self.tau_last) @ self.last_map[2]
-        Yr[K] = zK @ self.proj_z
-        self._last = (K, z1, W, zK)
-        return Yr
-
-    def states(self):
-        """(K + 1, n): the remainder's part of the states of the last :meth:`project`."""
-        K, z1, W, zK = self._last
-        Zr = np.zeros((K + 1, self.n))
-        Zr[1] = z1
-        if W is not None:
-            Zr[2:K] = (W @ self.modal[2]).real if self.modal is not None else W
-        Zr[K] = zK
-        return Zr[: self.K + 1]  # a window cut after the last projection ends earlier
-
-
-def _modal_remainder(maps, WL, proj_z, h):
-    """Per linear law (cached on its maps): the kept modes' multipliers, projection and
-    reconstruction, the middle steps' forcing matrix H (4, 2·modes: rows for r_k, h·ṙ_k,
-    r_k+1, h·ṙ_k+1, columns the modes' real and imaginary parts interleaved, so that a real
-    product viewed as complex is the modal forcing), and the reconstruction projected on
-    ``proj_z`` for the interleaved real view of the modal states (2·modes, 3)."""
-    hit = maps.__dict__.get("_remainder_modal")
-    if hit is None:
-        mu, to_modes, from_modes = _kept_modes(maps)
-        WLm = WL @ to_modes  # (4, modes): r, ṙ, r̈, r⃛ at a step's start → modal forcing
-        # the cubic Hermite's Taylor terms at a step's start in the end values (r, h·ṙ):
-        # r̈ = (6·Δr/h − 4·ṙ_a − 2·ṙ_b)/h, r⃛ = (12·(−Δr)/h + 6·(ṙ_a + ṙ_b))/h²
-        T = np.array([
-            [1.0, 0.0, -6.0 / h**2, 12.0 / h**3],  # r_a
-            [0.0, 1.0 / h, -4.0 / h**2, 6.0 / h**3],  # h·ṙ_a
-            [0.0, 0.0, 6.0 / h**2, -12.0 / h**3],  # r_b
-            [0.0, 0.0, -2.0 / h**2, 6.0 / h**3],  # h·ṙ_b
-        ])
-        Hc = T @ WLm
-        H = np.empty((4, 2 * mu.size))
-        H[:, 0::2], H[:, 1::2] = Hc.real, Hc.imag
-        P = from_modes @ proj_z  # (modes, columns of proj_z)
-        from_proj = np.empty((2 * mu.size, P.shape[1]))
-        from_proj[0::2], from_proj[1::2] = P.real, -P.imag
-        hit = maps._remainder_modal = (mu, to_modes, from_modes, H, from_proj)
-    return hit
-
-
-class _Anderson:
-    """Anderson acceleration (type II, depth m) of a fixed point x = G(x) (Walker & Ni,
-    SIAM J. Numer. Anal. 49 (2011) 1715), on the iterate's flattened values."""
-
-    def __init__(self, depth):
-        self.depth = depth
-        self.dF: list[np.ndarray] = []
-        self.dG: list[np.ndarray] = []
-        self.prev = None
-
-    def cut(self, size):
-        """Keep the first ``size`` values of the history (a window cut short)."""
-        self.dF = [v[:size] for v in self.dF]
-        self.dG = [v[:size] for v in self.dG]
-        if self.prev is not None:
-            self.prev = (self.prev[0][:size], self.prev[1][:size])
-
-    def next(self, X, GX):
-        """The next iterate from x and G(x) (arrays of one shape)."""
-        g = GX.reshape(-1)
-        f = g - X.reshape(-1)
-        if self.prev is not None:
-            self.dF.append(f - self.prev[0])
-            self.dG.append(g - self.prev[1])
-            if len(self.dF) > self.depth:
-                del self.dF[0], self.dG[0]
-        self.prev = (f, g)
-        if not self.dF:
-            return GX
-        dF = np.column_stack(self.dF)
-        # least squares min |f − dF·γ| by its normal equations (at most `depth` unknowns;
-        # a relative ridge of 1e-13 keeps nearly dependent differences harmless)
-        gram = (dF.T @ np.column_stack([dF, f])).tolist()
-        gamma = _solve_small([row[:-1] for row in gram], [row[-1] for row in gram], 1e-13)
-        out = g.copy()
-        for c, v in zip(gamma, self.dG):
-            out -= c * v
-        return out.reshape(GX.shape)
-
-
-def _solve_small(G, b, ridge):
-    """Solve (G + ridge·tr(G)·I)·x = b for a small symmetric positive semi-definite G
-    (lists of floats; Cholesky, plain Python: a 3×3 system costs less than numpy's call)."""
-    n = len(b)
-    shift = ridge * sum(G[i][i] for i in range(n)) + 1e-300
-    Lc = [[0.0] * n for _ in range(n)]
-    for i in range(n):
-        for j in range(i + 1):
-            v = G[i][j] + (shift if i == j else 0.0) - sum(Lc[i][k] * Lc[j][k] for k in range(j))
-            Lc[i][j] = math.sqrt(max(v, shift)) if i == j else v / Lc[j][j]
-    y = [0.0] * n
-    for i in range(n):
-        y[i] = (b[i] - sum(Lc[i][k] * y[k] for k in range(i))) / Lc[i][i]
-    x = [0.0] * n
-    for i in reversed(range(n)):
-        x[i] = (y[i] - sum(Lc[k][i] * x[k] for k in range(i + 1, n))) / Lc[i][i]
-    return x
-
-
-def _step_affine(lin, maps, WL, L, full, tau, D_k, g_u_k):
-    """One step of a window as an affine map: (P, c, W) with z⁺ = P·z + c + R·W, R the
-    remainder's Taylor terms (r, ṙ, r̈, r⃛) at the step's start. A full step uses the law's
-    maps; a partial one (a window's first or last) the exact maps of its own length."""
-    from camsim.engine.stepping import phi_series
-
-    if full:
-        return maps.Phi, g_u_k, WL
-    E = forcing_coefficients(lin, D_k[None, :])[0]
-    series = phi_series(lin.A, tau)
-    if series is not None:
-        Phi, Gamma = series
-        return Phi, np.tensordot(Gamma, E, axes=([0, 2], [0, 1])), Gamma[:4] @ L
-    # beyond the series' norm bound: the augmented expm, column by column (rare)
-    n = lin.A.shape[0]
-    zero = np.zeros_like(E)
-    P = np.column_stack([exact_partial(lin, e, zero, tau) for e in np.eye(n)])
-    W = np.empty((4, n))
-    for j in range(4):
-        Ej = zero.copy()
-        Ej[j] = L
-        W[j] = exact_partial(lin, np.zeros(n), Ej, tau)
-    return P, exact_partial(lin, np.zeros(n), E, tau), W
-
-
-class _FastInput:
-    """u(t) = [s, ṡ, s̈, s⃛] on [t0, t1] from the grid steps' degree-7 Hermite polynomials,
-    built for the whole span in one vectorised pass (a right-hand side evaluated
-    thousands of times then costs one small matrix product)."""
-
-    def __init__(self, integ, t0, t1):
-
-        h = integ.h
-        k0 = math.ceil((t0 - integ.t_ref) / h - 1e-7)
-        k1 = math.floor((t1 - integ.t_ref) / h + 1e-7)
-        if k0 <= k1 and integ.t_ref + k0 * h <= t0 + TIME_EPS:
-            k0 += 1
-        inner = integ.t_ref + np.arange(k0, k1 + 1) * h
-        inner = inner[(inner > t0 + TIME_EPS) & (inner < t1 - TIME_EPS)]
-        nodes = np.concatenate([[t0], inner, [t1]])
-        U = np.empty((nodes.size, N_INPUT))
-        U[0] = integ._node_input(t0)
-        if inner.size:
-            ks = np.round((inner - integ.t_ref) / h).astype(int)
-            U[1:-1] = integ._grid_inputs(int(ks[0]), int(ks[-1]) + 1)
-        U[-1] = integ._node_input(t1)
-        if t1 in integ._joins:
-            s_, v_, a_, j_ = integ.cam.svaj(np.array([t1]), side="left")
-            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
-        D = step_input_derivatives(U[:-1], U[1:], np.diff(nodes), h)
-        Dp = np.concatenate([D, np.zeros((D.shape[0], 3))], axis=1)
-        fact = _FACT[: _P + 1]
-        # C[k, c, j] = D_{j+c}/j!  so that u_c(τ) = Σ_j C[k, c, j]·τ^j
-        self.C = np.stack([Dp[:, c : c + _P + 1] / fact for c in range(N_INPUT)], axis=1)
-        self.starts = nodes[:-1]
-        self.powers = np.arange(_P + 1)
-        self.last = nodes.size - 2
-
-        self.h = h
-        self.t1 = float(self.starts[1]) if self.starts.size > 1 else math.inf
-
-    def index(self, t: float) -> int:
-        """The step holding t (the first from its start node on)."""
-        if t < self.t1:
-            return 0
-        k = 1 + int((t - self.t1) / self.h)
-        if k > self.last:
-            return self.last
-        if t < self.starts[k]:  # rounding at a node
-            k -= 1
-        return k
-
-    def __call__(self, t):
-        k = self.index(t)
-        return self.C[k] @ ((t - self.starts[k]) ** self.powers)
-
-    def project(self, g):
-        """g·u(t) as a function of a float t, in plain floats (Horner on the projected
-        polynomial of the step holding t)."""
-        coeffs = [row[::-1] for row in np.einsum("c,kcj->kj", g, self.C).tolist()]
-        starts, index = self.starts.tolist(), self.index
-
-        def at(t):
-            k = index(t)
-            x = t - starts[k]
-            y = 0.0
-            for c in coeffs[k]:
-                y = y * x + c
-            return y
-
-        return at
-
-
-def dop853_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, releasing_to=None):
-    """DOP853 (rtol of the integrator) from (t0, z0) to ``t_stop`` or the first event;
-    returns (t_end, z_end, the recorded stretch or None, the guard that fired or None).
-    ``state`` gives the branches and approach speeds of the stretch. With
-    ``releasing_to``: if at ``t_stop`` the contact is releasing (unloading so fast that
-    δ + δ̇·COLLOC_STEPS·h < 0, the test advance_power applies before the collocation),
-    the same solver goes on to ``releasing_to`` (its step history kept; a new span would
-    start with a guessed step).
-
-    The same method, tolerances, events and output as
-    :meth:`camsim.engine.integrator.Integrator._advance_nonlinear`, with the cam input from
-    :class:`_FastInput` and the one contact's force in scalar arithmetic, stepped by
-    :class:`camsim.engine.dop853.OneContactDOP853` (the linear structure around the one force).
-    Its first step is the one that worked last time: at an onset (δ = 0 at the start) the
-    first accepted step after the last onset, elsewhere the largest accepted step of the
-    last span.
-    """
-
-    from camsim.engine.dop853 import OneContactDOP853
-    from camsim.elements.base import LENGTH_TOL
-
-    v_imp = state.v_impacts
-    cam_input = _FastInput(integ, t0, t_stop if releasing_to is None else max(t_stop, releasing_to))
-    A, B, b, L = config.A, config.B, config.b, stepper.L
-    Mz = np.vstack([stepper.dz, stepper.rz])
-    Mu = np.vstack([stepper.du, stepper.ru])
-    me = np.array([stepper.de, stepper.re])
-    v_impact = stepper.v_impact
-    # One matrix product per evaluation gives ż's linear part and the contact's δ, δ̇:
-    # rows [A; Mz] on z, and per step the cam input's polynomial pushed through [B; Mu]
-    # (its coefficients of τ^j) with the constants [b; me] folded into the τ^0 column.
-    BMC = np.einsum("mc,kcj->kmj", np.vstack([B, Mu]), cam_input.C)
-    BMC[:, :, 0] += np.concatenate([b, me])
-    starts, powers = cam_input.starts, cam_input.powers.astype(float)
-
-    def inputs(ts, t_lo, t_hi):
-        """[B·u + b; Mu·u + me] at the times ts ⊂ [t_lo, t_hi]: (len(ts), n + 2)."""
-        k0 = index(t_lo)
-        if k0 == index(t_hi):  # the usual case: one grid step's polynomial
-            return ((ts - start_list[k0])[:, None] ** powers) @ BMC[k0].T
-        ks = np.searchsorted(later_starts, ts, side="right")
-        return (BMC[ks] @ ((ts - starts[ks])[:, None] ** powers)[:, :, None])[:, :, 0]
-
-    start_list, index, later_starts = starts.tolist(), cam_input.index, starts[1:]
-
-    def input_at(t):
-        k = index(t)
-        return BMC[k] @ ((t - start_list[k]) ** powers)
-
-    force = stepper.element.scalar_force(v_impact)
-
-    # the first step: what worked last time (see the docstring)
-    memory = integ.__dict__.setdefault("_dop853_first_steps", {})
-    # (δ within LENGTH_TOL of zero: an impact event leaves δ at zero only to rounding)
-    onset = bool(Mz[0] @ z0 + input_at(t0)[-2] <= LENGTH_TOL)
-    structure = stepper.__dict__.get("dop853_structure")
-    if structure is None:
-        structure = stepper.dop853_structure = OneContactDOP853.structure(A, L, Mz)
-    solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
-                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure,
-                              exponent=getattr(stepper.element, "exponent", 1.0), onset=onset,
-                              crossing_step=memory.get(True))
-    n_z = z0.size
-
-    def forces(t, z):
-        """The one contact's force F_nl at (t, z), for guards that read it (issue 25)."""
-        delta, rate = (Mz @ z + input_at(t)[n_z:]).tolist()
-        return np.array([force(delta, rate)])
-
-    grid, Zs, z_end, fired, t_end = integ.dop853_span(None, z0, t0, t_stop, guards, cam_input, solver, forces=forces)
-    if fired is None and releasing_to is not None and releasing_to > t_end:
-        n = z0.size
-        delta, rate = (Mz @ z_end + input_at(t_end)[n:]).tolist()
-        if _releasing(delta, rate, integ.h):
-            solver.t_bound, solver.status = float(releasing_to), "running"
-            grid2, Zs2, z_end, fired, t_end = integ.dop853_span(None, z_end, t_end, releasing_to, guards, cam_input,
-                                                                solver, forces=forces)
-            grid, Zs = np.concatenate([grid, grid2]), np.concatenate([Zs, Zs2])
-    if onset and solver.first_accepted is not None:
-        memory[True] = solver.first_accepted
-    elif not onset and solver.largest > 0.0:
-        memory[False] = solver.largest
-    stretch = None
-    if record and grid.size:
-        ks = np.round((grid - integ.t_ref) / integ.h).astype(int)
-        Us = integ._grid_inputs(int(ks[0]), int(ks[-1]) + 1)  # exact cam values, as on every grid point
-        fn = integ.nonlinear_forces(config, Zs, Us, v_imp)
-        stretch = Stretch(state.branches, config, grid, Zs, Us, fn, dict(v_imp))
-    return t_end, z_end, stretch, fired
+    def advance(self, ctx, state, config, z0, guards, t_stop, record):
+        return advance_power(ctx, state, config, z0, guards, t_stop, record)

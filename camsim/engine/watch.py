@@ -42,6 +42,7 @@ from camsim.elements import FORCE_TOL
 from camsim.elements.affine import N_INPUT, Affine
 from camsim.elements.events import Event, EventKind
 from camsim.engine.crossing import analytic_input, polish_crossing, root_near
+from camsim.engine.roots import refine
 from camsim.engine.state import Guard, cubic_root
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
@@ -186,7 +187,7 @@ class CamForceWatch:
             return exact_partial(config, z_k, Ek, tau) if tau > 0 else z_k
 
         ends = (float(g[k]), float(g[k + 1]), float(Gd[k]), float(Gd[k + 1]))
-        root = integ._refine(config, guard, z_k, D[k], Ek, hk, False, ends)
+        root = refine(config, guard, z_k, D[k], Ek, hk, False, ends)
         if root is None:
             return
         polished = polish_crossing(integ, config, guard, t_k, hk, root[0], root[1], D[k], state_at=state_at)

@@ -1,0 +1,330 @@
+"""The engine's shared context: cam input, grid, step maps, guards, forces, the event list.
+
+Every way of advancing a configuration (:mod:`camsim.engine.linear`,
+:mod:`camsim.engine.nonlinear`, :mod:`camsim.engine.rk`) and every event handler
+(:mod:`camsim.engine.rigid`, :mod:`camsim.engine.watch`) works on an
+:class:`EngineContext`; the event loop on top (:class:`camsim.engine.integrator.Integrator`)
+is one. The cam input u = [s, ṡ, s̈, s⃛] is evaluated once per grid block and cached;
+single instants between grid points come from the step's degree-7 Hermite polynomial.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+
+import numpy as np
+
+from camsim.elements import Branch
+from camsim.elements.affine import N_INPUT, Affine
+from camsim.elements.events import Event, EventKind
+from camsim.model.assembly import Configuration, Model
+from camsim.engine.state import TIME_EPS, Guard, State, Stretch
+from camsim.engine.stepping import _FACT, _P, StepMaps, _hermite_maps
+
+#: A time within this fraction of the grid step of a grid point is that grid point: grid
+#: times are t_ref + k·h computed from k, so only rounding (~1e-16·k) separates them.
+GRID_SNAP = 1e-7
+
+
+class _GuardContext:
+    """What an element needs to state its guards in one configuration at one state."""
+
+    def __init__(self, integrator: "EngineContext", config: Configuration, state: State, index: int):
+        self.integrator = integrator
+        self.config = config
+        self.state = state
+        self.index = index
+        self.damping = integrator.model.damping[index]
+        self.v_impact = state.v_impacts.get(index)
+
+    def deflection(self) -> tuple[Affine, Affine]:
+        """d = x_upper − x_lower and ḋ as affine maps."""
+        return self.integrator._deflection(self.config, self.index)
+
+    def penetration(self) -> tuple[Affine, Affine]:
+        """δ = gap − d and δ̇ of a contact as affine maps."""
+        return self.integrator._delta(self.config, self.index)
+
+    def constraint_force(self) -> Affine:
+        """The compressive force of a constraint (a stuck rigid contact) as an affine map."""
+        k = self.config.stuck_contacts.index(self.index)
+        return self.config.lam.rows(slice(k, k + 1))
+
+    def now(self, value: Affine) -> float:
+        """An affine map evaluated at the current state."""
+        integ = self.integrator
+        z = self.config.state_from_full(self.state.x, self.state.v, *integ.inputs(np.array([self.state.t]))[0, :2])
+        u = integ.inputs(np.array([self.state.t]))
+        return float(value(z[None, :], u)[0, 0])
+
+
+class EngineContext:
+    """What every stepper shares: the model, the cam input, the grid, the caches, the events.
+
+    The event loop (:class:`camsim.engine.integrator.Integrator`) is an ``EngineContext``
+    that also drives the steppers; a stepper receives the context and never imports the
+    driver (the layout of ``scipy.integrate._ivp``: ``common`` under the methods under
+    ``ivp``).
+
+    Parameters
+    ----------
+    model : Model
+    cam : CamProgram
+        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+    step : float
+        Internal grid step h [s]; the grid is t_ref + k·h.
+    t_ref : float
+        A time on the grid [s].
+    """
+
+    #: Grid points per block of cached cam input.
+    _BLOCK = 4096
+
+    def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
+        self.model = model
+        self.cam = cam
+        self.h = step
+        self.t_ref = t_ref
+        self.events: list[Event] = []
+        self._maps: dict[tuple[Branch, ...], StepMaps] = {}
+        self._deltas: dict[tuple[tuple[Branch, ...], int], tuple[Affine, Affine]] = {}
+        self._instant_count = 0
+        self._instant_time = -math.inf
+        self.rtol_nonlinear = 1e-11
+        self._chunk = 512
+        self._input_cache: dict[float, np.ndarray] = {}
+        self._grid_cache: dict[int, np.ndarray] = {}  # cam input on the grid, per block
+        self._join_array: list[float] | None = None  # sorted cam joins of the current run
+        self._joins: set[float] = set()  # cam segment joins of the current run
+        self._stacked = None  # the current stretch's guards stacked into matrices
+
+    # ------------------------------------------------------------------ inputs
+    def inputs(self, t: np.ndarray) -> np.ndarray:
+        """[s, ṡ, s̈, s⃛] at times t: (N, 4). Single instants are cached (events ask repeatedly)."""
+        t = np.asarray(t, dtype=float)
+        if t.size == 1:
+            key = float(t.reshape(-1)[0])
+            hit = self._input_cache.get(key)
+            if hit is None:
+                hit = self._input_between_grid_points(key)
+                if hit is None:
+                    s, v, a, j = self.cam.svaj(t.reshape(1))
+                    hit = np.stack([s, v, a, j], axis=-1)
+                if len(self._input_cache) > 64:
+                    self._input_cache.clear()
+                self._input_cache[key] = hit
+            return hit.copy()
+        s, v, a, j = self.cam.svaj(t)
+        return np.stack([s, v, a, j], axis=-1)
+
+    def analytic_inputs(self, t: float) -> np.ndarray:
+        """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the limit from the right at a join):
+        (4,). Unlike :meth:`inputs`, never the step's Hermite polynomial, whose s̈ and s⃛
+        inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
+        s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
+        return np.array([s_[0], v_[0], a_[0], j_[0]])
+
+    def analytic_inputs_at(self, t: np.ndarray, step_end: float) -> np.ndarray:
+        """[s, ṡ, s̈, s⃛] at times t from the cam laws: (N, 4); a time at or past ``step_end``
+        takes the limit from the left (the end of a stretch may be a cam segment join)."""
+        t = np.asarray(t, dtype=float)
+        right = t < step_end
+        out = np.empty((t.size, N_INPUT))
+        for side, mask in (("right", right), ("left", ~right)):
+            if np.any(mask):
+                s_, v_, a_, j_ = self.cam.svaj(t[mask], side=side)
+                out[mask] = np.stack([s_, v_, a_, j_], axis=-1)
+        return out
+
+    def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
+        """Cam input [s, ṡ, s̈, s⃛] at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
+
+        The last step ends at the chunk's end, maybe a cam segment join: its end values are
+        the limits from the left there (acceleration or jerk may jump).
+        """
+        U = np.empty((nodes.size, N_INPUT))
+        U[0] = self._node_input(float(nodes[0]))
+        U[1:-1] = self._grid_inputs(k0, k1)
+        U[-1] = self._node_input(float(nodes[-1]))
+        if nodes[-1] in self._joins:
+            s_, v_, a_, j_ = self.cam.svaj(nodes[-1:], side="left")
+            U[-1] = [s_[0], v_[0], a_[0], j_[0]]
+        return U
+
+    def _node_input(self, t: float) -> np.ndarray:
+        """Cam input at a chunk's first or last node: the cached grid value when the node
+        is a grid point (so a sample's value never depends on where a stretch began)."""
+        k = round((t - self.t_ref) / self.h)
+        if abs(self.t_ref + k * self.h - t) <= TIME_EPS:
+            return self._grid_inputs(k, k + 1)[0]
+        return self.inputs(np.array([t]))[0]
+
+    def _input_between_grid_points(self, t: float) -> np.ndarray | None:
+        """Cam input at one instant from the Hermite polynomial of its grid step.
+
+        The same degree-7 representation the step maps integrate (exact to ~1e-20
+        relative), built from the cached grid values: a tenth of the cost of evaluating
+        the cam laws at a single point. None where the step holds a cam segment join (the
+        polynomial does not reach across one) or outside a run.
+        """
+        if self._join_array is None:
+            return None
+        h = self.h
+        k = math.floor((t - self.t_ref) / h)
+        t_k = self.t_ref + k * h
+        i = bisect.bisect_right(self._join_array, t_k + TIME_EPS)
+        if i < len(self._join_array) and self._join_array[i] <= t_k + h + TIME_EPS:
+            return None
+        grid = self._grid_inputs(k, k + 2)
+        P0, P1 = _hermite_maps(h)
+        D = np.concatenate([grid[0] @ P0 + grid[1] @ P1, np.zeros(N_INPUT - 1)])
+        powers = (t - t_k) ** np.arange(_P + 1) / _FACT[: _P + 1]
+        return np.array([[D[c : c + _P + 1] @ powers for c in range(N_INPUT)]])
+
+    def _grid_inputs(self, k0: int, k1: int) -> np.ndarray:
+        """Cam input at grid points k0 ≤ k < k1: (k1 − k0, 4), from blocks evaluated once."""
+        out = np.empty((max(k1 - k0, 0), N_INPUT))
+        block = self._BLOCK
+        k = k0
+        while k < k1:
+            b = k // block
+            values = self._grid_cache.get(b)
+            if values is None:
+                t = self.t_ref + np.arange(b * block, (b + 1) * block) * self.h
+                s_, v_, a_, j_ = self.cam.svaj(t)
+                values = np.stack([s_, v_, a_, j_], axis=-1)
+                if len(self._grid_cache) > 64:
+                    self._grid_cache.clear()
+                self._grid_cache[b] = values
+            stop = min(k1, (b + 1) * block)
+            out[k - k0 : stop - k0] = values[k - b * block : stop - b * block]
+            k = stop
+        return out
+
+    def maps(self, config: Configuration) -> StepMaps:
+        maps = self._maps.get(config.branches)
+        if maps is None:
+            maps = StepMaps(config, self.h)
+            self._maps[config.branches] = maps
+        return maps
+
+    # ------------------------------------------------------------------ guards
+    def _deflection(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
+        """Deflection d = x_upper − x_lower of element i and its rate, as affine maps."""
+        geo = self.model.geometry[i]
+        G = geo.G.reshape(1, -1)
+        du = np.zeros((1, N_INPUT))
+        du[0, 0] = geo.g_s
+        d = Affine.combine([(G, config.x)], const=np.zeros(1), du=du)
+        du = np.zeros((1, N_INPUT))
+        du[0, 1] = geo.g_s
+        rate = Affine.combine([(G, config.v)], const=np.zeros(1), du=du)
+        return d, rate
+
+    def _delta(self, config: Configuration, i: int) -> tuple[Affine, Affine]:
+        """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps (built once
+        per configuration and contact: every sample of a closed power-law contact's force
+        reads them)."""
+        key = (config.branches, i)
+        hit = self._deltas.get(key)
+        if hit is None:
+            d, rate = self._deflection(config, i)
+            sign, gap = self.model.elements[i].contact_side(self.model.branch_of(config.branches, i))
+            if sign < 0:  # the upper side of a two-sided element: δ = d − gap (issue 12 hook)
+                hit = Affine(d.Cz, d.Du, d.Fn, d.e - gap), rate
+            else:
+                hit = Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
+            self._deltas[key] = hit
+        return hit
+
+    def guards(self, state: State, config: Configuration) -> list[Guard]:
+        """Guards of the configuration at ``state``, as each element declares them."""
+        model = self.model
+        out: list[Guard] = []
+        for pos, i in enumerate(model.switching):
+            context = _GuardContext(self, config, state, i)
+            for kind, value, tol in model.elements[i].guards(state.branches[pos], context):
+                out.append(Guard(i, kind, value, tol))
+        if config.linear:
+            for guard in out:
+                guard.rate = self._rate(config, guard.value)
+        return out
+
+    @staticmethod
+    def _rate(config: Configuration, g: Affine) -> Affine:
+        """d/dt of an affine guard in a linear configuration."""
+        Du = g.Cz @ config.B
+        Du[:, 1:] += g.Du[:, :-1]
+        if np.any(g.Du[:, -1]):
+            raise AssertionError("guards may not depend on the jerk")
+        return Affine(g.Cz @ config.A, Du, np.zeros_like(g.Fn), g.Cz @ config.b)
+
+    # ------------------------------------------------------------------ grid helpers
+    def grid_between(self, t0: float, t1: float) -> np.ndarray:
+        """Grid points in [t0, t1) (tolerant to rounding)."""
+        k0 = math.ceil((t0 - self.t_ref) / self.h - GRID_SNAP)
+        k1 = math.ceil((t1 - self.t_ref) / self.h - GRID_SNAP)
+        if k1 <= k0:
+            return np.zeros(0)
+        return self.t_ref + np.arange(k0, k1) * self.h
+
+    def _on_grid(self, t: np.ndarray) -> np.ndarray:
+        k = (t - self.t_ref) / self.h
+        return np.abs(k - np.round(k)) < GRID_SNAP
+
+    def _stretch(self, state, config, ts, zs, us) -> Stretch | None:
+        if not ts:
+            return None
+        t = np.concatenate(ts)
+        if t.size == 0:
+            return None
+        z = np.concatenate(zs)
+        u = np.concatenate(us)
+        fn = self.nonlinear_forces(config, z, u, state.v_impacts)
+        return Stretch(state.branches, config, t, z, u, fn, dict(state.v_impacts))
+
+    def _state_from(self, config: Configuration, z: np.ndarray, t: float, previous: State) -> State:
+        u = self.inputs(np.array([t]))
+        fn = self.nonlinear_forces(config, z[None, :], u, previous.v_impacts)
+        x = config.x(z[None, :], u, fn)[0]
+        v = config.v(z[None, :], u, fn)[0]
+        return State(t, x, v, previous.branches, dict(previous.v_impacts))
+
+    def nonlinear_forces(self, config: Configuration, z: np.ndarray, u: np.ndarray, v_impacts) -> np.ndarray:
+        """Forces of closed power-law contacts on samples (N, p)."""
+        if not config.power_contacts:
+            return np.zeros((z.shape[0], 0))
+        out = np.empty((z.shape[0], len(config.power_contacts)))
+        for k, i in enumerate(config.power_contacts):
+            delta, rate = self._delta(config, i)
+            out[:, k] = self.model.power_force(i, delta(z, u)[:, 0], rate(z, u)[:, 0], v_impacts.get(i))
+        return out
+
+    @staticmethod
+    def nonlinear_atol(dim: int) -> np.ndarray:
+        """Absolute tolerances of a nonlinear phase's state: 1e-13 m on the positions,
+        1e-10 m/s on the velocities (DOP853's, and the collocation's local-error test)."""
+        return np.concatenate([np.full(dim // 2, 1e-13), np.full(dim // 2, 1e-10)])
+
+    def dop853_max_step(self) -> float:
+        """Largest DOP853 step of a nonlinear phase [s] (four grid steps)."""
+        return max(self.h * 4, 1e-6)
+
+    def relative_rate(self, state: State, i: int) -> tuple[float, float]:
+        """(δ, δ̇) of element i at a full state."""
+        geo = self.model.geometry[i]
+        u = self.inputs(np.array([state.t]))[0]
+        d = state.x @ geo.G + geo.g_s * u[0]
+        dd = state.v @ geo.G + geo.g_s * u[1]
+        return self.model.elements[i].penetration(d), -dd
+
+    def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float) -> None:
+        element = self.model.elements[i]
+        self.events.append(
+            Event(
+                time=t, element=element.name, kind=kind, relative_velocity=float(relative_velocity),
+                masses=f"{element.lower}/{element.upper}", element_index=i,
+            )
+        )
+

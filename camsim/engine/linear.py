@@ -1,0 +1,193 @@
+"""Exact advance of a linear configuration: step maps over the grid, guards on the exact solution.
+
+Between events a configuration is linear time-invariant with a cam input; its exact step
+maps (:mod:`camsim.engine.stepping`) carry whole chunks of the grid at numpy speed. Every
+guard's value and exact time derivative is known at each node, so a cubic Hermite bound
+per step reveals crossings that sign changes alone miss (a graze that crosses and re-crosses
+inside one step); each candidate is located on the exact solution
+(:func:`camsim.engine.roots.refine`) and polished on the analytic cam law
+(:func:`camsim.engine.crossing.polish_crossing`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from camsim.engine.context import GRID_SNAP, EngineContext
+from camsim.engine.crossing import polish_crossing
+from camsim.engine.roots import refine
+from camsim.engine.state import TIME_EPS, State
+from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
+
+
+def advance_linear(ctx: EngineContext, state: State, config, z0, guards, t_stop: float, record: bool):
+    """Advance a linear configuration exactly from ``state`` until its first event or ``t_stop``.
+
+    Chunks of the grid are propagated by the cached step maps (modal recurrences), every
+    guard is screened on the chunk's nodes with its exact rate, and the first crossing is
+    located on the exact solution. Returns (the state at the end, the recorded stretch or
+    None, the guard that fired or None).
+    """
+    maps = ctx.maps(config)
+    h = ctx.h
+    t0 = state.t
+    chunk = ctx._chunk
+    collected_t, collected_z, collected_u = [], [], []
+    first_chunk = True
+    z_start = z0
+    t_start = t0
+    while True:
+        # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
+        # sample's time (and the cam input there) is the same whatever the history.
+        k_end = math.floor((t_start - ctx.t_ref) / h + GRID_SNAP) + chunk
+        t_chunk_end = min(t_stop, ctx.t_ref + k_end * h)
+        k0 = math.ceil((t_start - ctx.t_ref) / h - GRID_SNAP)
+        k1 = math.ceil((t_chunk_end - ctx.t_ref) / h - GRID_SNAP)
+        if k0 < k1 and ctx.t_ref + k0 * h <= t_start + TIME_EPS:
+            k0 += 1  # the start is that grid point: it is node 0 already
+        if k0 < k1 and ctx.t_ref + (k1 - 1) * h >= t_chunk_end - TIME_EPS:
+            k1 -= 1  # the end is that grid point: it is the last node
+        # Nodes: the start, the interior grid points, the end.
+        nodes = np.concatenate([[t_start], ctx.t_ref + np.arange(k0, k1) * h, [t_chunk_end]])
+        U = ctx.chunk_inputs(nodes, k0, k1)
+        steps = np.diff(nodes)
+        D = step_input_derivatives(U[:-1], U[1:], steps, h)
+        Z = np.empty((nodes.size, config.dim))
+        Z[0] = z_start
+        # A grid step's computed length differs from h by the rounding of t (an ulp of t
+        # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
+        # 7x slower; long runs, camsim.run.stream).
+        full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
+        # Steps are full except possibly the first and the last: runs of full steps go
+        # through the cached maps, the others through an exact map of their own length.
+        k = 0
+        for p in [*np.flatnonzero(~full).tolist(), steps.size]:
+            if p > k:
+                Z[k + 1 : p + 1] = maps.propagate(Z[k], D[k:p])
+            if p < steps.size:
+                Z[p + 1] = exact_partial(config, Z[p], forcing_coefficients(config, D[p : p + 1])[0], steps[p])
+            k = p + 1
+        hit = first_crossing(ctx, config, guards, nodes, Z, U, D, first_chunk)
+        if hit is not None:
+            ctx._chunk = 512  # events come in clusters: look ahead a little after one
+            t_event, z_event, guard, index = hit
+            ctx.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
+            keep = nodes[: index + 1]
+            mask = ctx._on_grid(keep)
+            if record:
+                collected_t.append(keep[mask])
+                collected_z.append(Z[: index + 1][mask])
+                collected_u.append(U[: index + 1][mask])
+            end = ctx._state_from(config, z_event, t_event, state)
+            return end, ctx._stretch(state, config, collected_t, collected_z, collected_u), guard
+        ctx.watch.linear_chunk(config, nodes, Z, U, D)
+        mask = ctx._on_grid(nodes[:-1])
+        if record:
+            collected_t.append(nodes[:-1][mask])
+            collected_z.append(Z[:-1][mask])
+            collected_u.append(U[:-1][mask])
+        t_start, z_start = nodes[-1], Z[-1]
+        first_chunk = False
+        if t_start >= t_stop - TIME_EPS:
+            end = ctx._state_from(config, z_start, t_stop, state)
+            return end, ctx._stretch(state, config, collected_t, collected_z, collected_u), None
+        chunk = min(chunk * 2, 16384)
+        ctx._chunk = chunk
+
+
+
+def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chunk):
+    """Earliest guard crossing in the chunk: (t, z, guard, step index) or None."""
+    if not guards:
+        return None
+    steps = np.diff(nodes)[:, None]
+    # All guards at once: values and exact time derivatives at every node.
+    if ctx._stacked is None or ctx._stacked[0] is not guards:
+        ctx._stacked = (
+            guards,
+            np.vstack([g.value.Cz for g in guards]).T, np.vstack([g.value.Du for g in guards]).T,
+            np.concatenate([g.value.e for g in guards]),
+            np.vstack([g.rate.Cz for g in guards]).T, np.vstack([g.rate.Du for g in guards]).T,
+            np.concatenate([g.rate.e for g in guards]),
+            np.array([g.tol for g in guards]),
+        )
+    _, Cz, Du, e, Cz_d, Du_d, e_d, tol = ctx._stacked
+    G = Z @ Cz + U @ Du + e
+    Gd = Z @ Cz_d + U @ Du_d + e_d
+    g0 = G[:-1].copy()
+    g1 = G[1:]
+    if first_chunk:
+        now = np.flatnonzero(g0[0] < -tol)
+        if now.size:
+            return nodes[0], Z[0], guards[int(now[0])], 0
+        just = np.abs(g0[0]) <= tol
+        g0[0, just] = tol[just]  # just crossed: do not find it again
+    d0 = Gd[:-1] * steps
+    d1 = Gd[1:] * steps
+    crossing = (g1 <= 0.0) & (g0 > 0.0)
+    # A cubic Hermite interpolant stays above min(g0, g1) − 4/27·(|d0| + |d1|): only
+    # the steps where that bound is not positive can hide a dip below zero.
+    maybe = ~crossing & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
+    dip = np.zeros_like(crossing)
+    if np.any(maybe):
+        k_idx, j_idx = np.nonzero(maybe)
+        a0, a1, b0, b1 = g0[k_idx, j_idx], g1[k_idx, j_idx], d0[k_idx, j_idx], d1[k_idx, j_idx]
+        c2 = 3 * (a1 - a0) - 2 * b0 - b1
+        c3 = 2 * (a0 - a1) + b0 + b1
+        qa, qb, qc = 3 * c3, 2 * c2, b0
+        disc = qb * qb - 4 * qa * qc
+        found = np.zeros(k_idx.size, dtype=bool)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sq = np.sqrt(np.maximum(disc, 0.0))
+            for sign in (-1.0, 1.0):
+                sig = np.where(np.abs(qa) > 1e-300, (-qb + sign * sq) / (2 * qa), -qc / qb)
+                ok = (disc >= 0) & (sig > 0) & (sig < 1) & np.isfinite(sig)
+                val = a0 + b0 * sig + c2 * sig**2 + c3 * sig**3
+                found |= ok & (val <= 0.0)
+        dip[k_idx[found], j_idx[found]] = True
+    candidates = []
+    hits = crossing | dip
+    for j, guard in enumerate(guards):
+        for k in np.flatnonzero(hits[:, j])[:4]:  # the earliest few; false alarms are rare
+            candidates.append((nodes[k], int(k), guard, "scan", (g0[k, j], g1[k, j], Gd[k, j], Gd[k + 1, j])))
+    if not candidates:
+        return None
+    candidates.sort(key=lambda c: (c[0], c[1]))
+    # Several guards may cross inside one step: every candidate of the earliest step
+    # that holds a crossing is located and the earliest root wins (sorting by step
+    # alone handled them in guard order; issue 25: a seat impact 8.6e-5 s before a
+    # rider's inside one 10 kHz step was found only after it, as a penetration).
+    best = None
+    for t_k, k, guard, how, ends in candidates:
+        if best is not None and k != best[3]:
+            break
+        Ek = forcing_coefficients(config, D[k : k + 1])[0]
+        root = refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
+        if root is not None:
+            tau, z = root
+            # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket; issue 25:
+            # over the whole step on the exact state when the step's input polynomial
+            # misplaced the root (None: no crossing in this step after all)
+            z_k = Z[k]
+            polished = polish_crossing(ctx, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k],
+                                       state_at=lambda t, z_k=z_k, Ek=Ek: exact_partial(config, z_k, Ek, t) if t > 0 else z_k)
+            if polished is None:
+                continue
+            tau, z = polished
+            if best is None or nodes[k] + tau < best[0]:
+                best = (nodes[k] + tau, z, guard, k)
+    return best
+
+
+class LinearStepper:
+    """The stepper of a linear configuration: :func:`advance_linear`."""
+
+    exact = True
+
+    def applies(self, ctx, config) -> bool:
+        return config.linear
+
+    def advance(self, ctx, state, config, z0, guards, t_stop, record):
+        return advance_linear(ctx, state, config, z0, guards, t_stop, record)
