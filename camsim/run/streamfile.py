@@ -9,7 +9,7 @@ table, the group attributes and the summary are written when the run ends.
 The values are those of the in-memory writer (:func:`camsim.run.runfile.write_run_group`)
 bit for bit; only the storage differs (chunks of :data:`CHUNK` samples, gzip only with
 ``compress``). The caller writes into a temporary file that is renamed when complete
-(:func:`camsim.io.atomic.atomic_path`).
+(:func:`camsim.io.outputs.writing`); a full disk stops the run at the next piece.
 """
 
 from __future__ import annotations

@@ -242,6 +242,7 @@ def test_every_command_declares_what_it_reads_and_writes():
     assert not undeclared, f"file parameters not declared as read or written: {undeclared}"
 
 
+@pytest.mark.slow
 def test_the_examples_run(files, tmp_path):
     """Each fast example does what it declares: exit 0 and every non-optional output written
     (the cases below start from them)."""

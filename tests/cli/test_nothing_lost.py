@@ -209,8 +209,9 @@ def test_journal_keeps_what_finished_when_the_disk_fills(machine, tmp_path, monk
 
 
 # ------------------------------------------------------------------------------ locks
-def _slow_run(machine: Path, out: Path, *extra: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "camsim", *extra, "-o", str(out), "-q"],
+def _slow_run(out: Path, *args: str) -> subprocess.Popen:
+    """``camsim <args> -o out -q`` in another process."""
+    return subprocess.Popen([sys.executable, "-m", "camsim", *args, "-o", str(out), "-q"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
 
@@ -225,7 +226,7 @@ def test_two_runs_onto_one_output(tmp_path):
     """Two `run -o same.h5` at once both exited 0 and printed "wrote": one result was silently
     lost. Now the second exits 2 naming the first one's process id."""
     out = tmp_path / "same.h5"
-    first = _slow_run(CDTM, out, "run", str(CDTM), "--cycles", "30", "--sample-rate", "2kHz")
+    first = _slow_run(out, "run", str(CDTM), "--cycles", "30", "--sample-rate", "2kHz")
     try:
         _wait_for(tmp_path / ".same.h5.lock")
         r = runner.invoke(app, ["run", str(CDTM), "-o", str(out), "--cycles", "1", "-q"])
@@ -241,7 +242,7 @@ def test_fresh_refuses_the_journal_of_a_running_sweep(tmp_path):
     """`sweep --fresh` onto the output of a sweep still running discarded its live journal."""
     out = tmp_path / "s.h5"
     journal = tmp_path / "s.h5.journal"
-    first = _slow_run(CDTM, out, "sweep", str(CDTM), "--vary", "cam.speed=100:400:20rpm", "--workers", "1",
+    first = _slow_run(out, "sweep", str(CDTM), "--vary", "cam.speed=100:400:20rpm", "--workers", "1",
                       "--cycles", "2")
     try:
         t0 = time.monotonic()
