@@ -51,8 +51,10 @@ class _OneLineErrors(typer.core.TyperGroup):
         except ImportError:
             from click import exceptions as click_exceptions
 
+        from camsim.cli.units_option import reset_error_units
         from camsim.io.outputs import output_session
 
+        reset_error_units()
         try:
             with output_session():
                 rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
@@ -160,12 +162,14 @@ def fail(message: str, code: int = 2) -> typer.Exit:
 @contextmanager
 def user_errors() -> Iterator[None]:
     """Turn camsim errors into one line on stderr and the documented exit code."""
+    from camsim.cli.units_option import error_text  # values quoted in the command's display units
+
     try:
         yield
     except InputError as exc:
-        raise fail(str(exc), 2) from None
+        raise fail(error_text(str(exc)), 2) from None
     except SimulationError as exc:
-        raise fail(str(exc), 1) from None
+        raise fail(error_text(str(exc)), 1) from None
     except FileSystemError as exc:
         raise fail(str(exc), 1) from None
     except OSError as exc:

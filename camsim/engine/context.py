@@ -125,9 +125,10 @@ class EngineContext:
         s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
         return np.array([s_[0], v_[0], a_[0], j_[0]])
 
-    def analytic_inputs_at(self, t: np.ndarray, step_end: float) -> np.ndarray:
+    def analytic_inputs_at(self, t: np.ndarray, step_end) -> np.ndarray:
         """[s, ṡ, s̈, s⃛] at times t from the cam laws: (N, 4); a time at or past ``step_end``
-        takes the limit from the left (the end of a stretch may be a cam segment join)."""
+        (a float, or one per time) takes the limit from the left (the end of a stretch may be
+        a cam segment join)."""
         t = np.asarray(t, dtype=float)
         right = t < step_end
         out = np.empty((t.size, N_INPUT))

@@ -218,6 +218,10 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
     """
     cam = machine.cam
     comp = cam.compensation
+    for e in machine.elements:  # issue 39: a rod is many masses and springs; not compensated
+        if e.compound:
+            raise CompensationError(_element_key(machine, e), f"{e.name} is a rod: dynamic compensation works on "
+                                    "lumped masses and springs; model the rod as a spring (its E*A/L) for the design")
     written = dataclasses.replace(cam, compensation=None, compensated=None, output_program=None, geometry=None)
     program = CamProgram(written)
     omega = comp.speed

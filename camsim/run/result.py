@@ -26,6 +26,7 @@ import numpy as np
 from camsim.errors import ResultFileError
 from camsim.elements.events import Event, EventKind, EventTable
 from camsim.machine.description import CAM, Machine
+from camsim.run.checks import contact_stress_rows, rod_rows
 
 #: SI units of the per-mass kinematic quantities.
 QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
@@ -62,6 +63,14 @@ class Trace:
     data: np.ndarray
     units: str
     long_name: str
+
+
+@dataclass
+class Extreme:
+    """A located maximum or minimum (spec §4): its value [SI] and instant [s, recorded clock]."""
+
+    value: float
+    time: float
 
 
 def missing_scalar(name: str):
@@ -177,6 +186,13 @@ class RunResult:
     #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
     #: the cam design's energy quantities (issue 26).
     period_end: dict | None = None
+    #: Extremes located on the solution (spec §4, camsim.run.extremes): path →
+    #: {"max": Extreme, "min": Extreme}, values SI, times on the recorded clock; None for a
+    #: result without them (the extremes then come from the samples).
+    located: dict | None = None
+    #: Traces of compound elements, which have no single force: name → {quantity: samples};
+    #: a rod's ``force_lower``, ``force_upper`` [N] and ``max_stress`` [Pa] (issue 39).
+    element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -203,6 +219,10 @@ class RunResult:
             out[f"elements/{element.name}/force"] = Trace(
                 self.elements[element.name], "N", f"force of {element.name} ({sense})"
             )
+        for element in self.machine.elements:  # issue 39: a rod's end forces and largest stress
+            for quantity, data in self.element_traces.get(element.name, {}).items():
+                unit, long_name = element.result_quantities[quantity]
+                out[f"elements/{element.name}/{quantity}"] = Trace(data, unit, f"{long_name} {element.name}")
         if self.cam_contact_force is not None:
             out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
         if self.transducer_force is not None:
@@ -279,22 +299,50 @@ class RunResult:
         """
         return dict(self._scalars)
 
+    def extreme(self, path: str, which: str) -> tuple[float, float] | None:
+        """(value, time) of the largest (``which = "max"``), smallest (``"min"``) or largest
+        absolute (``"abs"``) value of a quantity: located on the solution (spec §4) when the
+        run located it, else its extreme sample (first occurrence); None without samples.
+
+        ``path`` is a trace path (``"masses/M3/acceleration"``, ``"transducer/force"``...)
+        or ``"cam_force"`` (:attr:`cam_force`); times on the recorded clock [s].
+        """
+        hit = (self.located or {}).get(path)
+        if hit is None and path == "cam_force" and self.cam_contact_force is not None:
+            hit = (self.located or {}).get("cam_contact/force")
+        if hit is not None:
+            top, bottom = hit["max"], hit["min"]
+            if which == "max":
+                return top.value, top.time
+            if which == "min":
+                return bottom.value, bottom.time
+            return (abs(top.value), top.time) if abs(top.value) >= abs(bottom.value) else (abs(bottom.value), bottom.time)
+        data = self.cam_force if path == "cam_force" else self._traces.get(path, Trace(np.zeros(0), "", "")).data
+        if data is None or not data.size:
+            return None
+        values = np.abs(data) if which == "abs" else data
+        k = int(np.argmin(values)) if which == "min" else int(np.argmax(values))
+        return float(values[k]), float(self.time[k])
+
     @cached_property
     def _scalars(self) -> dict[str, Any]:
         nan = float("nan")
         out: dict[str, Any] = {}
-        for name, traces in self.masses.items():
+
+        def value(path, which):
+            hit = self.extreme(path, which)
+            return hit[0] if hit is not None else nan
+
+        for name in self.masses:
             for quantity in MASS_QUANTITIES:
-                data = traces[quantity]
-                out[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
-        tf = self.transducer_force
-        out["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
+                out[f"peak_{quantity}:{name}"] = value(f"masses/{name}/{quantity}", "abs")
+        out["peak_transducer_force"] = value("transducer/force", "max") if self.transducer_force is not None else nan
         cf = self.cam_force
-        out["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
-        out["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
+        out["max_cam_contact_force"] = value("cam_force", "max") if cf is not None else nan
+        out["min_cam_contact_force"] = value("cam_force", "min") if cf is not None else nan
         cam_contacts = {e.name for e in self._cam_contacts}
         out["jump"] = bool(
-            (cf is not None and cf.size and float(np.min(cf)) < 0)
+            (cf is not None and out["min_cam_contact_force"] < 0)
             or any(ev.kind == EventKind.RELEASE and ev.element in cam_contacts for ev in self.events)
         )
         out["cam_separation"], out["cam_separation_angle"] = self._cam_separation()
@@ -388,13 +436,19 @@ class RunResult:
         out: dict = {"machine": self.machine.name, "no_impact": self.no_impact, "masses": {}}
         for name, traces in self.masses.items():
             entry = {}
-            for quantity, data in traces.items():
-                k = int(np.argmax(np.abs(data))) if data.size else 0
-                entry[quantity] = {"peak": float(np.abs(data[k])) if data.size else 0.0, "time": float(self.time[k]) if data.size else 0.0}
+            for quantity in traces:
+                hit = self.extreme(f"masses/{name}/{quantity}", "abs")
+                entry[quantity] = {"peak": hit[0], "time": hit[1]} if hit is not None else {"peak": 0.0, "time": 0.0}
             out["masses"][name] = entry
-        out["peak_transducer_force"] = _extreme(self.transducer_force, self.time, np.argmax)
-        out["max_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmax)
-        out["min_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmin)
+
+        def extreme(path, which, present):
+            hit = self.extreme(path, which) if present else None
+            return {"value": hit[0], "time": hit[1]} if hit is not None else None
+
+        out["peak_transducer_force"] = extreme("transducer/force", "max", self.transducer_force is not None)
+        out["max_cam_contact_force"] = extreme("cam_force", "max", self.cam_force is not None)
+        out["min_cam_contact_force"] = extreme("cam_force", "min", self.cam_force is not None)
+        out["located"] = self.located is not None
         out["jump"] = self.follower_jumps()
         out["impacts"] = [e.to_dict() for e in self.impacts()]
         out["events"] = len(self.events)
@@ -404,7 +458,26 @@ class RunResult:
         design = self.design_summary()  # issue 14: with [cam.geometry]
         if design is not None:
             out["design"] = design
+        rods, stress = self.rod_summary(), contact_stress_rows(self.machine, self.events)  # issue 39
+        if rods:
+            out["rods"] = rods
+        if stress:
+            out["contact_stress"] = stress
         return out
+
+    def rod_summary(self) -> dict[str, dict]:
+        """Each rod's discretisation (:func:`camsim.run.checks.rod_rows`) with its largest
+        stress and end force (``{"value", "time"}``, SI; located, spec §4) (issue 39)."""
+        rows = rod_rows(self.machine)
+        for name, row in rows.items():
+            traces = self.element_traces.get(name, {})
+            stress = self.extreme(f"elements/{name}/max_stress", "max") if "max_stress" in traces else None
+            row["max_stress"] = {"value": stress[0], "time": stress[1]} if stress is not None else None
+            ends = [self.extreme(f"elements/{name}/{k}", "abs") for k in ("force_lower", "force_upper") if k in traces]
+            ends = [e for e in ends if e is not None]
+            top = max(ends, key=lambda e: e[0]) if ends else None
+            row["max_end_force"] = {"value": top[0], "time": top[1]} if top is not None else None
+        return rows
 
     # ------------------------------------------------------------------ views
     def to_pandas(self):
@@ -449,13 +522,6 @@ class RunResult:
             coords={"time": ("time", self.time, {"units": "s", "long_name": "time"})},
             attrs={"machine_name": self.machine.name, "no_impact": int(self.no_impact), "sample_rate": self.sample_rate},
         )
-
-
-def _extreme(values: np.ndarray | None, time: np.ndarray, pick) -> dict | None:
-    if values is None or not values.size:
-        return None
-    k = int(pick(values))
-    return {"value": float(values[k]), "time": float(time[k])}
 
 
 # ---------------------------------------------------------------------- reading back
@@ -508,7 +574,10 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                 f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
                 "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
             ) from None
-        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
+        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})
+                    if "force" in g[f"elements/{name}"]}
+        extra = {name: {q: g[f"elements/{name}/{q}"][()] for q in g[f"elements/{name}"] if q != "force"}
+                 for name in g.get("elements", {})}  # issue 39: a rod's end forces and max_stress
         cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
         transducer = g["transducer/force"][()] if "transducer/force" in g else None
         table = read_events(g) or {}
@@ -519,10 +588,25 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             events.append(Event(**{name: (str(v) if isinstance(v, (str, bytes, np.str_)) or name in ("element", "kind", "masses") else float(v))
                                    for name, v in row.items()}))
         boundaries = g["cam/boundaries_deg"][()] if "cam/boundaries_deg" in g else np.zeros(0)
+        located = read_extremes(g)
         residual = float(g.attrs.get("periodicity_residual", float("nan")))
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
-            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)),
+            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
+            element_traces={name: q for name, q in extra.items() if q},
         )
+
+
+def read_extremes(group) -> dict | None:
+    """The ``extremes`` table of a run layout as :attr:`RunResult.located` (None without one)."""
+    from camsim.io.hdf5 import read_table
+
+    if "extremes" not in group:
+        return None
+    table = read_table(group["extremes"])
+    return {
+        str(q): {"max": Extreme(float(a), float(ta)), "min": Extreme(float(b), float(tb))}
+        for q, a, ta, b, tb in zip(table["quantity"], table["max"], table["max_time"], table["min"], table["min_time"])
+    }
