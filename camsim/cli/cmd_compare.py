@@ -70,7 +70,7 @@ def compare_command(
     set_: list[str] = typer.Option([], "--set", help='Override a machine key, e.g. --set cam.speed="150 rpm" (repeatable).'),
     json_: bool = typer.Option(False, "--json", help="Print the comparison table as JSON on stdout."),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
     units: str = units_option(),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP + " Of the comparison file; of both run files when two are compared without -o."),
 ) -> None:

@@ -193,6 +193,7 @@ def fit_command(
     units: str = units_option("Units of the human output: file (the machine file's units per dimension, with the units "
                               "written in --param/--target/--sigma and in the measured CSV's header first; the default), "
                               "si or us. A --param or --target is shown in the unit written for it. --json is SI."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (each iteration on a terminal, the latest every 10 s elsewhere)."),
 ) -> None:
     """Calibrate MACHINE to MEASURED traces: fit the --param keys by weighted least squares.
 
@@ -208,7 +209,9 @@ def fit_command(
     from camsim.io.atomic import check_writable
 
     rate = parse_sample_rate(sample_rate)
-    show = err_console.print if err_console.is_terminal else None
+    from camsim.cli.progress import Lines
+
+    show = Lines(quiet)
     with user_errors():
         check_units(units)
         target_path = output if output is not None else _default_output(machine)
@@ -248,7 +251,7 @@ def fit_command(
             starts=starts,
             seed=seed,
             max_evaluations=max_evaluations,
-            progress=(lambda line: show(line, markup=False)) if show else None,
+            progress=show,
             evaluations=evaluation_store_for(target_path),
             resume=resume,
         )

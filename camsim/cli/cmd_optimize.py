@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import typer
@@ -13,38 +12,26 @@ from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 class _Progress:
-    """Evaluations done / budget, the best feasible objective so far and an ETA, on stderr."""
+    """Evaluations done / budget and the best feasible objective so far, on stderr
+    (:class:`camsim.cli.progress.Bar`: a live bar on a terminal, a line every 10 s elsewhere)."""
 
     def __init__(self, quiet: bool, unit: str = "") -> None:
-        self.enabled = not quiet and err_console.is_terminal
-        self.progress = None
-        self.task = None
-        self.t0 = time.monotonic()
+        from camsim.cli.progress import Bar
+
+        self.bar = Bar("optimize", "evaluations", quiet=quiet)
         self.unit = unit
 
     def start(self, budget: int, stored: int, executor: str) -> None:
         if stored:
             err_console.print(f"resuming: {stored} runs already stored are reused", markup=False)
-        if not self.enabled:
-            return
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-        self.progress = Progress(TextColumn(f"optimize ({executor})"), BarColumn(), MofNCompleteColumn(),
-                                 TextColumn("evaluations"), TextColumn("{task.fields[best]}"), TextColumn("ETA"),
-                                 TimeRemainingColumn(), console=err_console, transient=True)
-        self.progress.start()
-        self.task = self.progress.add_task("optimize", total=budget, best="best: none feasible yet")
+        self.bar.start(budget, executor, note="best: none feasible yet")
 
     def __call__(self, done: int, budget: int | None, best: float | None) -> None:
-        if self.progress is None:
-            return
         text = "best: none feasible yet" if best is None else f"best: {best:.6g} {self.unit}".rstrip()
-        self.progress.update(self.task, completed=done, total=budget, best=text)
+        self.bar(done, budget, note=text)
 
     def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
-            self.progress = None
+        self.bar.close()
 
 
 def _fmt(v) -> str:
@@ -138,7 +125,7 @@ def optimize_command(
     scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
     dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers."),
     json_: bool = typer.Option(False, "--json", help="Print the result as JSON on stdout (schema in docs/optimize.md)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
     max_runs: int = typer.Option(100_000, "--max-runs", min=1, help="Refuse (exit 2, before anything runs) a job that could make more simulation runs: --budget x speeds x robust samples."),
     yes: bool = typer.Option(False, "--yes", "-y", help="Run a job above --max-runs (or whose runs exceed the 2 GB output estimate)."),
     units: str = units_option(),
