@@ -155,7 +155,6 @@ def cam_command(
     from camsim.cam import CamProgram
     from camsim.cam.files import write_cam_csv, write_cam_hdf5
     from camsim.display import in_units
-    from camsim.io.atomic import check_writable
 
     with user_errors():
         from camsim.io.outputs import CSV, FIGURES, HDF5, check_output, output_format, same_file
@@ -269,10 +268,9 @@ def cam_command(
                 written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {_tolerance(tol, unit)}, {unit})")
         if plot is not None:
             from camsim.figures.cam import plot_cam_design
-            from camsim.io.atomic import atomic_path
+            from camsim.figures.style import save_figure
 
             fmt = plot.suffix.lower().lstrip(".")
-            metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
             figures = []
             if geometry is not None and output_program is None:
                 figures.append((plot, plot_cam_design(geometry, program, title=f"{machine.name}: cam design", units=shown)))
@@ -287,12 +285,11 @@ def cam_command(
                 figures.append((plot, plot_svaj(curves, title=f"{machine.name}: SVAJ on the model axis", units=shown)))
                 if geometry is not None:
                     design = plot.with_name(f"{plot.stem}-design{plot.suffix}")
-                    check_writable(design)
+                    check_output(design, fmt, owner="figure", inputs=inputs, option="--plot (its design figure)")
                     figures.append((design, plot_cam_design(geometry, program, title=f"{machine.name}: "
                                                                                       "compensated cam design", units=shown)))
             for path_, fig in figures:
-                with atomic_path(path_) as tmp:
-                    fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+                save_figure(fig, path_, fmt, dpi=150)
                 written.append(str(path_))
         if not as_json:
             for line in written:
@@ -329,6 +326,13 @@ def _several_cams(machine, machine_file, output, kind, points, as_json, plot, pr
     if profile is not None or dxf is not None:
         if not checks:
             raise MachineFileError(source, "cam", "--profile and --dxf need a cam's shape: give a [[cam]] a geometry")
+        from camsim.io.outputs import check_output
+
+        for option, target, fmt in (("--profile", profile, "csv"), ("--dxf", dxf, "dxf")):
+            for cam in machine.cams:  # each cam's own file, checked before anything is written
+                if target is not None and cam.geometry is not None:
+                    check_output(target.with_name(f"{target.stem}-{cam.name}{target.suffix}"), fmt, owner=fmt,
+                                 inputs=[("machine file", machine_file)], option=option)
     clearances = kinematic_clearances(machine)
     if as_json:
         payload = {
@@ -395,18 +399,27 @@ def _several_cams(machine, machine_file, output, kind, points, as_json, plot, pr
             (write_profile_csv(path_, pts, unit) if option == "--profile" else write_profile_dxf(path_, pts, cam.geometry, unit))
             written.append(f"{path_} (cam {cam.name}, {pts['theta'].size} points, {unit})")
     if plot is not None:
+        from camsim.figures.style import save_figure
         from camsim.figures.timing import plot_timing
-        from camsim.io.atomic import atomic_path
 
-        fmt = plot.suffix.lower().lstrip(".")
-        metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
         fig = plot_timing(machine, title=f"{machine.name}: timing diagram")
-        with atomic_path(plot) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+        save_figure(fig, plot, plot.suffix.lower().lstrip("."), dpi=150)
         written.append(f"{plot} (timing diagram)")
     if not as_json:
         for line in written:
             err_console.print(f"wrote {line}", markup=False)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, FIGURES, DXF
+declare("cam", reads=[Reads("machine_file", "machine", fixture="geometry")], force=True,
+        writes=[Writes("output", "-o", {**HDF5, **CSV}, "cam", optional=True),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True),
+                Writes("profile", "--profile", CSV, "csv", optional=True),
+                Writes("dxf", "--dxf", DXF, "dxf", optional=True)],
+        example=("cam", "{in:machine_file}", "--points", "60", "-o", "{out:-o}", "--plot", "{out:--plot}",
+                 "--profile", "{out:--profile}", "--tolerance", "10um", "--dxf", "{out:--dxf}"))
 
 
 __all__ = ["cam_command", "write_cam_csv", "write_cam_hdf5"]

@@ -63,7 +63,7 @@ from camsim.elements import CAM, GROUND, Element
 from camsim.elements.base import Branch
 from camsim.machine.description import Cam, Machine
 
-__all__ = ["CompensationError", "compensate", "GRID_POINTS", "RECURSION_GAIN_MAX"]
+__all__ = ["CompensationError", "compensate", "GRID_POINTS", "RECURSION_GAIN_MAX", "assumption_warnings"]
 
 #: Grid points over one revolution for a damped path's periodic solution.
 GRID_POINTS = 2**15
@@ -500,3 +500,72 @@ def compensate_cams(machine: Machine, grid_points: int = GRID_POINTS) -> Machine
             raise CompensationError(key, exc.message.replace("cam.", f"{prefix}.")) from None
         cams[i] = dataclasses.replace(done, name=cam.name, phase=cam.phase)
     return dataclasses.replace(machine, cams=tuple(cams))
+
+
+def assumption_warnings(machine: Machine, events) -> list[str]:
+    """The compensation's own assumptions, checked on a simulated run (issue 35).
+
+    The compensated cam is exact for the machine with the contacts on its path closed, the
+    preloaded links on it joined and the contacts off it open (module docstring). A run in
+    which a path contact opens (``release``), a path link separates (``separation``) or a
+    contact off the path closes (``impact``, ``rejoin``, ``stick``) does not move the output
+    as written from that moment: one warning per element, naming it and when it first did.
+
+    Parameters
+    ----------
+    machine : Machine
+        The simulated machine (nothing is checked without ``cam.compensated``).
+    events : iterable of Event
+        The run's events (``kind``, ``element``, ``time`` [s], ``angle_deg`` [deg]).
+    """
+    if machine.multi_cam:  # issue 38: each compensated cam, over the elements of its station
+        out = []
+        for cam in machine.cams:
+            if getattr(cam, "compensated", None) is not None:
+                station = _station_elements(machine, cam.name)
+                out += [w.replace("[cam.compensation]", f"[cam {cam.name} compensation]")
+                        for w in _assumption_warnings(cam, [e for e in events if e.element in station])]
+        return out
+    return _assumption_warnings(machine.cam, events)
+
+
+def _station_elements(machine: Machine, cam_name: str) -> set[str]:
+    """The elements reached from cam ``cam_name`` through masses (not through the ground or
+    another cam): the station it drives."""
+    stops = {GROUND, *machine.cam_names}
+    seen, names, todo = {cam_name}, set(), [cam_name]
+    while todo:
+        node = todo.pop()
+        for e in machine.elements:
+            if node in e.nodes and e.name not in names:
+                names.add(e.name)
+                for other in e.nodes:
+                    if other not in seen and other not in stops:
+                        seen.add(other)
+                        todo.append(other)
+    return names
+
+
+def _assumption_warnings(cam, events) -> list[str]:
+    comp = getattr(cam, "compensated", None) if cam is not None else None
+    if comp is None:
+        return []
+    on_path = set(comp.path)
+    first: dict[str, tuple[str, object]] = {}
+    for e in sorted(events, key=lambda e: e.time):
+        kind = str(getattr(e.kind, "value", e.kind))
+        if e.element in on_path and kind in ("release", "separation"):
+            first.setdefault(e.element, (kind, e))
+        elif e.element not in on_path and e.element != CAM and kind in ("impact", "rejoin", "stick"):
+            first.setdefault(e.element, (kind, e))
+    rpm = comp.speed * 60.0 / (2.0 * math.pi)
+    chain = " - ".join(comp.path)
+    out = []
+    for name, (kind, e) in first.items():
+        what = {"release": "opened (the design keeps it closed)", "separation": "separated (the design keeps it joined)"}.get(
+            kind, "closed (the design keeps a contact off the path open)")
+        angle = getattr(e, "angle_deg", float("nan"))
+        where = f"t = {e.time:.6g} s" + (f", cam angle {angle:.5g} deg" if angle == angle else "")
+        out.append(f"[cam.compensation]: {name} {what} at {where}: from then on {comp.output} does not follow the "
+                   f"written motion (the cam is compensated for {rpm:.6g} rpm along {chain})")
+    return out
