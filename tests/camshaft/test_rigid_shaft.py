@@ -12,6 +12,10 @@ References:
   1e-9 of the peak; the shaft's torque is their sum;
 * the work per cycle in a periodic steady state equals the energy the dampers dissipate,
   ∮ Σ c·ḋ² dt, to 1e-4 (both trapezoidal on the 20 kHz samples);
+* extremes are located on the solution (spec §4): each station's largest and smallest cam
+  force equal the station alone's located ones (value to 1e-9 of it, instant to 1e-9 s),
+  and the shaft's peak torque is the same at 5 and 20 kHz (1e-9) and no smaller than
+  any sample;
 * the energy excursion of a conservative one-cam station (a driven mass on a preloaded
   spring to ground, no damping) is max − min of E(θ) = ½·m·(ω·s′)² + ½·k·s² + P·s, the
   work T·dθ stores (closed form on the cam law, 2·10⁵ points), to 1e-6; the flywheel is
@@ -88,6 +92,30 @@ def test_torque_is_the_sum_of_each_cams_force_times_ds_dtheta(three):
         assert np.max(np.abs(got - torques[cam.name])) <= 1e-9 * np.max(np.abs(torques[cam.name])), cam.name
     total = sum(torques.values())
     assert np.max(np.abs(three.trace("camshaft/torque") - total)) <= 1e-9 * np.max(np.abs(total))
+
+
+@pytest.mark.parametrize("station", ["feed", "clamp", "press"])
+def test_station_force_extremes_are_located_as_the_station_alone(three, station):
+    alone = simulate(load_machine_text(alone_toml(station, PHASES[station])))
+    entry = three.summary()["camshaft"]["cams"][station]
+    for which, key in (("max", "max_contact_force"), ("min", "min_contact_force")):
+        ref, t_ref = alone.extreme("cam_force", which)
+        hit = three.located[f"cams/{station}/contact_force"][which]
+        assert abs(hit.value - ref) <= 1e-9 * abs(ref), which
+        assert abs(hit.time - t_ref) <= 1e-9, which
+        assert entry[key] == hit.value
+    low = min(three.located[f"cams/{name}/contact_force"]["min"].value for name in PHASES)
+    assert three.scalars()["min_cam_contact_force"] == low
+
+
+def test_peak_torque_is_located_at_any_sample_rate(three):
+    coarse = simulate(three.machine, sample_rate=5000.0)
+    peaks = [r.summary()["camshaft"]["peak_torque"] for r in (three, coarse)]
+    assert abs(peaks[0] - peaks[1]) <= 1e-9 * peaks[0]
+    assert peaks[0] >= np.max(np.abs(three.trace("camshaft/torque")))
+    for name in PHASES:
+        cams = [r.summary()["camshaft"]["cams"][name]["peak_torque"] for r in (three, coarse)]
+        assert abs(cams[0] - cams[1]) <= 1e-9 * cams[0], name
 
 
 def test_work_per_cycle_is_the_energy_dissipated_in_steady_state():
