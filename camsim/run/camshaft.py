@@ -314,15 +314,9 @@ class CamshaftAccumulator:
                 return None
             end = self.period_end[2] if drive else self.period_end[1]
             return np.append(time[keep], self.period_end[0]), np.append(power[keep], end)
-        if time.size < 2 or time[-1] < period * (1.0 - 1e-9):
-            return None
-        keep = time <= period * (1.0 + 1e-12)
-        t, p = time[keep], power[keep]
-        if t[-1] < period * (1.0 - 1e-12):
-            k = t.size
-            frac = (period - time[k - 1]) / (time[k] - time[k - 1])
-            t, p = np.append(t, period), np.append(p, power[k - 1] + frac * (power[k] - power[k - 1]))
-        return t, p
+        from camsim.cam.design import _one_revolution  # the cam design's revolution, closed at T
+
+        return _one_revolution(time, power, period)
 
     def summary(self, located: dict | None = None) -> dict:
         """The camshaft section of the run summary (SI; None where a value does not apply).
