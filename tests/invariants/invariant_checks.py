@@ -234,6 +234,17 @@ def permute_text(text: str, seed: int) -> str:
     return tomli_w.dumps(doc)
 
 
+def in_order_of(text: str, other: str) -> str:
+    """The machine of ``text`` with its [[mass]] and [[element]] tables in the order their
+    names have in ``other`` (a station alone, ordered as in a permuted multi-cam file)."""
+    doc, ref = tomllib.loads(text), tomllib.loads(other)
+    for key in ("mass", "element"):
+        rank = {row["name"]: k for k, row in enumerate(ref.get(key, []))}
+        if isinstance(doc.get(key), list):
+            doc[key] = sorted(doc[key], key=lambda row: rank.get(row["name"], -1))
+    return tomli_w.dumps(doc)
+
+
 def check_permutation(text: str, other: str) -> list[str]:
     """(c) Two orderings of one machine: the same events (1e-9 s) and the same traces by
     name (1e-9 of each peak)."""
