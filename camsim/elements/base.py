@@ -54,9 +54,10 @@ class GuardKind(StrEnum):
 
     SEPARATE = "separate"  # a preloaded link reaches its separation deflection
     REJOIN = "rejoin"  # a separated link closes again
-    CLOSE = "close"  # a contact closes (or a lifted compliant contact pushes again)
+    CLOSE = "close"  # a contact closes: its penetration rises through zero (an impact)
     RELEASE = "release"  # a contact's force reaches zero
     UNLIFT = "unlift"  # a lifted compliant contact's penetration returns to zero
+    REENGAGE = "reengage"  # a lifted compliant contact's law pushes again (no impact: issue 34)
 
 
 @dataclass(frozen=True)
