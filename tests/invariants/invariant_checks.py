@@ -320,3 +320,54 @@ def compare_parameters(a, b) -> list[str]:
 
     walk(machine_to_dict(a), machine_to_dict(b), "machine")
     return problems
+
+
+# --------------------------------------------------------------------------- (f)
+#: Two rows of one element closer than this [s] are at one instant (the engine's INSTANT_TIME).
+SAME_INSTANT = 1e-12
+
+
+def _law(element) -> str | None:
+    """The contact law of a contact or a lash (None for other elements)."""
+    return getattr(element, "law_name", None) or getattr(getattr(element, "contact", None), "law_name", None)
+
+
+def check_no_phantoms(result) -> list[str]:
+    """(f) Every row of the event table is a real change (spec §3-§4, issue 34).
+
+    * an impact (or a rejoin) has a positive approach speed;
+    * a compliant contact's impact has a finite simulated peak when an output sample lies
+      inside its contact (a contact shorter than a sample is the located extremes' case);
+    * one element has no two rows at one instant (1e-12 s), except a rigid contact's
+      ``impact`` and ``stick`` (a plastic landing);
+    * a compliant contact has no impact while it is closed (two impacts without a release
+      between them). Two releases in a row are possible: a lifted contact whose law pushes
+      again takes up force without an impact row.
+    """
+    machine = result.machine
+    elements = {e.name: e for e in machine.elements}
+    problems = []
+    last: dict[str, object] = {}
+    time = np.asarray(result.time)
+    events = list(result.events)
+    for k, ev in enumerate(events):
+        element = elements.get(ev.element)
+        kind = str(ev.kind)
+        rigid = _law(element) == "restitution"
+        if kind in ("impact", "rejoin") and not ev.relative_velocity > 0.0:
+            problems.append(f"{kind} of {ev.element} at t = {ev.time:.12g} s with approach speed {ev.relative_velocity!r}")
+        if kind == "impact" and not rigid:
+            t_open = next((e.time for e in events[k + 1:] if e.element == ev.element and str(e.kind) == "release"), time[-1])
+            sampled = np.any((time >= ev.time) & (time <= t_open))
+            if sampled and not math.isfinite(ev.peak_force):
+                problems.append(f"impact of {ev.element} at t = {ev.time:.12g} s without a finite peak")
+        prev = last.get(ev.element)
+        if prev is not None:
+            prev_kind = str(prev.kind)
+            if abs(ev.time - prev.time) <= SAME_INSTANT and not (rigid and (prev_kind, kind) == ("impact", "stick")):
+                problems.append(f"{ev.element}: {prev_kind} and {kind} at one instant, t = {ev.time:.12g} s")
+            if not rigid and element is not None and _law(element) is not None and (prev_kind, kind) == ("impact", "impact"):
+                problems.append(f"{ev.element}: impact at t = {ev.time:.12g} s while closed (impact at {prev.time:.12g} s)")
+        if kind != "jump":
+            last[ev.element] = ev
+    return problems
