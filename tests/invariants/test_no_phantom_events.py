@@ -178,3 +178,4 @@ def test_a_disc_the_follower_only_touches_has_no_events(disc, rate):
     force = 0.1 * 0.005 * omega**2 * np.cos(theta) + 10.0 + 3000.0 * 0.005 * (1 - np.cos(theta))
     assert force.min() > 0.0  # the closed form's premise: the follower never leaves the lobe
     assert [(e.element, str(e.kind)) for e in run.events] == []
+
