@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import camsim.run.simulation as simulation
+import camsim.run.initial as simulation  # the initial state (camsim.run.initial)
 from camsim.machine.loader import load_machine_text
 from camsim import simulate
 

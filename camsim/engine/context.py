@@ -125,6 +125,18 @@ class EngineContext:
         s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
         return np.array([s_[0], v_[0], a_[0], j_[0]])
 
+    def analytic_inputs_at(self, t: np.ndarray, step_end: float) -> np.ndarray:
+        """[s, ṡ, s̈, s⃛] at times t from the cam laws: (N, 4); a time at or past ``step_end``
+        takes the limit from the left (the end of a stretch may be a cam segment join)."""
+        t = np.asarray(t, dtype=float)
+        right = t < step_end
+        out = np.empty((t.size, N_INPUT))
+        for side, mask in (("right", right), ("left", ~right)):
+            if np.any(mask):
+                s_, v_, a_, j_ = self.cam.svaj(t[mask], side=side)
+                out[mask] = np.stack([s_, v_, a_, j_], axis=-1)
+        return out
+
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
         """Cam input [s, ṡ, s̈, s⃛] at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
 

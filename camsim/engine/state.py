@@ -51,7 +51,12 @@ class Guard:
 
 @dataclass
 class Stretch:
-    """Samples of one configuration on the output grid."""
+    """Samples of one configuration on the internal grid, and its located extremes.
+
+    ``extremes`` (:class:`camsim.engine.extremes.StretchExtremes`, or None when nothing is
+    observed) covers the whole stretch in the recording window, also when no grid point
+    falls inside it (then ``t`` is empty).
+    """
 
     branches: tuple[Branch, ...]
     config: Configuration
@@ -60,6 +65,7 @@ class Stretch:
     u: np.ndarray
     fn: np.ndarray
     v_impacts: dict[int, float] = field(default_factory=dict)
+    extremes: object = None
 
 
 @dataclass
