@@ -60,6 +60,16 @@ def _rows(ref) -> list[tuple]:
     return list(zip(ref["event_time"].tolist(), ref["event_element"].tolist(), ref["event_kind"].tolist()))
 
 
+def _assert_traces_match(run, ref) -> None:
+    """The follower's displacement and velocity on the reference's 10 kHz grid, within
+    :data:`TRACE_TOL` of their peak."""
+    assert np.max(np.abs(run.time - ref["time"])) <= 1e-12
+    for quantity, tol in TRACE_TOL.items():
+        expected = ref[f"F/{quantity}"]
+        err = np.max(np.abs(run.masses["F"][quantity] - expected)) / np.max(np.abs(expected))
+        assert err <= tol, f"F {quantity}: {err:.3g} of peak"
+
+
 @pytest.fixture(scope="module")
 def disc_lobe():
     machine, ref = _reference("disc-lobe-follower")
@@ -93,12 +103,7 @@ def test_disc_lobe_follower_leaves_the_lobe_and_lands_on_the_disc_every_revoluti
 def test_disc_lobe_follower_traces_match_the_reference(disc_lobe):
     """The follower's displacement and velocity at 10 kHz within 1e-7 of their peak."""
     _, ref, runs = disc_lobe
-    run = runs[1e4]
-    assert np.max(np.abs(run.time - ref["time"])) <= 1e-12
-    for quantity, tol in TRACE_TOL.items():
-        expected = ref[f"F/{quantity}"]
-        err = np.max(np.abs(run.masses["F"][quantity] - expected)) / np.max(np.abs(expected))
-        assert err <= tol, f"F {quantity}: {err:.3g} of peak"
+    _assert_traces_match(runs[1e4], ref)
 
 
 @pytest.mark.parametrize("rate", (1e4, 1e6))
@@ -119,10 +124,7 @@ def test_a_lifted_contact_takes_up_force_again_without_an_impact_row(rate):
     inside = (run.time > t_up + 1e-9) & (run.time < t_off - 1e-9)
     assert np.count_nonzero(inside) > 10 and np.all(run.elements["lobe"][inside] > 0.0)
     if rate == 1e4:
-        for quantity, tol in TRACE_TOL.items():
-            expected = ref[f"F/{quantity}"]
-            err = np.max(np.abs(run.masses["F"][quantity] - expected)) / np.max(np.abs(expected))
-            assert err <= tol, f"F {quantity}: {err:.3g} of peak"
+        _assert_traces_match(run, ref)
 
 
 RIGID_LOBE = """schema = 1
