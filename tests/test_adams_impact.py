@@ -76,7 +76,13 @@ def reference():
         return u * u * (3 - 2 * u)
 
     def pushing(_t, y):  # the unclamped force's value: it pushes while > 0
-        return K * max(y[0], 0.0) ** N + CMAX * step(y[0]) * y[1]
+        # (continued below δ = 0 as −K·|δ|^n, not as 0: a clamped phase's end step lands at
+        # δ < 0, and a value of exactly 0 there made solve_ivp's root finder take that step
+        # end for the crossing and miss the real one just before δ = 0, where the elastic
+        # term, ∝ δ^1.5, outgrows the damping term, ∝ δ²: the law pushes again for the last
+        # 19 µs of the contact. The former reference treated them as free flight and read a
+        # rebound 9.2e-6 slower than the law gives.)
+        return K * math.copysign(abs(y[0]) ** N, y[0]) + CMAX * step(y[0]) * y[1]
 
     def at_d(_t, y):
         return y[0] - D
@@ -96,8 +102,11 @@ def reference():
         out.terminal, out.direction = True, -1
         at_d.terminal, at_d.direction = True, (-1 if inner else 1)
         pushing.terminal, pushing.direction = True, (1 if clamped else -1)
+        # (max_step: a clamped phase is free flight, which DOP853 would cross in one step,
+        # over the law's brief push before δ = 0: − + − inside one step, no sign change seen)
         sol = solve_ivp(free if clamped else loaded, (t, 0.01), y, method="DOP853", rtol=1e-13,
-                        atol=[1e-17, 1e-13], events=[out, at_d, pushing], dense_output=True, first_step=1e-10)
+                        atol=[1e-17, 1e-13], events=[out, at_d, pushing], dense_output=True, first_step=1e-10,
+                        max_step=1e-6)
         hit = [k for k in range(3) if sol.t_events[k].size]
         assert hit, "the contact never ended"
         i = min(hit, key=lambda k: sol.t_events[k][0])
@@ -126,14 +135,9 @@ def reference():
     return t0, v0, t, -y[1], Dense
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known defect: camsim steps across the IMPACT force's kinks inside a closed phase (the STEP's "
-    "end at δ = d, the clamp at F = 0) instead of locating them; against this converged reference the "
-    "contact lasts 4.5e-8 too long (relative) and the rebound is 9.2e-6 fast. The former reference "
-    "(one DOP853 run, rtol 1e-12) had the same error and hid it (docs/contacts.md)",
-)
 def test_adams_impact_drop_against_solve_ivp():
+    """The drop against the piecewise reference: the kinks of the law (δ = d, the clamp, and
+    the push again just before release) are located by camsim like events (issue 34)."""
     t0, v0, duration, rebound, sol = reference()
     r = simulate(load_machine_text(TEXT))
     impact = [e for e in r.events if e.kind == "impact"][0]

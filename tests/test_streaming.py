@@ -175,14 +175,20 @@ def test_record_last_keeps_the_last_revolutions_summary_covers_all(tmp_path, cdt
 
 
 def test_summary_only_stores_events_and_summary(tmp_path, cdtm_reference):
-    """--summary-only: no trace at all; the event table and /summary equal the in-memory run's."""
+    """--summary-only: no trace at all; the event table, the located extremes and /summary
+    equal the in-memory run's."""
     res, out = _cli(tmp_path, "--summary-only")
     assert res.exit_code == 0, res.output
     with h5py.File(out) as f:
         datasets = []
         f.visititems(lambda n, o: datasets.append(n) if isinstance(o, h5py.Dataset) else None)
-        assert datasets == ["events"]
+        assert datasets == ["events", "extremes"]
         assert json.loads(f["summary"].attrs["recorded"]) == []
+        table = f["extremes"][()]
+        for row in table:
+            located = cdtm_reference.located[row["quantity"].decode()]
+            assert (row["max"], row["max_time"], row["min"], row["min_time"]) == (
+                located["max"].value, located["max"].time, located["min"].value, located["min"].time)
         times = f["events"]["time"]
         assert _same(times, np.array([e.time for e in cdtm_reference.events]))
         peaks = np.array([e.peak_force for e in cdtm_reference.events])

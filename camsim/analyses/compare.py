@@ -53,6 +53,8 @@ class Comparison:
         The common time grid [s].
     a, b : dict
         name → quantity → trace, for the first ("impact") and second ("no impact") run.
+    located : (dict or None, dict or None)
+        Each side's located extremes: the peaks of the table are those (spec §4).
     difference : dict
         name → quantity → percent difference.
     labels : tuple of str
@@ -66,6 +68,8 @@ class Comparison:
     impact: object | None = None
     no_impact: object | None = None
     labels: tuple[str, str] = ("impact", "no impact")
+    #: The located extremes of each side (RunResult.located; None: none, the samples' peaks).
+    located: tuple = (None, None)
 
     def __post_init__(self) -> None:
         if not self.difference:
@@ -85,8 +89,8 @@ class Comparison:
                     ComparisonRow(
                         mass=name,
                         quantity=q,
-                        peak_impact=float(np.max(np.abs(self.a[name][q]))),
-                        peak_no_impact=float(np.max(np.abs(self.b[name][q]))),
+                        peak_impact=_peak(self.located[0], self.a, name, q),
+                        peak_no_impact=_peak(self.located[1], self.b, name, q),
                         max_difference_percent=float(abs(diff[k])) if diff.size else 0.0,
                         time=float(self.time[k]) if diff.size else 0.0,
                     )
@@ -110,6 +114,17 @@ class Comparison:
         }
 
 
+def _peak(located, traces, name: str, quantity: str) -> float:
+    """Largest |quantity| of a mass: the run's located peak (``located``, its
+    :attr:`~camsim.run.result.RunResult.located`; spec §4: the number its own summary
+    reports), or the largest |sample| of a side without one (files written before)."""
+    hit = (located or {}).get(f"masses/{name}/{quantity}")
+    if hit is not None:
+        return max(abs(hit["max"].value), abs(hit["min"].value))
+    data = traces[name][quantity]
+    return float(np.max(np.abs(data))) if data.size else 0.0
+
+
 def compare_machine(machine, **run_options) -> Comparison:
     """Run ``machine`` with and without impact and over-travel on the same grid.
 
@@ -131,6 +146,7 @@ def compare_machine(machine, **run_options) -> Comparison:
         b=without.masses,
         impact=with_impact,
         no_impact=without,
+        located=(with_impact.located, without.located),
     )
 
 
@@ -169,7 +185,10 @@ def compare_files(path_a: str | os.PathLike[str], path_b: str | os.PathLike[str]
         a, b = _read_masses(fa), _read_masses(fb)
         if set(a) != set(b):
             raise ResultFileError(f"{path_b}: masses {sorted(b)} differ from {path_a}'s {sorted(a)}")
-        return Comparison(time=ta, a=a, b=b, labels=(os.fspath(path_a), os.fspath(path_b)))
+        from camsim.run.result import read_extremes
+
+        return Comparison(time=ta, a=a, b=b, labels=(os.fspath(path_a), os.fspath(path_b)),
+                          located=(read_extremes(fa), read_extremes(fb)))
 
 
 def _rate(t: np.ndarray) -> str:

@@ -327,7 +327,7 @@ def design_summary(result, cs: float | None = None) -> dict | None:
     if accumulator is None:
         return None
     accumulator.add(result)
-    return accumulator.summary(cs)
+    return accumulator.summary(cs, getattr(result, "located", None))
 
 
 class DesignAccumulator:
@@ -405,8 +405,9 @@ class DesignAccumulator:
         last = self.first_time[-1]
         return last.size == 0 or last[-1] <= period * (1.0 + 1e-12)
 
-    def summary(self, cs: float | None = None) -> dict:
-        """The design dict of :func:`design_summary`."""
+    def summary(self, cs: float | None = None, located: dict | None = None) -> dict:
+        """The design dict of :func:`design_summary`; the peak torque is the located one of
+        ``located`` (the run's located extremes, spec §4) when it has it."""
         static = geometry_summary(self.geometry, self.program)
         out = {k: v for k, v in static.items() if k not in ("defects",)}
         out["defects"] = [d.describe(self.geometry) for d in static["defects"]]
@@ -430,6 +431,11 @@ class DesignAccumulator:
             out["peak_hertz_stress"], out["peak_hertz_stress_time"] = self.peak_stress
         if self.peak_torque is not None:
             out["peak_torque"], out["peak_torque_time"] = self.peak_torque
+            hit = (located or {}).get("camshaft/torque")
+            if hit is not None:
+                top, bottom = hit["max"], hit["min"]
+                best = top if abs(top.value) >= abs(bottom.value) else bottom
+                out["peak_torque"], out["peak_torque_time"] = abs(best.value), best.time
             out["rms_torque"] = float(np.sqrt(self.sum_squares / self.count))
             time = np.concatenate(self.first_time)
             torque = np.concatenate(self.first_torque)

@@ -8,10 +8,16 @@ d and c_max beyond (spec §3). Parameters: ``stiffness`` k [N/m^n], ``exponent``
 the max(0, ·) (the contact may then pull while δ > 0, as Adams's IMPACT does).
 
 While closed the force is nonlinear (integrated by :mod:`camsim.engine.nonlinear`). The contact
-closes when δ crosses 0 upward (an ``impact``) and opens when δ returns to 0 (``release``);
-with ``clamp`` the force is zero, not negative, in between when the damping term would
-pull (the motion is the same as an opening at F = 0, which a non-affine force cannot mark
-exactly as an event).
+closes when δ crosses 0 upward (an ``impact``) and opens when δ returns to 0 (``release``).
+
+The law has kinks inside a closed phase, and each is located like an event (issue 34), so
+that every integrator sees a smooth law between them (one stepping across a kink loses its
+order there, and where its steps fall then moves the rebound by ~1e-5): the damping ramp
+ends at δ = d (branch ``closed`` below it, ``closed-deep`` beyond: the cubic STEP's second
+derivative jumps there), and with ``clamp`` the force is zero where the damping term would
+pull (branch ``clamped``: the unclamped law is still evaluated, to tell when it pushes
+again, but does not act). None of these is a row of the event table: the contact is closed
+from its impact to its release at δ = 0.
 """
 
 from __future__ import annotations
@@ -21,8 +27,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from camsim.elements.base import LENGTH_TOL, Branch, GuardKind, Param, register
+from camsim.elements.affine import Affine
+from camsim.elements.base import FORCE_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
+
+#: The branches of a closed phase (the law acting, or clamped at zero).
+_CLOSED = (Branch.CLOSED, Branch.CLOSED_DEEP, Branch.CLAMPED)
 
 
 def step_cubic(u: np.ndarray) -> np.ndarray:
@@ -55,14 +65,27 @@ class AdamsImpactContact(Contact):
         Param("clamp", "bool", "max(0, ·) on the force (false: it may pull while δ > 0, as in Adams)", default=True),
     )
 
+    def branches(self, no_impact):
+        if no_impact:
+            return (Branch.BILATERAL,)
+        return (Branch.OPEN, *_CLOSED) if self.clamp else (Branch.OPEN, Branch.CLOSED, Branch.CLOSED_DEEP)
+
     def is_nonlinear(self, branch):
-        return branch == Branch.CLOSED
+        return branch in _CLOSED
+
+    def acts(self, branch):
+        return branch != Branch.CLAMPED
 
     def is_constraint(self, branch):
         return branch == Branch.BILATERAL
 
+    def _piece(self, delta: float) -> Branch:
+        """The closed branch of the law's piece at penetration δ."""
+        return Branch.CLOSED_DEEP if delta >= self.penetration_depth else Branch.CLOSED
+
     def nonlinear_tangent(self, delta, delta_rate, v_impact=None):
-        """(F, ∂F/∂δ, ∂F/∂δ̇) on samples [N, N/m, N·s/m]."""
+        """(F, ∂F/∂δ, ∂F/∂δ̇) of the law on samples [N, N/m, N·s/m], not clamped (the clamp
+        is a branch, ``clamped``, entered where F reaches zero)."""
         delta = np.asarray(delta, dtype=float)
         delta_rate = np.asarray(delta_rate, dtype=float)
         pen = np.maximum(delta, 0.0)
@@ -78,8 +101,6 @@ class AdamsImpactContact(Contact):
         kt = k_el + dc * delta_rate
         ct = c
         off = pen <= 0.0
-        if self.clamp:
-            off = off | (F <= 0.0)
         return np.where(off, 0.0, F), np.where(off, 0.0, kt), np.where(off, 0.0, ct)
 
     def nonlinear_force(self, delta, delta_rate, v_impact=None):
@@ -90,8 +111,7 @@ class AdamsImpactContact(Contact):
             return 0.0
         u = delta / self.penetration_depth
         c = self.max_damping * (u * u * (3.0 - 2.0 * u) if u < 1.0 else 1.0)
-        force = self.stiffness * delta**self.exponent + c * delta_rate
-        return force if (force > 0.0 or not self.clamp) else 0.0
+        return self.stiffness * delta**self.exponent + c * delta_rate
 
     def scalar_force(self, v_impact=None):
         """:meth:`nonlinear_force_scalar` as a function of (δ, δ̇) (the law has no
@@ -99,13 +119,58 @@ class AdamsImpactContact(Contact):
         return lambda delta, delta_rate: self.nonlinear_force_scalar(delta, delta_rate)
 
     def force(self, branch, d, d_rate, damping, v_impact):
-        if branch != Branch.CLOSED:
+        if branch not in (Branch.CLOSED, Branch.CLOSED_DEEP):
             return np.zeros_like(d)
-        return self.nonlinear_force(self.gap - d, -d_rate)
+        force = self.nonlinear_force(self.gap - d, -d_rate)
+        return np.maximum(force, 0.0) if self.clamp else force
 
     def closed_guards(self, branch, ctx):
         delta, _ = ctx.penetration()
-        return [(GuardKind.RELEASE, delta, LENGTH_TOL)]
+        depth = Affine(delta.Cz, delta.Du, delta.Fn, delta.e - self.penetration_depth)  # δ − d
+        out = [(GuardKind.RELEASE, delta, LENGTH_TOL)]
+        if branch == Branch.CLAMPED:
+            # clamped: pushes again when the unclamped law turns positive
+            return out + [(GuardKind.UNCLAMP, self._law(ctx, -1.0), FORCE_TOL)]
+        if branch == Branch.CLOSED:
+            out.append((GuardKind.KINK_UP, Affine(-depth.Cz, -depth.Du, -depth.Fn, -depth.e), LENGTH_TOL))
+        else:
+            out.append((GuardKind.KINK_DOWN, depth, LENGTH_TOL))
+        if self.clamp:
+            out.append((GuardKind.CLAMP, self._law(ctx, 1.0), FORCE_TOL))
+        return out
+
+    def _law(self, ctx, sign: float) -> Affine:
+        """±F_nl, this contact's (unclamped) law, as a guard."""
+        config = ctx.config
+        Fn = np.zeros((1, len(config.power_contacts)))
+        Fn[0, config.power_contacts.index(ctx.index)] = sign
+        return Affine(np.zeros((1, config.dim)), np.zeros((1, 4)), Fn, np.zeros(1))
+
+    def outcome_at(self, kind, rate, d):
+        delta = self.gap - d
+        if kind == GuardKind.KINK_UP:
+            return Outcome(Branch.CLOSED_DEEP)
+        if kind == GuardKind.KINK_DOWN:
+            return Outcome(Branch.CLOSED)
+        if kind == GuardKind.CLAMP:
+            return Outcome(Branch.CLAMPED)
+        if kind == GuardKind.UNCLAMP:
+            return Outcome(self._piece(delta))
+        outcome = self.outcome(kind, rate)
+        if outcome.branch == Branch.CLOSED:  # closing: onto the piece at δ (≈ 0)
+            return Outcome(self._piece(delta), outcome.event, outcome.velocity, outcome.v_impact)
+        return outcome
+
+    def branch_at_rest(self, branch, d, constraint_force):
+        new = super().branch_at_rest(branch, d, constraint_force)
+        return self._piece(self.gap - d) if new in _CLOSED else new
+
+    def rest_open(self, branch, delta, constraint_force):
+        return Branch.OPEN if delta <= 0 else branch
+
+    def branch_from_state(self, d, no_impact):
+        branch = super().branch_from_state(d, no_impact)
+        return self._piece(self.gap - d) if branch == Branch.CLOSED else branch
 
     def johnson_bounds(self, m1, m2, v):
         from camsim.physics.impact import johnson_power

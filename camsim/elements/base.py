@@ -47,6 +47,8 @@ class Branch(str, Enum):
     STUCK = "stuck"  # rigid contact resting closed: a constraint; a rigid lash's lower side
     STUCK_HIGH = "stuck-high"  # a rigid lash resting closed on its upper side
     BILATERAL = "bilateral"  # no-impact variant: cam contact that never opens
+    CLOSED_DEEP = "closed-deep"  # a closed contact past a kink of its law (Adams IMPACT beyond its damping ramp)
+    CLAMPED = "clamped"  # penetrating, the law's force clamped at zero (watched, not acting; issue 34)
 
 
 class GuardKind(StrEnum):
@@ -58,6 +60,12 @@ class GuardKind(StrEnum):
     RELEASE = "release"  # a contact's force reaches zero
     UNLIFT = "unlift"  # a lifted compliant contact's penetration returns to zero
     REENGAGE = "reengage"  # a lifted compliant contact's law pushes again (no impact: issue 34)
+    # A closed nonlinear law's kinks, located like events but no rows of the event table
+    # (issue 34): its next piece, its previous one; its force clamped at zero, and pushing again.
+    KINK_UP = "kink-up"
+    KINK_DOWN = "kink-down"
+    CLAMP = "clamp"
+    UNCLAMP = "unclamp"
 
 
 @dataclass(frozen=True)
@@ -247,6 +255,11 @@ class Element:
     def is_nonlinear(self, branch: Branch | None) -> bool:
         """True when the branch's force is nonlinear (integrated as F_nl)."""
         return False
+
+    def acts(self, branch: Branch | None) -> bool:
+        """Whether a nonlinear branch's F_nl acts on the masses (False: it is only watched —
+        a law clamped at zero whose unclamped value tells when it pushes again)."""
+        return True
 
     def contact_side(self, branch: Branch | None, d: float | None = None) -> tuple[float, float]:
         """(σ, g) of the contact acting on ``branch``: penetration δ = σ·(g − d) [-, m].

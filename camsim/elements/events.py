@@ -50,7 +50,9 @@ class Event:
     johnson_lower, johnson_upper : float
         Johnson's impact-force bounds [N] (impacts only; NaN otherwise).
     peak_force : float
-        Simulated peak force of the impact [N].
+        Simulated peak force of the impact [N], located on the solution (spec §4).
+    peak_time : float
+        When the peak force is reached [s].
     contact_duration : float
         Time until the contact opens again [s].
     element_index : int
@@ -66,6 +68,7 @@ class Event:
     johnson_lower: float = float("nan")
     johnson_upper: float = float("nan")
     peak_force: float = float("nan")
+    peak_time: float = float("nan")
     contact_duration: float = float("nan")
     element_index: int = -1
 
@@ -96,6 +99,7 @@ EVENT_COLUMNS: tuple[tuple[str, str], ...] = (
     ("johnson_lower", "N"),
     ("johnson_upper", "N"),
     ("peak_force", "N"),
+    ("peak_time", "s"),
     ("contact_duration", "s"),
 )
 _TEXT_COLUMNS = {"element", "kind", "masses"}

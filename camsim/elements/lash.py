@@ -62,6 +62,10 @@ def _law_params(contact: type[Contact]) -> tuple[Param, ...]:
     return tuple(p for p in contact.params if p.key not in _CONTACT_ONLY)
 
 
+#: Guard kinds of a contact law's kinks, which a lash does not locate (see Lash.guards).
+_KINKS = (GuardKind.KINK_UP, GuardKind.KINK_DOWN, GuardKind.CLAMP, GuardKind.UNCLAMP)
+
+
 class _Side:
     """A guard context seen from one side of a lash: ``penetration`` is that side's δ, δ̇."""
 
@@ -188,8 +192,11 @@ class Lash(Element):
     def guards(self, branch, ctx):
         low, high = self._sides(ctx)
         sign = self.side_of(branch)
-        if sign:  # the law's guards on the closed side
-            return self.contact.guards(self.contact.closed_branch, low if sign > 0 else high)
+        if sign:  # the law's guards on the closed side (its release; a lash has one closed
+            # branch per side, so the kinks a contact locates inside a closed phase — Adams
+            # IMPACT's — are stepped across here: a known limit, docs/contacts.md)
+            guards = self.contact.guards(self.contact.closed_branch, low if sign > 0 else high)
+            return [g for g in guards if g[0] not in _KINKS]
         # Open: each side's guards as an open contact's (approach, or lifted and closing again).
         return [*self.contact.guards(Branch.OPEN, low), *self.contact.guards(Branch.OPEN, high)]
 
@@ -303,6 +310,26 @@ class AdamsImpactLash(_NonlinearLash):
     summary: ClassVar[str] = "two-sided clearance with an MSC Adams IMPACT contact on each side"
     params: ClassVar[tuple[Param, ...]] = (*LASH_PARAMS, *_law_params(AdamsImpactContact))
     contact_class: ClassVar[type[Contact]] = AdamsImpactContact
+
+    # The contact's law is unclamped (its clamp is a branch of the contact); a side of a lash
+    # has no clamped branch, so the clamp stays in its force.
+    def nonlinear_force(self, delta, delta_rate, v_impact=None):
+        force = self.contact.nonlinear_force(delta, delta_rate, v_impact)
+        return np.maximum(force, 0.0) if self.clamp else force
+
+    def nonlinear_force_scalar(self, delta: float, delta_rate: float, v_impact=None) -> float:
+        force = self.contact.nonlinear_force_scalar(delta, delta_rate, v_impact)
+        return force if (force > 0.0 or not self.clamp) else 0.0
+
+    def scalar_force(self, v_impact=None):
+        return lambda delta, rate: self.nonlinear_force_scalar(delta, rate, v_impact)
+
+    def nonlinear_tangent(self, delta, delta_rate, v_impact=None):
+        F, kt, ct = self.contact.nonlinear_tangent(delta, delta_rate, v_impact)
+        if not self.clamp:
+            return F, kt, ct
+        off = F <= 0.0
+        return np.where(off, 0.0, F), np.where(off, 0.0, kt), np.where(off, 0.0, ct)
 
 
 @register

@@ -8,14 +8,14 @@ ends, which are events, stops or the recording window's edges). For each observa
 camshaft torque: whatever the caller's ``observe`` computes from the state — the very code
 that makes the traces, so a figure reported in two places is one number):
 
-1. **Screen** the nodes: the largest node value and every node that is a local maximum
-   within :data:`SCREEN_MARGIN` of the stretch's range below it. The internal grid has at
-   least twelve steps per period of the highest natural frequency, so between two nodes a
-   smooth q rises at most a few percent of its range above the higher node (1 − cos(π/12)
-   = 3.4 % for a pure mode): any step that can hold the maximum is next to such a node, or
-   at a stretch end (where the one-sided limit itself is a candidate).
-2. **Refine** only where asked (:meth:`StretchExtremes.extreme`, lazily: a step is refined
-   only when its bound could beat the best value found so far): on each candidate step the
+1. **Screen** the nodes (:func:`_screen`): between two nodes a smooth q rises at most
+   h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided differences (the
+   internal grid has at least twelve steps per period of the highest natural frequency) and
+   taken :data:`SCREEN_SAFETY` times over; the steps whose bound exceeds the largest node
+   value, and the two beside that node, are the candidates; the stretch's ends are nodes
+   (its one-sided limits are candidates as they are).
+2. **Refine** only where asked (:meth:`StretchExtremes.extreme`, lazily: a stretch is refined
+   only when a bound could beat the best value found so far): on each candidate step the
    exact state is evaluated at :data:`CHEBYSHEV_POINTS` Chebyshev–Lobatto points — for a
    linear configuration from the Taylor series of its exact solution (z' = A·z + B·u + b with
    the step's polynomial cam input), for a closed nonlinear contact by DOP853 at rtol 1e-13
@@ -30,7 +30,6 @@ c·v at the instant of impact, and that value is the peak of a damping-dominated
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,10 +37,9 @@ from camsim.errors import SimulationError
 from camsim.elements.affine import N_INPUT
 from camsim.engine.stepping import _FACT, _P, state_scale, step_input_derivatives
 
-#: Nodes within this fraction of a stretch's range of its largest node value are screened
-#: for a maximum between nodes (a smooth q resolved at twelve steps per period exceeds its
-#: highest node by at most 3.4 % of its range).
-SCREEN_MARGIN = 0.05
+#: The bound of a smooth q between two nodes, h²/8·|q̈|, is taken this many times over
+#: (q̈ itself estimated from the nodes; see _screen).
+SCREEN_SAFETY = 4.0
 #: Chebyshev–Lobatto points per refined step (the interpolant's degree + 1).
 CHEBYSHEV_POINTS = 13
 #: Taylor terms of a step's exact solution are taken until the next would be below this
@@ -49,6 +47,11 @@ CHEBYSHEV_POINTS = 13
 TAYLOR_TOL = 1e-18
 #: Largest balanced norm ‖A·h‖₁ for the Taylor series (beyond it the step is split).
 TAYLOR_NORM = 4.0
+#: A located value between nodes replaces the best node value only when it is larger by more
+#: than this fraction of the values interpolated (the interpolation's rounding).
+ROUNDING = 64 * np.finfo(float).eps
+#: Newton steps on an interpolant's derivative from its best point of a 65-point grid.
+NEWTON_STEPS = 3
 #: DOP853 tolerance of a nonlinear step integrated again for its dense states.
 DENSE_RTOL = 1e-13
 
@@ -57,6 +60,9 @@ _SIGMA = 0.5 * (_X + 1.0)  # 0 … 1 along a step
 _TO_COEF = np.linalg.inv(np.polynomial.chebyshev.chebvander(_X, CHEBYSHEV_POINTS - 1))
 _FINE = np.linspace(-1.0, 1.0, 65)
 _FINE_V = np.polynomial.chebyshev.chebvander(_FINE, CHEBYSHEV_POINTS - 1)
+#: The first and second derivatives of a Chebyshev series as matrices on its coefficients.
+_DER1 = np.array([np.polynomial.chebyshev.chebder(e) for e in np.eye(CHEBYSHEV_POINTS)]).T
+_DER2 = np.array([np.polynomial.chebyshev.chebder(e, 2) for e in np.eye(CHEBYSHEV_POINTS)]).T
 
 
 # ---------------------------------------------------------------------- dense states
@@ -74,8 +80,9 @@ def taylor_states(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray, sigma: n
         polynomial the step maps integrate, :func:`camsim.engine.stepping.step_input_derivatives`).
     h : ndarray (S,)
         Step lengths [s].
-    sigma : ndarray (P,)
-        Fractions of the step (0 … 1) at which the state is wanted.
+    sigma : ndarray (P,) or (S, P)
+        Fractions of the step (0 … 1) at which the state is wanted (the same for every
+        step, or per step).
 
     Returns
     -------
@@ -90,7 +97,8 @@ def taylor_states(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray, sigma: n
     Steps whose ‖h·A_b‖₁ exceeds :data:`TAYLOR_NORM` are halved recursively.
     """
     S, m = z0.shape
-    P = sigma.size
+    sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (S, np.shape(sigma)[-1]))
+    P = sigma.shape[1]
     out = np.empty((S, P, m))
     if m == 0 or S == 0:
         return out
@@ -105,7 +113,7 @@ def taylor_states(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray, sigma: n
         # a long step (a stretch's only step between two events far apart with no grid
         # point, in a soft machine): its halves, each from its own exact start state
         for s in np.flatnonzero(long).tolist():
-            out[s] = _split_states(config, z0[s], D[s], float(h[s]), sigma)
+            out[s] = _split_states(config, z0[s], D[s], float(h[s]), sigma[s])
     short = np.flatnonzero(~long)
     if short.size == 0:
         return out
@@ -120,8 +128,8 @@ def taylor_states(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray, sigma: n
         terms += 1
     Dp = np.concatenate([D[short], np.zeros((short.size, terms + N_INPUT))], axis=1)
     e = z0[short] / T  # e_0 = w0
-    powers = sigma[:, None] ** np.arange(terms + 1)[None, :]  # (P, K+1)
-    W = powers[:, 0][None, :, None] * e[:, None, :]
+    powers = sigma[short][:, :, None] ** np.arange(terms + 1)  # (S, P, K+1)
+    W = powers[:, :, 0, None] * e[:, None, :]
     hk = np.ones_like(hs)  # h^k / k!
     for k in range(terms):
         uk = Dp[:, k : k + N_INPUT] * hk[:, None]  # û_k·h^k/k!
@@ -129,7 +137,7 @@ def taylor_states(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray, sigma: n
         if k == 0:
             forcing = forcing + bb
         e = (hs / (k + 1))[:, None] * (e @ Ab.T + forcing)
-        W += powers[:, k + 1][None, :, None] * e[:, None, :]
+        W += powers[:, :, k + 1, None] * e[:, None, :]
         hk = hk * hs / (k + 1)
     out[short] = W * T
     return out
@@ -171,8 +179,99 @@ def step_inputs(D: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return out
 
 
+# ---------------------------------------------------------------------- dense states of a stretch
+class _DenseStretch:
+    """The exact states inside a stretch's steps, on demand.
+
+    A linear configuration's state anywhere in a step is its Taylor series
+    (:func:`taylor_states`); a closed nonlinear contact's is DOP853's at rtol
+    :data:`DENSE_RTOL` from the step's start node, integrated once per step and kept (its
+    dense output then serves every later point). The cam input in a step is the step's
+    degree-7 polynomial, as the steppers integrate it.
+    """
+
+    def __init__(self, ctx, config, branches, v_impacts, exact: bool, nodes, Z, U, observe):
+        self.ctx, self.config, self.branches, self.v_impacts = ctx, config, branches, v_impacts
+        self.exact, self.nodes, self.Z, self.U, self.observe = exact, nodes, Z, U, observe
+        self.h = np.diff(nodes)
+        self.D = step_input_derivatives(U[:-1], U[1:], self.h, ctx.h)
+        self._solutions: dict[int, object] = {}
+
+    def states(self, steps: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(S, P, m) states and (S, P, 4) inputs at fractions ``sigma`` ((P,) or (S, P)) of ``steps``."""
+        steps = np.asarray(steps, dtype=int)
+        S = steps.size
+        sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (S, np.shape(sigma)[-1]))
+        h = self.h[steps]
+        D = self.D[steps]
+        # the cam input from its law (a driven mass's acceleration is the cam's s̈: the step's
+        # degree-7 polynomial carries it only to about (h/β)^6 of itself, which made a flat
+        # maximum depend on the grid by 3e-8)
+        times = self.nodes[steps][:, None] + h[:, None] * sigma
+        ends = self.nodes[steps + 1]
+        Us = np.empty(times.shape + (N_INPUT,))
+        for r in range(S):
+            Us[r] = self.ctx.analytic_inputs_at(times[r], float(ends[r]))
+        if self.exact:
+            return taylor_states(self.config, self.Z[steps], D, h, sigma), Us
+        Zs = np.empty((S, sigma.shape[1], self.Z.shape[1]))
+        for r, k in enumerate(steps.tolist()):
+            sol = self._solution(k)
+            Zs[r] = sol(self.nodes[k] + h[r] * sigma[r]).T if h[r] > 0.0 else self.Z[k]
+        return Zs, Us
+
+    def values(self, steps, sigma) -> np.ndarray:
+        """The observables at fractions ``sigma`` of ``steps``: (S, P, n_obs)."""
+        Zs, Us = self.states(steps, sigma)
+        S, P, m = Zs.shape
+        return self.observe(self.config, self.branches, self.v_impacts, Zs.reshape(S * P, m),
+                            Us.reshape(S * P, N_INPUT)).reshape(S, P, -1)
+
+    def _solution(self, k: int):
+        sol = self._solutions.get(k)
+        if sol is None:
+            sol = self._solutions[k] = _integrate_step(self.ctx, self.config, self.v_impacts, float(self.nodes[k]),
+                                                       float(self.h[k]), self.Z[k], self.D[k])
+        return sol
+
+
+def _integrate_step(ctx, config, v_impacts, t_a: float, h: float, z0: np.ndarray, Dk: np.ndarray):
+    """DOP853 (rtol :data:`DENSE_RTOL`) over one step of a closed nonlinear contact from its
+    start node, the cam input the step's polynomial; returns the dense solution."""
+    from scipy.integrate import solve_ivp
+
+    A, B, b, L = config.A, config.B, config.b, config.L
+    contacts = []
+    for k, i in enumerate(config.power_contacts):
+        delta, rate = ctx._delta(config, i)
+        contacts.append((L[:, k], delta.Cz[0], delta.Du[0], float(delta.e[0]), rate.Cz[0], rate.Du[0], float(rate.e[0]),
+                         ctx.model.elements[i].nonlinear_force_scalar, v_impacts.get(i)))
+    Dp = np.concatenate([Dk, np.zeros(N_INPUT - 1)])
+    # u_c(τ) = Σ_j D[j + c]·τ^j/j!: the coefficient matrix of τ^j per channel
+    C = np.array([Dp[c : c + _P + 1] / _FACT[: _P + 1] for c in range(N_INPUT)])
+    powers = np.arange(_P + 1)
+
+    def rhs(t, z):
+        u = C @ ((t - t_a) ** powers)
+        out = A @ z + B @ u + b
+        for Lk, dz, du, de, rz, ru, re, force, v in contacts:
+            out = out + Lk * force(float(dz @ z + du @ u + de), float(rz @ z + ru @ u + re), v)
+        return out
+
+    sol = solve_ivp(rhs, (t_a, t_a + h), np.asarray(z0, dtype=float), method="DOP853", rtol=DENSE_RTOL,
+                    atol=ctx.nonlinear_atol(z0.size) * 1e-3, dense_output=True)
+    if not sol.success:
+        raise SimulationError(f"dense states of a closed contact's step at t = {t_a:.9g} s: {sol.message}")
+    return sol.sol
+
+
 # ---------------------------------------------------------------------- the record of a stretch
-@dataclass
+#: Zoom levels of a closed nonlinear contact's refinement, the width of each (a fraction of
+#: the previous interval) around the maximum found on the previous one: a contact's force
+#: is not smooth at its ends (F ∝ δ^a), where the interpolant of a whole step is rough.
+ZOOM = (1.0 / 16.0, 1.0 / 64.0)
+
+
 class StretchExtremes:
     """Located maxima and minima of every observable over one stretch (or its part in the
     recording window), refined on demand.
@@ -189,17 +288,25 @@ class StretchExtremes:
         Bounds no value between the nodes can exceed (screening; see module docstring).
     """
 
-    t0: float
-    t1: float
-    node_max: np.ndarray
-    node_tmax: np.ndarray
-    node_min: np.ndarray
-    node_tmin: np.ndarray
-    upper: np.ndarray
-    lower: np.ndarray
-    _candidates: tuple = field(repr=False, default=())
-    _dense: object = field(repr=False, default=None)
-    _refined: dict = field(repr=False, default_factory=dict)
+    def __init__(self, dense: _DenseStretch, Q: np.ndarray):
+        nodes = dense.nodes
+        self.t0, self.t1 = float(nodes[0]), float(nodes[-1])
+        n_obs = Q.shape[1]
+        cols = np.arange(n_obs)
+        kmax, kmin = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
+        self.node_max, self.node_min = Q[kmax, cols], Q[kmin, cols]
+        self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
+        cands_max, self.upper = _screen(nodes, Q)
+        cands_min, lower = _screen(nodes, -Q)
+        self.lower = -lower
+        self._candidates = {1: cands_max, -1: cands_min}
+        self._dense = dense
+        self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
+        self._refined: dict[tuple[int, int], tuple[float, float]] = {}
+
+    def bound(self, j: int, sense: int) -> float:
+        """Largest value (sense +1) or smallest (−1) the observable can take here (screening)."""
+        return float(self.upper[j]) if sense > 0 else float(self.lower[j])
 
     def extreme(self, j: int, sense: int) -> tuple[float, float]:
         """(value, time) of the located maximum (``sense`` = +1) or minimum (−1) of
@@ -207,53 +314,71 @@ class StretchExtremes:
         key = (j, sense)
         hit = self._refined.get(key)
         if hit is None:
-            hit = self._refine(j, sense)
-            self._refined[key] = hit
+            hit = self._refined[key] = self._refine(j, sense)
         return hit
-
-    def bound(self, j: int, sense: int) -> float:
-        """Largest value (sense +1) or smallest (−1) the observable can take here (screening)."""
-        return float(self.upper[j]) if sense > 0 else float(self.lower[j])
 
     def _refine(self, j: int, sense: int) -> tuple[float, float]:
         if sense > 0:
-            best, t_best = float(self.node_max[j]), float(self.node_tmax[j])
+            best = (float(self.node_max[j]), float(self.node_tmax[j]))
         else:
-            best, t_best = float(self.node_min[j]), float(self.node_tmin[j])
-        steps = self._candidates[0 if sense > 0 else 1].get(j, ())
-        if not steps or self._dense is None:
-            return best, t_best
-        t_starts, lengths, Q = self._dense(steps)  # (S,), (S,), (S, P, n_obs)
-        values = sense * Q[:, :, j]  # (S, P)
-        coef = values @ _TO_COEF.T  # Chebyshev coefficients per step
-        fine = coef @ _FINE_V.T
-        k = np.argmax(fine, axis=1)
-        x = _FINE[k]
-        lo = _FINE[np.maximum(k - 1, 0)]
-        hi = _FINE[np.minimum(k + 1, _FINE.size - 1)]
-        d1 = np.array([np.polynomial.chebyshev.chebder(c) for c in coef])
-        d2 = np.array([np.polynomial.chebyshev.chebder(c, 2) for c in coef])
-        for _ in range(30):
-            g = _chebval_rows(x, d1)
-            gg = _chebval_rows(x, d2)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                step = np.where(gg < 0.0, g / gg, 0.0)
-            x_new = np.clip(x - step, lo, hi)
-            if np.all(np.abs(x_new - x) <= 1e-15):
-                x = x_new
-                break
-            x = x_new
+            best = (float(self.node_min[j]), float(self.node_tmin[j]))
+        steps = np.array(self._candidates[sense].get(j, ()), dtype=int)
+        if steps.size == 0:
+            return best
+        dense = self._dense
+        missing = [k for k in steps.tolist() if k not in self._level1]
+        if missing:
+            for k, q in zip(missing, dense.values(np.array(missing), _SIGMA)):
+                self._level1[k] = q
+        values = sense * np.array([self._level1[k][:, j] for k in steps.tolist()])  # (S, P)
+        lo = np.zeros(steps.size)
+        width = np.ones(steps.size)
+        x = _maximise(values)
+        # (a linear configuration's step is smooth: its interpolant is exact to rounding)
+        for zoom in (() if dense.exact else ZOOM):
+            # the maximum again on a narrower interval around the last one (the interpolant
+            # of a whole step may be rough where a contact's force is not smooth: its ends)
+            centre = lo + width * 0.5 * (x + 1.0)
+            width = width * 2.0 * zoom
+            lo = np.clip(centre - 0.5 * width, 0.0, 1.0 - width)
+            sigma = lo[:, None] + width[:, None] * _SIGMA[None, :]
+            values = sense * dense.values(steps, sigma)[:, :, j]
+            x = _maximise(values)
+        coef = values @ _TO_COEF.T
         vals = _chebval_rows(x, coef)
-        # the interpolant's value where Newton stopped, or its best fine point
-        vfine = fine[np.arange(fine.shape[0]), k]
-        use = vals >= vfine
-        x = np.where(use, x, _FINE[k])
-        vals = np.where(use, vals, vfine)
-        s = int(np.argmax(vals))
-        if sense * best >= vals[s]:
-            return best, t_best
-        t_at = float(t_starts[s] + lengths[s] * 0.5 * (x[s] + 1.0))
-        return float(sense * vals[s]), t_at
+        sigma_at = lo + width * 0.5 * (x + 1.0)
+        times = dense.nodes[steps] + dense.h[steps] * sigma_at
+        # a value between nodes wins only when it beats the best node by more than the
+        # interpolation's rounding (a dwell's plateau would otherwise read a few ulps high,
+        # differently at each sample rate)
+        noise = ROUNDING * np.max(np.abs(values), axis=1)
+        for r in range(steps.size):
+            if vals[r] > sense * best[0] + noise[r]:
+                best = (float(sense * vals[r]), float(times[r]))
+        return best
+
+
+def _maximise(values: np.ndarray) -> np.ndarray:
+    """Where on [−1, 1] each row's Chebyshev interpolant (values at the Chebyshev–Lobatto
+    points) is largest: its best point on a fine grid, polished by Newton on its derivative."""
+    coef = values @ _TO_COEF.T
+    fine = coef @ _FINE_V.T
+    k = np.argmax(fine, axis=1)
+    x = _FINE[k]
+    lo = _FINE[np.maximum(k - 1, 0)]
+    hi = _FINE[np.minimum(k + 1, _FINE.size - 1)]
+    d1, d2 = coef @ _DER1.T, coef @ _DER2.T
+    # from a point within 1/64 of the maximum, three Newton steps on the derivative reach it
+    # to rounding (quadratic convergence: 1e-2, 1e-4, 1e-8, 1e-16 in x; the value's error is
+    # the square of x's)
+    for _ in range(NEWTON_STEPS):
+        g = _chebval_rows(x, d1)
+        gg = _chebval_rows(x, d2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(gg < 0.0, g / gg, 0.0)
+        x = np.clip(x - step, lo, hi)
+    better = _chebval_rows(x, coef) >= fine[np.arange(fine.shape[0]), k]
+    return np.where(better, x, _FINE[k])
 
 
 def _chebval_rows(x: np.ndarray, coef: np.ndarray) -> np.ndarray:
@@ -296,160 +421,77 @@ def stretch_extremes(ctx, config, branches, v_impacts, exact: bool, nodes: np.nd
     t0, t1 = float(nodes[0]), float(nodes[-1])
     if t1 < lo or t0 > hi or nodes.size < 2:
         return None
-    D = step_input_derivatives(U[:-1], U[1:], np.diff(nodes), ctx.h) if exact else None
-
-    def dense_states(step_index: np.ndarray, sigma: np.ndarray):
-        """(S, P, m) states and (S, P, 4) inputs at fractions sigma of the given steps."""
-        t_s = nodes[step_index]
-        h_s = nodes[step_index + 1] - t_s
-        if exact:
-            Zs = taylor_states(config, Z[step_index], D[step_index], h_s, sigma)
-            Us = step_inputs(D[step_index], h_s[:, None] * sigma[None, :])
-        else:
-            Zs, Us = _integrated_states(ctx, config, v_impacts, t_s, h_s, Z[step_index], sigma)
-        return Zs, Us
-
-    # cut the stretch to the window: its edges become nodes (exact states there)
+    dense = _DenseStretch(ctx, config, branches, v_impacts, exact, nodes, Z, U, observe)
     if t0 < lo or t1 > hi:
-        nodes, Z, U, D = _clip(nodes, Z, U, D, lo, hi, dense_states)
+        # cut to the window: its edges become nodes (the exact states there)
+        nodes, Z, U = _clip(dense, lo, hi)
         if nodes.size < 2:
             return None
-
-        def dense_states(step_index, sigma, nodes=nodes, Z=Z, D=D):  # noqa: F811 - the clipped stretch's
-            t_s = nodes[step_index]
-            h_s = nodes[step_index + 1] - t_s
-            if exact:
-                return (taylor_states(config, Z[step_index], D[step_index], h_s, sigma),
-                        step_inputs(D[step_index], h_s[:, None] * sigma[None, :]))
-            return _integrated_states(ctx, config, v_impacts, t_s, h_s, Z[step_index], sigma)
-
-    Q = observe(config, branches, v_impacts, Z, U)
-    n_obs = Q.shape[1]
-    kmax, kmin = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
-    cols = np.arange(n_obs)
-    qmax, qmin = Q[kmax, cols], Q[kmin, cols]
-    margin = SCREEN_MARGIN * (qmax - qmin) + 1e-12 * np.maximum(np.abs(qmax), np.abs(qmin))
-    cands_max = _candidate_steps(Q, qmax - margin)
-    cands_min = _candidate_steps(-Q, -(qmin + margin))
-    cache: dict = {}
-
-    def dense(steps):
-        steps = tuple(sorted(steps))
-        hit = cache.get(steps)
-        if hit is None:
-            idx = np.array(steps, dtype=int)
-            Zs, Us = dense_states(idx, _SIGMA)
-            S, P, m = Zs.shape
-            Qs = observe(config, branches, v_impacts, Zs.reshape(S * P, m), Us.reshape(S * P, N_INPUT)).reshape(S, P, -1)
-            hit = (nodes[idx], nodes[idx + 1] - nodes[idx], Qs)
-            cache.clear()
-            cache[steps] = hit
-        return hit
-
-    return StretchExtremes(
-        t0=float(nodes[0]), t1=float(nodes[-1]), node_max=qmax, node_tmax=nodes[kmax], node_min=qmin,
-        node_tmin=nodes[kmin], upper=qmax + margin, lower=qmin - margin,
-        _candidates=(cands_max, cands_min), _dense=dense,
-    )
+        dense = _DenseStretch(ctx, config, branches, v_impacts, exact, nodes, Z, U, observe)
+    return StretchExtremes(dense, observe(config, branches, v_impacts, Z, U))
 
 
-def _candidate_steps(Q: np.ndarray, threshold: np.ndarray) -> dict[int, tuple[int, ...]]:
-    """Per observable, the steps that may hold its maximum: the two steps around each node
-    that is a local maximum at or above ``threshold``, and a stretch end's step when that end
-    is at or above it (its value may still rise into the step)."""
+def _screen(nodes: np.ndarray, Q: np.ndarray):
+
+    """Per observable, the steps that may hold a value above its largest node value, and the
+    bound of the values between nodes.
+
+    Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
+    estimated at each node by the divided second difference of its neighbours (exact to
+    about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
+    :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
+    node value, or when it ends at that node (the maximum may sit just beside it). With two
+    nodes (a stretch between two events and no grid point) the one step is a candidate.
+
+    Returns
+    -------
+    (dict, ndarray)
+        observable → candidate step indices; the bound of each observable (n_obs,).
+    """
     N, n_obs = Q.shape
+    h = np.diff(nodes)
+    top = np.max(Q, axis=0)
+    kbest = np.argmax(Q, axis=0)
+    if N == 2:
+        span = np.abs(Q[1] - Q[0])
+        return {j: (0,) for j in range(n_obs)}, top + span + 1e-12 * np.abs(top)
+    slopes = np.diff(Q, axis=0) / h[:, None]  # (N − 1, n_obs)
+    curv = np.empty((N, n_obs))
+    curv[1:-1] = 2.0 * np.abs(np.diff(slopes, axis=0)) / (h[:-1] + h[1:])[:, None]
+    curv[0], curv[-1] = curv[1], curv[-2]
+    excess = SCREEN_SAFETY * (h * h / 8.0)[:, None] * np.maximum(curv[:-1], curv[1:])
+    # a stretch's first and last steps: their end node has no neighbour beyond it, so the
+    # curvature there is the next node's: their bound also takes the slope across the step
+    excess[0] += 0.5 * np.abs(Q[1] - Q[0])
+    excess[-1] += 0.5 * np.abs(Q[-1] - Q[-2])
+    bound = np.maximum(Q[:-1], Q[1:]) + excess  # (N − 1, n_obs)
+    tiny = 1e-13 * np.maximum(np.abs(top), np.max(np.abs(Q), axis=0))
+    above = bound > (top + tiny)[None, :]
     out: dict[int, tuple[int, ...]] = {}
-    if N < 2:
-        return out
-    high = Q >= threshold[None, :]
-    local = np.zeros_like(high)
-    if N > 2:
-        local[1:-1] = (Q[1:-1] >= Q[:-2]) & (Q[1:-1] >= Q[2:])
     for j in range(n_obs):
-        steps: set[int] = set()
-        for k in np.flatnonzero(local[:, j] & high[:, j]).tolist():
-            steps.update((k - 1, k))
-        if high[0, j]:
-            steps.add(0)
-        if high[-1, j]:
-            steps.add(N - 2)
-        if steps:
-            out[j] = tuple(sorted(steps))
-    return out
+        steps = set(np.flatnonzero(above[:, j]).tolist())
+        k = int(kbest[j])
+        steps.update(s for s in (k - 1, k) if 0 <= s < N - 1)
+        out[j] = tuple(sorted(steps))
+    return out, np.maximum(top, np.max(bound, axis=0))
 
 
-def _clip(nodes, Z, U, D, lo, hi, dense_states):
-    """The stretch's nodes, states, inputs and step derivatives inside [lo, hi], its edges
-    added as nodes where they fall between two (exact states there)."""
+def _clip(dense: _DenseStretch, lo: float, hi: float):
+    """The stretch's nodes, states and inputs inside [lo, hi], with the window's edges as
+    nodes where they fall between two (the exact states there)."""
+    nodes, Z, U = dense.nodes, dense.Z, dense.U
     keep = (nodes >= lo) & (nodes <= hi)
-    new_t, new_Z, new_U = [], [], []
-    # the left edge
-    if nodes[0] < lo:
-        k = int(np.searchsorted(nodes, lo, side="right")) - 1
-        k = min(k, nodes.size - 2)
-        sigma = np.array([(lo - nodes[k]) / (nodes[k + 1] - nodes[k])])
-        z_lo, u_lo = dense_states(np.array([k]), sigma)
-        new_t.append([lo])
-        new_Z.append(z_lo[0])
-        new_U.append(u_lo[0])
-    idx = np.flatnonzero(keep)
-    if idx.size:
-        new_t.append(nodes[idx])
-        new_Z.append(Z[idx])
-        new_U.append(U[idx])
-    if nodes[-1] > hi:
-        k = int(np.searchsorted(nodes, hi, side="right")) - 1
-        k = min(max(k, 0), nodes.size - 2)
-        sigma = np.array([(hi - nodes[k]) / (nodes[k + 1] - nodes[k])])
-        z_hi, u_hi = dense_states(np.array([k]), sigma)
-        new_t.append([hi])
-        new_Z.append(z_hi[0])
-        new_U.append(u_hi[0])
-    t = np.concatenate([np.asarray(a, dtype=float) for a in new_t]) if new_t else np.zeros(0)
-    Zc = np.concatenate(new_Z) if new_Z else np.zeros((0, Z.shape[1]))
-    Uc = np.concatenate(new_U) if new_U else np.zeros((0, U.shape[1]))
+    ts, Zs, Us = [nodes[keep]], [Z[keep]], [U[keep]]
+    for edge in (lo, hi):
+        if nodes[0] < edge < nodes[-1] and not np.any(nodes == edge):
+            k = min(int(np.searchsorted(nodes, edge, side="right")) - 1, nodes.size - 2)
+            z_e, u_e = dense.states(np.array([k]), np.array([(edge - nodes[k]) / (nodes[k + 1] - nodes[k])]))
+            ts.append(np.array([edge]))
+            Zs.append(z_e[0])
+            Us.append(u_e[0])
+    t = np.concatenate(ts)
     order = np.argsort(t, kind="stable")
-    t, Zc, Uc = t[order], Zc[order], Uc[order]
-    distinct = np.concatenate([[True], np.diff(t) > 0.0]) if t.size else np.zeros(0, bool)
-    t, Zc, Uc = t[distinct], Zc[distinct], Uc[distinct]
-    Dc = None
-    if D is not None and t.size >= 2:
-        Dc = step_input_derivatives(Uc[:-1], Uc[1:], np.diff(t))
-    return t, Zc, Uc, Dc
-
-
-def _integrated_states(ctx, config, v_impacts, t_s, h_s, z_s, sigma):
-    """States and inputs inside steps of a closed nonlinear contact: DOP853 at rtol
-    :data:`DENSE_RTOL` from each step's start node (the cam input from its law)."""
-    from scipy.integrate import solve_ivp
-
-    A, B, b, L = config.A, config.B, config.b, config.L
-    S, P, m = t_s.size, sigma.size, z_s.shape[1]
-    Zs = np.empty((S, P, m))
-    Us = np.empty((S, P, N_INPUT))
-    atol = ctx.nonlinear_atol(m) * 1e-3
-    for s in range(S):
-        t_a, h = float(t_s[s]), float(h_s[s])
-        t_end = t_a + h
-
-        def rhs(t, z, t_end=t_end):
-            u = ctx.analytic_inputs_at(np.array([min(t, t_end)]), t_end)
-            out = A @ z + B @ u[0] + b
-            if L.shape[1]:
-                out = out + L @ ctx.nonlinear_forces(config, z[None, :], u, v_impacts)[0]
-            return out
-
-        times = t_a + h * sigma
-        if h <= 0.0:
-            Zs[s] = z_s[s]
-        else:
-            sol = solve_ivp(rhs, (t_a, t_end), np.asarray(z_s[s], dtype=float), method="DOP853", rtol=DENSE_RTOL,
-                            atol=atol, t_eval=np.clip(times, t_a, t_end), max_step=max(h / 4, 1e-12))
-            if not sol.success or sol.y.shape[1] != P:
-                raise SimulationError(f"dense states of a closed contact's step at t = {t_a:.9g} s: {sol.message}")
-            Zs[s] = sol.y.T
-        Us[s] = ctx.analytic_inputs_at(times, t_end)
-    return Zs, Us
+    return t[order], np.concatenate(Zs)[order], np.concatenate(Us)[order]
 
 
 def combine(records, j: int, sense: int, lo: float = -math.inf, hi: float = math.inf) -> tuple[float, float] | None:

@@ -22,6 +22,7 @@ from camsim.errors import SimulationError, ZenoError
 from camsim.elements import Branch, GuardKind
 from camsim.engine.base import Stepper
 from camsim.engine.context import GRID_SNAP, EngineContext
+from camsim.engine.extremes import stretch_extremes
 from camsim.engine.linear import LinearStepper
 from camsim.engine.nonlinear import ExponentialStepper
 from camsim.engine.rigid import resolve as resolve_rigid
@@ -68,6 +69,10 @@ class Integrator(EngineContext):
         self._instant_time = -math.inf
         #: Jump warnings: the driven mass's cam contact force located like an event (issue 25).
         self.watch = CamForceWatch(self)
+        #: What the located extremes observe (``observe(config, branches, v_impacts, Z, U)``)
+        #: and over which window [s] (set by :meth:`run`).
+        self._observe = None
+        self._window = (-math.inf, math.inf)
 
     def advance(self, state: State, t_stop: float, record: bool) -> tuple[State, Stretch | None, Guard | None]:
         """Integrate one configuration from ``state`` until an event or ``t_stop``.
@@ -83,7 +88,38 @@ class Integrator(EngineContext):
         out = stepper.advance(self, state, config, z0, guards, t_stop, record)
         if not stepper.exact:
             self.watch.samples(state, out[0], out[1], config)
+        if record and self._observe is not None:
+            out = self._with_extremes(state, z0, config, stepper.exact, out)
         return out
+
+    def _with_extremes(self, start: State, z0, config, exact: bool, out):
+        """The stepper's output with the stretch's located extremes (camsim.engine.extremes):
+        its nodes are its start, its grid points and its end (a stretch with no grid point
+        inside still gets a record, then with no samples)."""
+        end, stretch, guard = out
+        t0, t1 = start.t, end.t
+        if t1 - t0 <= TIME_EPS:
+            return out
+        u0 = self.inputs(np.array([t0]))[0]
+        u1 = self.analytic_inputs_at(np.array([t1]), t1)[0]  # the limit from the left
+        z1 = config.state_from_full(end.x, end.v, u1[0], u1[1])
+        if stretch is not None and stretch.t.size:
+            inner = (stretch.t > t0 + TIME_EPS) & (stretch.t < t1 - TIME_EPS)
+            nodes = np.concatenate([[t0], stretch.t[inner], [t1]])
+            Z = np.vstack([z0[None, :], stretch.z[inner], z1[None, :]])
+            U = np.vstack([u0[None, :], stretch.u[inner], u1[None, :]])
+        else:
+            nodes, Z, U = np.array([t0, t1]), np.vstack([z0, z1]), np.vstack([u0, u1])
+        record = stretch_extremes(self, config, start.branches, start.v_impacts, exact, nodes, Z, U, self._observe,
+                                  self._window)
+        if record is None:
+            return out
+        if stretch is None:
+            m = config.dim
+            stretch = Stretch(start.branches, config, np.zeros(0), np.zeros((0, m)), np.zeros((0, 4)),
+                              np.zeros((0, len(config.power_contacts))), dict(start.v_impacts))
+        stretch.extremes = record
+        return end, stretch, guard
 
     def handle(self, state: State, guard: Guard) -> State:
         """Apply the event of ``guard`` at ``state``; returns the state after it."""
@@ -140,7 +176,7 @@ class Integrator(EngineContext):
 
     # ------------------------------------------------------------------ driver
     def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
-            on_stretch=None):
+            on_stretch=None, observe=None, record_to: float = math.inf):
         """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
@@ -151,8 +187,14 @@ class Integrator(EngineContext):
         every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
         and later stretches' samples all lie at or after ``t`` (camsim.run.stream). The consumer
         may remove the events it has read from :attr:`events` (the integrator only appends).
+
+        ``observe(config, branches, v_impacts, Z, U) -> (N, n)``, when given, are the
+        quantities whose extremes each recorded stretch locates on the solution over
+        [``record_from``, ``record_to``] (``Stretch.extremes``, camsim.engine.extremes).
         """
         stretches: list[Stretch] = []
+        self._observe = observe
+        self._window = (record_from, record_to)
         state = self.settle(state)
         if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
             on_stop(state)
@@ -176,8 +218,9 @@ class Integrator(EngineContext):
             kept = None
             if stretch is not None:
                 keep = stretch.t >= record_from - GRID_SNAP * self.h
-                if np.any(keep):
-                    kept = Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep], stretch.fn[keep], stretch.v_impacts)
+                if np.any(keep) or stretch.extremes is not None:
+                    kept = Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep],
+                                   stretch.fn[keep], stretch.v_impacts, stretch.extremes)
                     if on_stretch is None:
                         stretches.append(kept)
             if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):

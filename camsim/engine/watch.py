@@ -101,7 +101,7 @@ class CamForceWatch:
                 Cz, Du, Fn, e = Cz + w * lam.Cz, Du + w * lam.Du, Fn + w * lam.Fn, e + w * lam.e
                 continue
             if i in config.power_contacts:
-                sigma = element.contact_side(branch)[0]
+                sigma = element.contact_side(branch)[0] * float(element.acts(branch))
                 Fn[0, config.power_contacts.index(i)] -= on_upper * sigma
                 continue
             law = model.linear_branch(i, branch)

@@ -192,7 +192,9 @@ class Model:
         # Power-law contact force F (compressive) acts +F on the upper node: Q = F·G; a
         # contact on side σ of a two-sided element (a lash) acts σ·F·G (issue 12 hook).
         sides = {i: self.elements[i].contact_side(self.branch_of(branches, i)) for i in (*power, *rigid)}
-        P = np.array([sides[i][0] * self.geometry[i].G for i in power]).T.reshape(n, len(power))
+        # (a watched law, clamped at zero, acts with a zero column: issue 34)
+        P = np.array([sides[i][0] * self.geometry[i].G * float(self.elements[i].acts(self.branch_of(branches, i)))
+                      for i in power]).T.reshape(n, len(power))
 
         if rigid:
             J = np.array([sides[i][0] * self.geometry[i].G for i in rigid])

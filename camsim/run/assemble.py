@@ -1,109 +1,22 @@
-"""From recorded stretches to traces, events and a RunResult (both assembly paths).
+"""From recorded stretches to traces, events, located extremes and a RunResult (in memory).
 
-:func:`stretch_samples` and :func:`sample_traces` turn a stretch's grid points into output
-samples and traces, used alike by the in-memory path (:func:`_assemble`) and the streaming
-one (:mod:`camsim.run.stream`), so both give the same bits; :func:`johnson_annotate` puts
-Johnson's bounds on an impact.
+The samples come from :mod:`camsim.run.samples`, the located extremes and impact peaks from
+:mod:`camsim.run.extremes`, by the same code the streamed path (:mod:`camsim.run.stream`)
+uses, so both give the same bits.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from camsim.cam.program import CamProgram
-from camsim.errors import InputError, SimulationError
+from camsim.errors import SimulationError
 from camsim.elements.events import Event, EventTable
-from camsim.elements import CAM, GROUND
-from camsim.engine.integrator import Integrator, State, Stretch
-from camsim.machine.description import Machine
-from camsim.model.assembly import Model
+from camsim.engine.integrator import State, Stretch
+from camsim.run.extremes import ExtremesFolder, ingest_event, johnson_annotate  # noqa: F401 - johnson_annotate: also this module's
 from camsim.run.result import RunResult
-
-
-@dataclass(frozen=True)
-class RunSetup:
-    """What turns a run's stretches into output samples and events (both assembly paths).
-
-    Attributes
-    ----------
-    machine, model, cam, integrator
-        The machine (with the run's overrides), its model, cam program and the recording
-        integrator (its ``events`` are the raw event list).
-    t_rec : float
-        Start of the recorded window on the simulation clock [s] (output time 0).
-    t_end : float
-        End of the recorded window [s].
-    h_out : float
-        Output sample interval [s].
-    warnings : list of str
-        The run's warnings so far (appended to).
-    no_impact : bool
-    period : float or None
-        One cam revolution [s] (None without a cam).
-    """
-
-    machine: Machine
-    model: Model
-    cam: CamProgram
-    integrator: Integrator
-    t_rec: float
-    t_end: float
-    h_out: float
-    warnings: list
-    no_impact: bool
-    period: float | None
-
-
-def stretch_samples(run: RunSetup, st: Stretch):
-    """The output-grid samples of one stretch: ``(t, x, v, a, u, forces)`` or None.
-
-    ``t`` [s] on the simulation clock; x, v, a (N, n) of the free masses; u (N, 4) the
-    cam input s, ṡ, s̈, s⃛; forces (N, elements) [N]. Used by :func:`_assemble` and by the
-    streaming assembler alike, so both give the same bits.
-    """
-    t_rec, t_end, h_out = run.t_rec, run.t_end, run.h_out
-    k = (st.t - t_rec) / h_out
-    keep = (np.abs(k - np.round(k)) < 1e-6) & (st.t <= t_end + 1e-9 * h_out)
-    if not np.any(keep):
-        return None
-    if np.all(keep):  # the usual case: no copies
-        z, u, fn, t = st.z, st.u, st.fn, st.t
-    else:
-        z, u, fn, t = st.z[keep], st.u[keep], st.fn[keep], st.t[keep]
-    config = st.config
-    x = config.x(z, u, fn)
-    v = config.v(z, u, fn)
-    a = config.a(z, u, fn)
-    lam = config.lam(z, u, fn)
-    forces = run.model.element_forces(st.branches, x, v, u[:, 0], u[:, 1], lam, config, st.v_impacts)
-    return t, x, v, a, u, forces
-
-
-def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
-    """The traces of a run (or of a stretch of it) from its samples (element by element,
-    so any split of the samples gives the same bits): keyword arguments of
-    :class:`RunResult` ``time``, ``cam``, ``masses``, ``elements``,
-    ``cam_contact_force``, ``transducer_force``."""
-    machine, model, cam = run.machine, run.model, run.cam
-    masses: dict[str, dict[str, np.ndarray]] = {}
-    for m in machine.masses:
-        if m.name == model.driven:
-            masses[m.name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
-        else:
-            k = model.index[m.name]
-            masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
-    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
-    cam_force = model.cam_contact_force(forces, u[:, 2])
-    transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
-    transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
-    # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
-    angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(time)
-    cam_traces = {"angle": angle, "displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2], "jerk": u[:, 3]}
-    return {"time": time, "cam": cam_traces, "masses": masses, "elements": elements,
-            "cam_contact_force": cam_force, "transducer_force": transducer}
+from camsim.run.samples import RunSetup, sample_traces, stretch_samples  # noqa: F401 - also this module's names
 
 
 def period_end(run: RunSetup, state: State) -> dict | None:
@@ -169,88 +82,62 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
         t, x, v, a, u, forces, grid_index = (arr[keep] for arr in (t, x, v, a, u, forces, grid_index))
     time = grid_index * h_out
     traces = sample_traces(run, time, x, v, a, u, forces)
-    machine, model, cam, warnings = run.machine, run.model, run.cam, run.warnings
+    machine, model, warnings = run.machine, run.model, run.warnings
     cam_force = traces["cam_contact_force"]
-    events = EventTable(_events(machine, model, cam, run.integrator.events, t_rec, run.t_end, time, traces["elements"]))
+    events, located = fold_events_and_extremes(run, stretches)
     if cam_force is not None:
         # jump rows are events of the integrator (camsim.engine.watch), located on the
-        # exact solution like every other; here only the warning of the sampled minimum
+        # exact solution like every other; here only the warning of the located minimum
         events.sort(key=lambda e: e.time)
-        if np.min(cam_force) < 0:
+        low = located.get("cam_contact/force", {}).get("min") if located else None
+        if low is not None and low.value < 0:
+            warnings.append(negative_cam_force_warning(model.driven, low.value, low.time))
+        elif low is None and np.min(cam_force) < 0:
             k = int(np.argmin(cam_force))
             warnings.append(negative_cam_force_warning(model.driven, cam_force[k], time[k]))
     return RunResult(
         machine=machine, **traces, events=events,
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
-        boundaries_deg=boundaries_deg(run),
+        boundaries_deg=boundaries_deg(run), located=located,
     )
 
 
-def _events(machine, model, cam, raw: list[Event], t_rec, t_end, time, element_forces) -> list[Event]:
-    out = []
-    recorded = [e for e in raw if t_rec - 1e-12 <= e.time <= t_end + 1e-12]
-    for k, ev in enumerate(recorded):
-        ev = replace(ev, time=ev.time - t_rec)
-        ev.angle_deg = float(np.degrees(cam.angle(np.array([ev.time]))[0])) if machine.cam is not None else float("nan")
-        if ev.kind.is_impact:
-            _annotate(model, ev, recorded[k + 1 :], t_rec, time, element_forces)
-        out.append(ev)
-    return out
+def recorded_event(run: RunSetup, raw: Event) -> Event:
+    """The output row of one integrator event: on the recorded clock, with its cam angle."""
+    ev = replace(raw, time=raw.time - run.t_rec)
+    ev.angle_deg = float(np.degrees(run.cam.angle(np.array([ev.time]))[0])) if run.machine.cam is not None else float("nan")
+    return ev
 
 
-def _node_mass(model: Model, node: str) -> float:
-    if node in (GROUND, CAM) or node == model.driven:
-        return math.inf
-    return model.machine.mass_of(node)
+def fold_events_and_extremes(run: RunSetup, stretches: list[Stretch]) -> tuple[EventTable, dict | None]:
+    """The recorded event table (Johnson's bounds, located peak force and contact duration of
+    every impact) and the run's located extremes (:meth:`ExtremesFolder.finish`; None when
+    the run observed nothing), folding events and stretches in time order."""
+    t_rec, t_end = run.t_rec, run.t_end
+    raw = [e for e in run.integrator.events if t_rec - 1e-12 <= e.time <= t_end + 1e-12]
+    folder = ExtremesFolder(run.observables, t_rec) if run.observables is not None else None
+    events = EventTable()
+    k = 0
 
+    def ingest(until: float) -> None:
+        nonlocal k
+        while k < len(raw) and raw[k].time <= until:
+            ev = recorded_event(run, raw[k])
+            if folder is not None:
+                ingest_event(folder, run.model, ev, raw[k].time)
+            else:
+                johnson_annotate(run.model, ev)
+            events.append(ev)
+            k += 1
 
-def johnson_annotate(model: Model, ev: Event):
-    """Set Johnson's bounds of one impact; return its element when the impact is annotated
-    further (peak force, contact duration), None when it is not (no finite mass, no
-    approach, or no bounds for this element)."""
-    element = model.elements[ev.element_index]
-    m_lo, m_up = _node_mass(model, element.lower), _node_mass(model, element.upper)
-    finite = sorted(m for m in (m_lo, m_up) if math.isfinite(m))
-    if not finite or ev.relative_velocity <= 0:
-        return None
-    m2 = finite[0]  # the struck (lighter) mass; the other is the driver
-    m1 = finite[1] if len(finite) > 1 else math.inf
-    v = ev.relative_velocity
-    try:
-        bounds = element.johnson_bounds(m1, m2, v)
-    except InputError:
-        return None
-    if bounds is None:
-        return None
-    ev.johnson_lower, ev.johnson_upper = (float(b) for b in bounds)
-    return element
-
-
-def _annotate(model: Model, ev: Event, later: list[Event], t_rec, time, element_forces) -> None:
-    """Johnson bounds, simulated peak force and contact duration of one impact."""
-    element = johnson_annotate(model, ev)
-    if element is None:
-        return
-    t_close = ev.time
-    t_open = next((e.time - t_rec for e in later if e.element == element.name and e.kind == element.closing_ends), None)
-    if t_open is not None:
-        ev.contact_duration = t_open - t_close
-    t_stop = t_open if t_open is not None else time[-1] + 1e-12
-    window = (time >= t_close - 1e-12) & (time <= t_stop + 1e-12)
-    force = element.impact_force(element_forces[element.name][window])
-    if force is not None and force.size:
-        ev.peak_force = _peak(force)
-
-
-def _peak(samples: np.ndarray) -> float:
-    """Largest value of a sampled smooth pulse, refined by the parabola through the top
-    three samples (a contact a few samples long would otherwise lose up to a few % of its
-    peak between samples)."""
-    k = int(np.argmax(samples))
-    top = float(samples[k])
-    if 0 < k < samples.size - 1:
-        return refined_peak(float(samples[k - 1]), top, float(samples[k + 1]))
-    return top
+    for st in stretches:
+        if st.extremes is None:
+            continue
+        ingest(st.extremes.t1 + 1e-12)
+        folder.add(st.extremes)
+    ingest(np.inf)
+    located = folder.finish() if folder is not None else None
+    return events, located
 
 
 def refined_peak(left: float, top: float, right: float) -> float:

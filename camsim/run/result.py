@@ -64,6 +64,14 @@ class Trace:
     long_name: str
 
 
+@dataclass
+class Extreme:
+    """A located maximum or minimum (spec §4): its value [SI] and instant [s, recorded clock]."""
+
+    value: float
+    time: float
+
+
 def missing_scalar(name: str):
     """The value a table shows for a scalar a run did not produce (a failed or cancelled
     run): no jump, no impacts, NaN for every number."""
@@ -177,6 +185,10 @@ class RunResult:
     #: (camsim.run.simulation.period_end; None when not computed): closes the revolution of
     #: the cam design's energy quantities (issue 26).
     period_end: dict | None = None
+    #: Extremes located on the solution (spec §4, camsim.run.extremes): path →
+    #: {"max": Extreme, "min": Extreme}, values SI, times on the recorded clock; None for a
+    #: result without them (the extremes then come from the samples).
+    located: dict | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -279,22 +291,50 @@ class RunResult:
         """
         return dict(self._scalars)
 
+    def extreme(self, path: str, which: str) -> tuple[float, float] | None:
+        """(value, time) of the largest (``which = "max"``), smallest (``"min"``) or largest
+        absolute (``"abs"``) value of a quantity: located on the solution (spec §4) when the
+        run located it, else its extreme sample (first occurrence); None without samples.
+
+        ``path`` is a trace path (``"masses/M3/acceleration"``, ``"transducer/force"``...)
+        or ``"cam_force"`` (:attr:`cam_force`); times on the recorded clock [s].
+        """
+        hit = (self.located or {}).get(path)
+        if hit is None and path == "cam_force" and self.cam_contact_force is not None:
+            hit = (self.located or {}).get("cam_contact/force")
+        if hit is not None:
+            top, bottom = hit["max"], hit["min"]
+            if which == "max":
+                return top.value, top.time
+            if which == "min":
+                return bottom.value, bottom.time
+            return (abs(top.value), top.time) if abs(top.value) >= abs(bottom.value) else (abs(bottom.value), bottom.time)
+        data = self.cam_force if path == "cam_force" else self._traces.get(path, Trace(np.zeros(0), "", "")).data
+        if data is None or not data.size:
+            return None
+        values = np.abs(data) if which == "abs" else data
+        k = int(np.argmin(values)) if which == "min" else int(np.argmax(values))
+        return float(values[k]), float(self.time[k])
+
     @cached_property
     def _scalars(self) -> dict[str, Any]:
         nan = float("nan")
         out: dict[str, Any] = {}
-        for name, traces in self.masses.items():
+
+        def value(path, which):
+            hit = self.extreme(path, which)
+            return hit[0] if hit is not None else nan
+
+        for name in self.masses:
             for quantity in MASS_QUANTITIES:
-                data = traces[quantity]
-                out[f"peak_{quantity}:{name}"] = float(np.max(np.abs(data))) if data.size else nan
-        tf = self.transducer_force
-        out["peak_transducer_force"] = float(np.max(tf)) if tf is not None and tf.size else nan
+                out[f"peak_{quantity}:{name}"] = value(f"masses/{name}/{quantity}", "abs")
+        out["peak_transducer_force"] = value("transducer/force", "max") if self.transducer_force is not None else nan
         cf = self.cam_force
-        out["max_cam_contact_force"] = float(np.max(cf)) if cf is not None and cf.size else nan
-        out["min_cam_contact_force"] = float(np.min(cf)) if cf is not None and cf.size else nan
+        out["max_cam_contact_force"] = value("cam_force", "max") if cf is not None else nan
+        out["min_cam_contact_force"] = value("cam_force", "min") if cf is not None else nan
         cam_contacts = {e.name for e in self._cam_contacts}
         out["jump"] = bool(
-            (cf is not None and cf.size and float(np.min(cf)) < 0)
+            (cf is not None and out["min_cam_contact_force"] < 0)
             or any(ev.kind == EventKind.RELEASE and ev.element in cam_contacts for ev in self.events)
         )
         out["cam_separation"], out["cam_separation_angle"] = self._cam_separation()
@@ -388,13 +428,19 @@ class RunResult:
         out: dict = {"machine": self.machine.name, "no_impact": self.no_impact, "masses": {}}
         for name, traces in self.masses.items():
             entry = {}
-            for quantity, data in traces.items():
-                k = int(np.argmax(np.abs(data))) if data.size else 0
-                entry[quantity] = {"peak": float(np.abs(data[k])) if data.size else 0.0, "time": float(self.time[k]) if data.size else 0.0}
+            for quantity in traces:
+                hit = self.extreme(f"masses/{name}/{quantity}", "abs")
+                entry[quantity] = {"peak": hit[0], "time": hit[1]} if hit is not None else {"peak": 0.0, "time": 0.0}
             out["masses"][name] = entry
-        out["peak_transducer_force"] = _extreme(self.transducer_force, self.time, np.argmax)
-        out["max_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmax)
-        out["min_cam_contact_force"] = _extreme(self.cam_force, self.time, np.argmin)
+
+        def extreme(path, which, present):
+            hit = self.extreme(path, which) if present else None
+            return {"value": hit[0], "time": hit[1]} if hit is not None else None
+
+        out["peak_transducer_force"] = extreme("transducer/force", "max", self.transducer_force is not None)
+        out["max_cam_contact_force"] = extreme("cam_force", "max", self.cam_force is not None)
+        out["min_cam_contact_force"] = extreme("cam_force", "min", self.cam_force is not None)
+        out["located"] = self.located is not None
         out["jump"] = self.follower_jumps()
         out["impacts"] = [e.to_dict() for e in self.impacts()]
         out["events"] = len(self.events)
@@ -449,13 +495,6 @@ class RunResult:
             coords={"time": ("time", self.time, {"units": "s", "long_name": "time"})},
             attrs={"machine_name": self.machine.name, "no_impact": int(self.no_impact), "sample_rate": self.sample_rate},
         )
-
-
-def _extreme(values: np.ndarray | None, time: np.ndarray, pick) -> dict | None:
-    if values is None or not values.size:
-        return None
-    k = int(pick(values))
-    return {"value": float(values[k]), "time": float(time[k])}
 
 
 # ---------------------------------------------------------------------- reading back
@@ -519,10 +558,24 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             events.append(Event(**{name: (str(v) if isinstance(v, (str, bytes, np.str_)) or name in ("element", "kind", "masses") else float(v))
                                    for name, v in row.items()}))
         boundaries = g["cam/boundaries_deg"][()] if "cam/boundaries_deg" in g else np.zeros(0)
+        located = read_extremes(g)
         residual = float(g.attrs.get("periodicity_residual", float("nan")))
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
-            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)),
+            boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
         )
+
+
+def read_extremes(group) -> dict | None:
+    """The ``extremes`` table of a run layout as :attr:`RunResult.located` (None without one)."""
+    from camsim.io.hdf5 import read_table
+
+    if "extremes" not in group:
+        return None
+    table = read_table(group["extremes"])
+    return {
+        str(q): {"max": Extreme(float(a), float(ta)), "min": Extreme(float(b), float(tb))}
+        for q, a, ta, b, tb in zip(table["quantity"], table["max"], table["max_time"], table["min"], table["min_time"])
+    }

@@ -5,7 +5,7 @@ comparison)::
 
     time, cam/{angle,displacement,velocity,acceleration,jerk,boundaries_deg},
     masses/<name>/{displacement,velocity,acceleration}, elements/<name>/force,
-    cam_contact/force, transducer/force, events
+    cam_contact/force, transducer/force, events, extremes
 
 Every trace has ``units`` and ``long_name`` attributes and ``time`` attached as its
 dimension scale. Files are written atomically and deterministically.
@@ -34,6 +34,28 @@ def write_events(group: h5py.Group, events: Sequence["Event"]) -> None:
     write_table(group, "events", EventTable(events).columns())
 
 
+def write_extremes(group: h5py.Group, result) -> None:
+    """The run's located extremes (spec §4) as the table ``extremes``: per quantity (a
+    result path, or ``cam_force``) its unit, largest value and when, smallest value and when
+    (recorded clock). Nothing when the run located none."""
+    located = getattr(result, "located", None)
+    if not located:
+        return
+    from camsim.run.extremes import observable_units
+
+    paths = list(located)
+    units = [observable_units(p) for p in paths]
+    columns = {
+        "quantity": (np.array(paths, dtype=object), ""),
+        "units": (np.array(units, dtype=object), ""),
+        "max": (np.array([located[p]["max"].value for p in paths]), "quantity's"),
+        "max_time": (np.array([located[p]["max"].time for p in paths]), "s"),
+        "min": (np.array([located[p]["min"].value for p in paths]), "quantity's"),
+        "min_time": (np.array([located[p]["min"].time for p in paths]), "s"),
+    }
+    write_table(group, "extremes", columns)
+
+
 def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
     """Write one :class:`~camsim.run.result.RunResult` into ``group``; returns its time scale.
 
@@ -46,6 +68,7 @@ def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
         if path == "cam/jerk":  # the joins sit with the cam traces (spec §7 order)
             group.create_dataset("cam/boundaries_deg", data=np.asarray(result.boundaries_deg, dtype=float)).attrs["units"] = "deg"
     write_events(group, result.events)
+    write_extremes(group, result)
     group.attrs["no_impact"] = bool(result.no_impact)
     group.attrs["sample_rate"] = float(result.sample_rate)
     residual = result.periodicity_residual

@@ -33,6 +33,7 @@ from camsim.run.assemble import (  # noqa: F401 - also this module's names (test
     sample_traces,
     stretch_samples,
 )
+from camsim.run.extremes import Observables
 from camsim.run.initial import _one_contact_static, initial_state, static_equilibrium  # noqa: F401 - tests
 from camsim.run.result import RunResult
 
@@ -158,6 +159,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     substeps = max(1, math.ceil(steps_per_sample), math.ceil(h_out / motion_step * (1 - 1e-12)))
     integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
+    run = replace(run, observables=Observables(run))  # the located extremes' quantities (spec §4)
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)
     saved: dict[float, State] = {}
@@ -201,11 +203,13 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             # with no jump row the continuous run does not have (issue 25)
             integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
-            _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report)
+            _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
+                                          observe=run.observables, record_to=t_end)
             result = _assemble(run, stretches)
-            peak = lambda name, quantity: float(np.max(np.abs(result.masses[name][quantity])))  # noqa: E731
+            peak = lambda name, quantity: result.extreme(f"masses/{name}/{quantity}", "abs")[0]  # noqa: E731 - located (spec §4)
         else:
-            integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report, on_stretch=consumer.on_stretch)
+            integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
+                           on_stretch=consumer.on_stretch, observe=run.observables, record_to=t_end)
             result = consumer.finish()
             peak = result.peak
     if t_period_end is not None and round(t_period_end, 9) in saved:

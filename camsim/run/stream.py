@@ -14,9 +14,9 @@ whatever is stored (``record``, ``record_last``, ``summary_only``):
 * peaks, cam-force extremes and their times: folded piece by piece from each piece's own
   :meth:`RunResult.summary` / :meth:`RunResult.scalars` (the first occurrence wins, as
   ``argmax`` over the whole trace);
-* the event table: the integrator's events as they happen; the simulated peak force and
-  the contact duration of each impact by a running window (:class:`_ImpactWindow`) that
-  spans pieces (the parabola refinement keeps the samples either side of the maximum);
+* the event table: the integrator's events as they happen; the located peak force and the
+  contact duration of each impact, and the run's located extremes, by the folder the
+  in-memory path uses too (:class:`camsim.run.extremes.ExtremesFolder`);
 * the jump rows: none here — they are events of the integrator (camsim.engine.watch).
 
 A sample is processed only once every event that could concern it is known: the
@@ -37,16 +37,10 @@ from threadpoolctl import threadpool_limits
 from camsim.errors import InputError, SimulationError
 from camsim.elements.events import EventTable
 from camsim.run.result import MASS_QUANTITIES, RunResult, scalar_columns
-from camsim.run.simulation import (
-    RunSetup,
-    _simulate,
-    boundaries_deg,
-    johnson_annotate,
-    negative_cam_force_warning,
-    refined_peak,
-    sample_traces,
-    stretch_samples,
-)
+from camsim.run.assemble import boundaries_deg, negative_cam_force_warning, recorded_event
+from camsim.run.extremes import ExtremesFolder, ingest_event
+from camsim.run.samples import RunSetup, sample_traces, stretch_samples
+from camsim.run.simulation import _simulate
 
 __all__ = ["simulate_to_file", "StreamedRun", "trace_layout", "machine_trace_layout", "select_traces", "FLUSH"]
 
@@ -67,10 +61,10 @@ def _empty_traces(run: RunSetup) -> dict:
     return sample_traces(run, np.zeros(0), z, z, z, np.zeros((0, 4)), np.zeros((0, n_el)))
 
 
-def _empty_result(run: RunSetup, events=None) -> RunResult:
+def _empty_result(run: RunSetup, events=None, located=None) -> RunResult:
     return RunResult(
         machine=run.machine, **_empty_traces(run), events=EventTable(events or []),
-        periodicity_residual=float("nan"), warnings=[], no_impact=run.no_impact,
+        periodicity_residual=float("nan"), warnings=[], no_impact=run.no_impact, located=located,
     )
 
 
@@ -141,7 +135,7 @@ class StreamedRun:
     """
 
     def __init__(self, machine, events: EventTable, warnings: list[str], no_impact: bool, boundaries: np.ndarray,
-                 scalars: dict, summary_masses: dict, extremes: dict, samples: int, design=None):
+                 scalars: dict, summary_masses: dict, extremes: dict, samples: int, design=None, located=None):
         self.machine = machine
         self.events = events
         self.warnings = warnings
@@ -158,11 +152,13 @@ class StreamedRun:
         self._masses = summary_masses
         self._extremes = extremes
         self._design = design  # camsim.cam.design.DesignAccumulator with [cam.geometry]
+        #: The located extremes (camsim.run.extremes), as RunResult.located.
+        self.located = located
 
     def design_summary(self, cs: float | None = None) -> dict | None:
         """Cam design checks and dynamic quantities over every revolution (as
         :meth:`RunResult.design_summary`); None without ``[cam.geometry]``."""
-        return None if self._design is None else self._design.summary(cs)
+        return None if self._design is None else self._design.summary(cs, self.located)
 
     def missing_reasons(self) -> dict[str, str]:
         """Why each scalar without a value is absent (as :meth:`RunResult.missing_reasons`)."""
@@ -202,6 +198,7 @@ class StreamedRun:
         """Peaks with when, forces, impacts and residual, as :meth:`RunResult.summary`."""
         out: dict = {"machine": self.machine.name, "no_impact": self.no_impact, "masses": self._masses}
         out.update(self._extremes)
+        out["located"] = self.located is not None
         out["jump"] = self.follower_jumps()
         out["impacts"] = [e.to_dict() for e in self.impacts()]
         out["events"] = len(self.events)
@@ -218,60 +215,6 @@ class StreamedRun:
         from camsim.run.result import open_result
 
         return open_result(self.path)
-
-
-# ---------------------------------------------------------------------- impact windows
-class _ImpactWindow:
-    """Running simulated peak of one impact over samples that arrive in pieces.
-
-    Same result as ``_peak(element.impact_force(force[window]))`` of the whole window
-    (``t_close − 1e-12 ≤ time ≤ t_open + 1e-12``): the first maximum, and the samples
-    either side of it for the parabola."""
-
-    def __init__(self, event, element, t_close: float):
-        self.event = event
-        self.element = element
-        self.t_close = t_close
-        self.t_stop = math.inf  # t_open once the contact opens (within the recorded window)
-        self.n = 0
-        self.best: float | None = None
-        self.k = -1
-        self.left = math.nan
-        self.right = math.nan
-        self.last = math.nan
-        self.no_peak = False
-        self.done_at = math.inf  # output time after which no sample can belong
-
-    def add(self, time: np.ndarray, force: np.ndarray) -> None:
-        window = (time >= self.t_close - 1e-12) & (time <= self.t_stop + 1e-12)
-        if not np.any(window):
-            return
-        f = self.element.impact_force(force[window])
-        if f is None:
-            self.no_peak = True
-            return
-        f = np.asarray(f)
-        if not f.size:
-            return
-        if self.best is not None and self.k == self.n - 1:
-            self.right = float(f[0])  # the sample after a maximum that ended the last piece
-        j = int(np.argmax(f))
-        top = float(f[j])
-        if self.best is None or top > self.best:  # strictly: the first maximum wins
-            self.best = top
-            self.k = self.n + j
-            self.left = float(f[j - 1]) if j > 0 else self.last
-            self.right = float(f[j + 1]) if j + 1 < f.size else math.nan
-        self.last = float(f[-1])
-        self.n += f.size
-
-    def finish(self) -> None:
-        if self.no_peak or self.best is None:
-            return
-        if 0 < self.k < self.n - 1:
-            self.event.peak_force = refined_peak(self.left, self.best, self.right)
-        else:
-            self.event.peak_force = self.best
 
 
 # ---------------------------------------------------------------------- the assembler
@@ -302,7 +245,7 @@ class StreamAssembler:
         from camsim.cam.design import DesignAccumulator
 
         self._design = DesignAccumulator.for_machine(run.machine)  # None without [cam.geometry]
-        self._open: list[_ImpactWindow] = []
+        self._folder = ExtremesFolder(run.observables, run.t_rec) if run.observables is not None else None
         self._samples = 0
         self._masses: dict[str, dict[str, dict]] = {}
         self._extremes: dict[str, dict | None] = {"peak_transducer_force": None, "max_cam_contact_force": None, "min_cam_contact_force": None}
@@ -320,16 +263,9 @@ class StreamAssembler:
             self._seen += 1
             if not (t_rec - 1e-12 <= e.time <= t_end + 1e-12):
                 continue
-            for w in self._open:
-                if w.t_stop == math.inf and e.element == w.element.name and e.kind == w.element.closing_ends:
-                    w.t_stop = e.time - t_rec
-                    w.event.contact_duration = w.t_stop - w.t_close
-            ev = _shifted(e, t_rec)
-            ev.angle_deg = float(np.degrees(run.cam.angle(np.array([ev.time]))[0])) if run.machine.cam is not None else float("nan")
-            if ev.kind.is_impact:
-                element = johnson_annotate(run.model, ev)
-                if element is not None:
-                    self._open.append(_ImpactWindow(ev, element, ev.time))
+            ev = recorded_event(run, e)
+            if self._folder is not None:
+                ingest_event(self._folder, run.model, ev, e.time)
             self.events.append(ev)
         del raw[: self._seen]  # read: the integrator only appends to its list
         self._seen = 0
@@ -338,6 +274,8 @@ class StreamAssembler:
     def on_stretch(self, stretch, t_known: float) -> None:
         """Take one recorded stretch; every event before ``t_known`` [s] is recorded."""
         self._ingest_events()
+        if self._folder is not None:
+            self._folder.add(stretch.extremes)
         samples = stretch_samples(self.run, stretch)
         if samples is not None:
             if self._pending is None:
@@ -386,15 +324,6 @@ class StreamAssembler:
         self._fold(piece)
         if self._design is not None:
             self._design.add(piece)
-        for w in self._open:
-            w.add(time, traces["elements"][w.element.name])
-        still = []
-        for w in self._open:
-            if w.t_stop + 1e-12 < time[-1]:  # no later sample can belong to it: done
-                w.finish()
-            else:
-                still.append(w)
-        self._open = still
         cf = traces["cam_contact_force"]
         if cf is not None:
             k = int(np.argmin(cf))
@@ -433,29 +362,40 @@ class StreamAssembler:
         self._flush()
         if not self._samples:
             raise SimulationError("the run recorded no samples")
-        for w in self._open:
-            w.finish()
         run = self.run
         events = self.events
+        located = self._folder.finish() if self._folder is not None else None
+        # The located extremes and the event-derived scalars (impacts, their largest speed,
+        # a cam contact opening) from the same code as an in-memory result, on a result
+        # without samples.
+        probe = _empty_result(run, events, located)
+        from_events, probe_summary = probe.scalars(), probe.summary()
         if run.model.driven:
             # jump rows came with the integrator's events (camsim.engine.watch)
             events.sort(key=lambda e: e.time)
-            if self._cam_min is not None and self._cam_min[0] < 0:
+            low = probe_summary["min_cam_contact_force"] if located is not None else None
+            if low is not None and low["value"] < 0:
+                run.warnings.append(negative_cam_force_warning(run.model.driven, low["value"], low["time"]))
+            elif low is None and self._cam_min is not None and self._cam_min[0] < 0:
                 run.warnings.append(negative_cam_force_warning(run.model.driven, *self._cam_min))
-        # The event-derived scalars (impacts, their largest speed, a cam contact opening)
-        # from the same code as an in-memory result, on a result without samples.
-        from_events = _empty_result(run, events).scalars()
         scalars: dict[str, Any] = {}
         for name, _ in scalar_columns([m.name for m in run.machine.masses]):
             scalars[name] = self._scalars.get(name, from_events[name])
-        scalars["jump"] = bool(self._jump_samples or from_events["jump"])
+        masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
+        extremes = dict(self._extremes)
+        if located is not None:
+            for name in scalars:
+                if name.startswith("peak_") or name in ("max_cam_contact_force", "min_cam_contact_force"):
+                    scalars[name] = from_events[name]
+            masses = {m: {q: probe_summary["masses"][m][q] for q in MASS_QUANTITIES} for m in masses}
+            extremes = {key: probe_summary[key] for key in extremes}
+        scalars["jump"] = bool((self._jump_samples and located is None) or from_events["jump"])
         scalars["impacts"] = from_events["impacts"]
         scalars["max_impact_velocity"] = from_events["max_impact_velocity"]
         # the span off the cam runs between events, to the end of the record when still open
-        scalars["cam_separation_angle"] = _empty_result(run, events).separation_span(run.t_end - run.t_rec)
-        masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
+        scalars["cam_separation_angle"] = probe.separation_span(run.t_end - run.t_rec)
         return StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
-                           dict(self._extremes), self._samples, design=self._design)
+                           extremes, self._samples, design=self._design, located=located)
 
     def close(self, result: StreamedRun) -> None:
         """Write the event table, attributes and summary once the result is complete."""
@@ -465,12 +405,6 @@ class StreamAssembler:
             result.recorded = list(self.writer.paths)
             result.stored_samples = self.writer.samples
             self.writer.finish(result)
-
-
-def _shifted(event, t_rec: float):
-    from dataclasses import replace
-
-    return replace(event, time=event.time - t_rec)
 
 
 # ---------------------------------------------------------------------- the API

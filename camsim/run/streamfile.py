@@ -21,7 +21,7 @@ import h5py
 import numpy as np
 
 from camsim.io.hdf5 import COMPRESSION
-from camsim.run.runfile import write_events, write_summary
+from camsim.run.runfile import write_events, write_extremes, write_summary
 
 #: Samples per HDF5 chunk of a streamed trace (512 kB of float64).
 CHUNK = 65536
@@ -114,6 +114,7 @@ class TraceStreamWriter:
         """The event table, the run attributes and the summary (after the last piece)."""
         self._write(self._waiting)
         write_events(self.group, result.events)
+        write_extremes(self.group, result)
         self.group.attrs["no_impact"] = bool(result.no_impact)
         self.group.attrs["sample_rate"] = float(result.sample_rate)
         residual = result.periodicity_residual

@@ -201,6 +201,15 @@ def test_geometry_changes_no_existing_trace(tmp_path):
                      "cam_contact/hertz_stress", "camshaft/torque"}
     assert set(b) <= set(a)
     for name in b:
+        if name == "extremes":  # geometry adds the camshaft torque's row; the others are the same
+            def rows(table):
+                return {r["quantity"]: tuple(float(r[c]).hex() for c in ("max", "max_time", "min", "min_time"))
+                        for r in table}
+
+            rows_a = rows(a[name])
+            assert rows(b[name]).items() <= rows_a.items()
+            assert set(rows_a) - {r["quantity"] for r in b[name]} == {b"camshaft/torque"}
+            continue
         assert a[name].tobytes() == b[name].tobytes(), name
 
 

@@ -42,7 +42,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
 
-from reference_solver import ATOL_V, ATOL_X, ReferenceSolver  # noqa: E402
+from reference_solver import ATOL_V, ATOL_X, ReferenceSolver, located_extremes  # noqa: E402
 
 from camsim.machine.loader import load_machine, machine_to_dict  # noqa: E402
 
@@ -119,9 +119,28 @@ def make(name: str) -> Path:
     return out
 
 
+def make_extremes(name: str) -> Path:
+    """The extremes of ``machines/<name>.toml``'s recorded revolution located on the
+    reference's dense solution (:func:`reference_solver.located_extremes`): each contact's
+    and link's peak force per piece, each free mass's peak |acceleration|; written to
+    ``tests/data/reference/<name>_extremes.json`` (spec §4: camsim's located extremes are
+    tested against it, tests/run/test_located_extremes.py)."""
+    machine = load_machine(ROOT / "machines" / f"{name}.toml")
+    solver = ReferenceSolver(machine, rtol=RTOL, method=METHOD)
+    t_start = time.perf_counter()
+    data = located_extremes(solver, machine.simulation.warmup_cycles, machine.simulation.cycles)
+    data["meta"] = {"machine": f"machines/{name}.toml", "machine_sha256": machine_digest(machine), "method": METHOD,
+                    "rtol": RTOL, "located": "best of 4001 dense-output samples per piece, then bounded Brent"}
+    out = OUT_DIR / f"{name}_extremes.json"
+    out.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    print(f"{out.relative_to(ROOT)}: {time.perf_counter() - t_start:.1f} s", file=sys.stderr)
+    return out
+
+
 def main(argv: list[str]) -> None:
     for name in argv or MACHINES:
         make(name)
+        make_extremes(name)
 
 
 if __name__ == "__main__":
