@@ -263,16 +263,16 @@ def grazes(cam, config, guard, t: float, step_end: float, z: np.ndarray) -> bool
     that touches zero and rises again) never leaves its branch's validity by more than
     its tolerance: no event, so no pair of rows at one instant that changes nothing. The
     guard is taken to second order at the zero, with the cam input from its analytic law
-    (the left limit at ``step_end``): g, ġ, g̈; its minimum is g − ġ²/(2·g̈) when it is
-    falling there and curving up (g̈ > 0), g itself when it is already rising.
+    (the left limit at ``step_end``): g, ġ, g̈. Only a guard curving up (g̈ > 0) can touch;
+    its minimum is then g − ġ²/(2·g̈), whether the root was placed before the vertex or
+    after it. A guard curving down at its zero (a rebound too small to resolve, landing
+    again) is always a crossing, whatever the sign of ġ where its root was placed.
     """
     if cam is None or not hasattr(cam, "svaj") or guard.rate is None:
         return False
     u = analytic_input(cam, t, step_end)
     g = float(guard.value(z[None, :], u[None, :])[0, 0])
     g_rate = float(guard.rate(z[None, :], u[None, :])[0, 0])
-    if g_rate >= 0.0:
-        return g >= -guard.tol
     zdot = config.A @ z + config.B @ u + config.b
     # ü = [ṡ, s̈, s⃛, s⁗]: s⁗ is not an input; the jerk term of ġ (a guard reading s̈) is left out
     curvature = float((guard.rate.Cz @ zdot + guard.rate.Du[:, :3] @ u[1:])[0])

@@ -181,3 +181,18 @@ def test_a_disc_the_follower_only_touches_has_no_events(disc, rate):
     assert force.min() > 0.0  # the closed form's premise: the follower never leaves the lobe
     assert [(e.element, str(e.kind)) for e in run.events] == []
 
+
+
+@pytest.mark.parametrize("rate", (1e4, 5e4))
+def test_a_chatter_too_fast_to_resolve_lands_and_rests(rate):
+    """chatter-between-stops.toml: M3 chatters on a rigid stop (e = 0.3) until its flights
+    are shorter than the event accuracy, and rests (a ``stick`` row). A rigid contact is
+    never penetrated (check_rigid_contacts_hold: 1e-9 m on every sample; closed-form
+    kinematics of the contact's deflection from the traces) and no row is a phantom."""
+    from invariant_checks import check_rigid_contacts_hold
+
+    run = simulate(load_machine(MACHINES / "chatter-between-stops.toml"), sample_rate=rate)
+    assert check_rigid_contacts_hold(run) == []
+    assert check_no_phantoms(run) == []
+    stop = [str(e.kind) for e in run.events if e.element == "stop23" and 0.0569 < e.time < 0.0570]
+    assert stop[-1] == "stick" and set(stop[:-1]) == {"impact"} and len(stop) > 10
