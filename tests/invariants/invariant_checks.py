@@ -454,7 +454,7 @@ def check_extremes(a, b, tol: float) -> list[str]:
     * every located maximum and minimum of the summary (``RunResult.located``: masses'
       displacement, velocity, acceleration, element forces, cam contact force...) to ``tol``
       of the quantity's scale (its own largest magnitude, at least :data:`FAMILY_FLOOR` of
-      the largest of its kind in the machine, as the traces).
+      the largest of its kind in the machine and the cam, as the traces).
 
     ``tol`` is the machine's trace tolerance (:func:`trace_tol`): an extreme is a value of
     the solution, as invariant as the solution itself.
@@ -481,6 +481,9 @@ def check_extremes(a, b, tol: float) -> list[str]:
         for path, hit in located.items():
             kind = path.rsplit("/", 1)[-1]
             family[kind] = max(family.get(kind, 0.0), abs(hit["max"].value), abs(hit["min"].value))
+    for run in (a, b):  # the cam's motion is a mass quantity's scale too (as for the traces)
+        for kind in ("displacement", "velocity", "acceleration"):
+            family[kind] = max(family.get(kind, 0.0), float(np.max(np.abs(run.cam[kind]), initial=0.0)))
     for path in sorted(set(la) & set(lb)):
         kind = path.rsplit("/", 1)[-1]
         own = max(abs(h[w].value) for h in (la[path], lb[path]) for w in ("max", "min"))
