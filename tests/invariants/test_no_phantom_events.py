@@ -88,6 +88,17 @@ def test_disc_lobe_follower_has_the_reference_events_at_every_rate(disc_lobe, ra
     assert check_no_phantoms(run) == []
 
 
+def test_disc_lobe_follower_located_extremes_do_not_depend_on_the_rate(disc_lobe):
+    """Every impact's located peak force and instant, and the summary's located extremes,
+    at 5, 10 and 40 kHz against 1 MHz: 1e-9 of their scale, instants 1e-9 s
+    (check_extremes, invariant (g))."""
+    from invariant_checks import TRACE_TOL as SAME, check_extremes
+
+    _, _, runs = disc_lobe
+    for rate in RATES[:-1]:
+        assert check_extremes(runs[rate], runs[1e6], SAME) == [], rate
+
+
 def test_disc_lobe_follower_leaves_the_lobe_and_lands_on_the_disc_every_revolution(disc_lobe):
     """The reference's rows: the follower starts at rest on the disc; the rising lobe picks
     it up and throws it off, it lands on the disc and bounces off it (5 rows); every later
