@@ -54,7 +54,11 @@ def main(argv: list[str] | None = None) -> Path:
         {"transducer/force": (lbf, "lbf"), "masses/M3/acceleration": (accel, "m/s^2")},
         time_unit="ms",
     )
-    print(f"wrote {out} ({run.time.size} samples, truth: {', '.join(TRUTH)})")
+    try:  # as the user would name it from where they stand (examples/rig_trace.csv)
+        shown = Path(out).resolve().relative_to(Path.cwd().resolve())
+    except ValueError:
+        shown = out
+    print(f"wrote {shown} ({run.time.size} samples, truth: {', '.join(TRUTH)})")
     return out
 
 

@@ -515,7 +515,10 @@ def version_block() -> str:
     return f"camsim {camsim.__version__}"
 
 
-BLOCK_NAMES = ("version", "impacts", "otd", "summary", "choices", "restitution", "ball-drop")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import validation_wave as wave  # noqa: E402 - issue 39: the wave-model sections (§6)
+
+BLOCK_NAMES = ("version", "impacts", "otd", "summary", "choices", "restitution", "ball-drop", *wave.BLOCKS)
 
 
 def blocks(skip_power: bool = False, names=BLOCK_NAMES) -> tuple[dict[str, str], dict | None, dict | None]:
@@ -542,6 +545,9 @@ def blocks(skip_power: bool = False, names=BLOCK_NAMES) -> tuple[dict[str, str],
         out["restitution"] = restitution_block(skip_power=skip_power)
     if "ball-drop" in names:
         out["ball-drop"] = ball_drop_block()
+    for name, block in wave.BLOCKS.items():  # issue 39
+        if name in names:
+            out[name] = "skipped (--skip-power)" if skip_power and name in wave.SLOW_BLOCKS else block(sys.modules[__name__])
     return out, linear, power
 
 

@@ -457,9 +457,11 @@ def test_progress_on_a_terminal_not_when_piped_never_on_stdout(tmp_path):
 # --------------------------------------------------------------------------------------
 def test_run_table_headers_carry_units_and_us_converts(tmp_path):
     args = ["run", str(MACHINES / "cdtm.toml"), "-o", str(tmp_path / "r.h5"), "--cycles", "1", "--warmup", "0", "--sample-rate", "5kHz"]
-    si = runner.invoke(app, args)
+    si = runner.invoke(app, args + ["--units", "si"])
     us = runner.invoke(app, args + ["--units", "us"])
-    assert si.exit_code == 0 and us.exit_code == 0
+    default = runner.invoke(app, args)  # issue 36: the file's units (cdtm.toml is inch-pound)
+    assert si.exit_code == 0 and us.exit_code == 0 and default.exit_code == 0
+    assert default.output.replace(str(tmp_path), "") == us.output.replace(str(tmp_path), "")
     # (long headers may wrap inside their column: check the unit tokens)
     for header in ("peak |displ.| [mm]", "at t [s]", "peak |veloc.| [m/s]", "[m/s]", "[N]", "duration [ms]"):
         assert header in si.output, header
@@ -474,4 +476,4 @@ def test_run_table_headers_carry_units_and_us_converts(tmp_path):
     # 1 in = 25.4 mm exactly; printed to 4 significant digits
     assert first_peak(us.output) == pytest.approx(first_peak(si.output) / 25.4, rel=1e-3)
     bad = runner.invoke(app, args + ["--units", "imperial"])
-    assert bad.exit_code == 2 and "--units imperial: expected one of si, us" in bad.output
+    assert bad.exit_code == 2 and "--units imperial: expected one of file, si, us" in bad.output

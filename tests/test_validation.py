@@ -283,3 +283,12 @@ def test_block_comparison_catches_a_stale_number():
         assert_block_matches("t", "| a | b |\n|---|---|\n| x | 170.0 |", doc)
     with pytest.raises(AssertionError):
         assert_block_matches("t", "| a | b |\n|---|---|\n| y | 166.4 |", doc)
+
+
+@pytest.mark.slow
+def test_doc_wave_tables_current(documented):
+    """docs/validation.md §6 (issue 39): the rod closed forms, the ball drop with the rod model
+    and the CDTM's impact screw as a rod, as documented (several minutes: the screw's runs)."""
+    fresh, _, _ = validation.blocks(names=tuple(validation.wave.BLOCKS))
+    for name, body in fresh.items():
+        assert_block_matches(name, body, documented[name])

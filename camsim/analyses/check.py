@@ -326,16 +326,18 @@ def _fmt(x: float | None, spec: str = ".3g") -> str:
     return format(x, spec)
 
 
-def summary_line(report: CheckReport) -> str:
-    """One line: PASS with the count, or FAIL naming the datasets beyond tolerance."""
+def summary_line(report: CheckReport, units=None) -> str:
+    """One line: PASS with the count, or FAIL naming the datasets beyond tolerance (|Δ| in
+    ``units``, a :class:`~camsim.display.DisplayUnits`; SI without them)."""
     n = len(report.diffs)
     tol = f"rtol={report.rtol:g}, atol={report.atol:g}"
     if report.passed:
         return f"PASS: all {n} datasets of {report.result} within tolerance of {report.golden} ({tol})"
     fails = report.failures
     first = fails[0]
+    unit, k = _shown(first.units, units)
     detail = first.note or (
-        f"max |diff| {_fmt(first.max_abs)} {first.units}".rstrip()
+        f"max |diff| {_fmt(first.max_abs * k)} {unit}".rstrip()
         + f" = {_fmt(first.max_rel)} of peak"
         + (f" at t = {_fmt(first.where, '.6g')} s" if first.where is not None else "")
     )
@@ -343,7 +345,13 @@ def summary_line(report: CheckReport) -> str:
     return f"FAIL: {len(fails)} of {n} datasets differ beyond tolerance ({tol}): {names}; worst {first.path}: {detail}"
 
 
-def render_report(report: CheckReport, console, limit: int = 10) -> None:
+def _shown(si_unit: str, units) -> tuple[str, float]:
+    if units is None:
+        return si_unit, 1.0
+    return units.shown(si_unit)
+
+
+def render_report(report: CheckReport, console, limit: int = 10, units=None) -> None:
     """Print a table of the worst differences and a PASS/FAIL line on a rich Console.
 
     Parameters
@@ -353,6 +361,8 @@ def render_report(report: CheckReport, console, limit: int = 10) -> None:
         Usually the stderr console of the CLI.
     limit : int
         How many rows (worst first; failures always shown first).
+    units : DisplayUnits, optional
+        Units of the differences shown (SI without them; tolerances stay SI).
     """
     from rich.markup import escape
     from rich.table import Table
@@ -366,10 +376,11 @@ def render_report(report: CheckReport, console, limit: int = 10) -> None:
     table.add_column("Δ/tol", justify="right", overflow="fold")
     table.add_column("", no_wrap=True)
     for d in report.worst(limit):
+        unit, k = _shown(d.units, units)
         table.add_row(
             escape(d.path),
-            _fmt(d.max_abs),
-            escape(d.units),
+            _fmt(d.max_abs * k),
+            escape(unit),
             _fmt(d.max_rel),
             _fmt(d.where, ".6g"),
             "see below" if d.note else _fmt(d.used),
@@ -381,4 +392,4 @@ def render_report(report: CheckReport, console, limit: int = 10) -> None:
             console.print(f"{d.path}: {d.note}", markup=False, highlight=False)
     for note in report.notes:
         console.print(f"note: {note}", markup=False, highlight=False)
-    console.print(summary_line(report), markup=False, highlight=False)
+    console.print(summary_line(report, units), markup=False, highlight=False)

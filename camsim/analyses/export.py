@@ -158,6 +158,19 @@ def default_events_path(csv_path: str | os.PathLike[str]) -> Path:
     return p.with_name(f"{p.stem}_events.csv")
 
 
+def _in_display(columns: dict[str, np.ndarray], units: dict[str, str | None], display) -> tuple[dict, dict]:
+    """The numeric columns in ``display``'s units (text columns and times unchanged)."""
+    out, out_units = {}, {}
+    for name, values in columns.items():
+        unit = units.get(name)
+        if unit is None or values.dtype.kind in "OSU":
+            out[name], out_units[name] = values, unit
+            continue
+        shown, k = display.shown(unit)
+        out[name], out_units[name] = (values * k if k != 1.0 else values), shown
+    return out, out_units
+
+
 def export_csv(
     path: str | os.PathLike[str],
     out: str | os.PathLike[str] | None = None,
@@ -165,6 +178,7 @@ def export_csv(
     events_csv: str | os.PathLike[str] | None = None,
     events: bool = True,
     group: str | None = None,
+    units: str | None = None,
 ) -> ExportResult:
     """Export the traces (and the events table) of a run layout to CSV.
 
@@ -184,12 +198,17 @@ def export_csv(
         Write the events CSV at all.
     group : str, optional
         For a comparison file: ``impact``, ``no_impact`` or ``difference``.
+    units : str, optional
+        ``file``, ``si`` or ``us``: every column in those display units (issue 36; ``file``:
+        the result's machine file's, recorded in the file), the header naming them. Default:
+        the SI values as stored, to the last bit.
 
     Raises
     ------
     InputError, ResultFileError
         Unknown column, wrong file kind, unwritable output; nothing is written then.
     """
+    system = units
     with open_h5(path) as f:
         kind = file_kind(f)
         if kind == "compare":
@@ -243,6 +262,13 @@ def export_csv(
         if table is not None:
             col_units = table_units(root["events"])
             ev_units = {c: (None if table[c].dtype.kind in "OSU" else col_units.get(c, "")) for c in table}
+        if system is not None:
+            from camsim.io.results import file_display_units
+
+            display = file_display_units(f, system)
+            data, units = _in_display(data, units, display)
+            if table is not None:
+                table, ev_units = _in_display(table, ev_units, display)
     write_csv(target, data, units)
     if table is not None and ev_target is not None:
         write_csv(ev_target, table, ev_units)

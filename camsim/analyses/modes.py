@@ -62,8 +62,40 @@ def machine_modes(machine: Machine) -> list[ConfigurationModes]:
     return out
 
 
-def modes_to_dict(modes: list[ConfigurationModes]) -> list[dict]:
-    return [
+#: Rod modes listed by :func:`rod_modes` (the lowest; a long discretisation has many).
+ROD_MODES_SHOWN = 8
+
+
+def rod_modes(machine: Machine) -> list[dict]:
+    """Each rod's own axial modes, free at both ends (issue 39), JSON-able, SI.
+
+    ``lumped_hz``: the N-segment chain's natural frequencies (N·c/(π·L))·sin(jπ/2N);
+    ``continuum_hz``: the continuous rod's j·c/(2L); ``error``: lumped/continuum − 1 (the
+    chain's dispersion: −(jπ/2N)²/6 for j ≪ N); ``damping_ratios``: ζ·ωⱼ/ω₁ of its
+    stiffness-proportional damping (0 without ``damping_ratio``); ``highest_hz``: f_N.
+    """
+    out = []
+    for rod in machine.elements:
+        if not rod.compound:
+            continue
+        lumped = rod.chain_frequencies()[1:]
+        count = min(len(lumped), ROD_MODES_SHOWN)
+        continuum = rod.continuum_frequencies(count)
+        zeta = rod.damping.ratio or 0.0
+        out.append({
+            "rod": rod.name, "segments": rod.segments, "segments_reason": rod.segments_reason,
+            "highest_hz": float(lumped[-1]),
+            "lumped_hz": [float(f) for f in lumped[:count]],
+            "continuum_hz": [float(f) for f in continuum],
+            "error": [float(a / b - 1.0) for a, b in zip(lumped[:count], continuum)],
+            "damping_ratios": [float(zeta * f / lumped[0]) for f in lumped[:count]],
+        })
+    return out
+
+
+def modes_to_dict(modes: list[ConfigurationModes], rods: list[dict] | None = None) -> list[dict]:
+    """The configurations as JSON-able dicts; with rods, each carries ``rods`` (:func:`rod_modes`)."""
+    out = [
         {
             "branches": m.branches,
             "frequencies_hz": m.frequencies,
@@ -73,6 +105,10 @@ def modes_to_dict(modes: list[ConfigurationModes]) -> list[dict]:
         }
         for m in modes
     ]
+    if rods:
+        for entry in out:
+            entry["rods"] = rods
+    return out
 
 
-__all__ = ["Branch", "ConfigurationModes", "machine_modes", "modes_to_dict"]
+__all__ = ["Branch", "ConfigurationModes", "machine_modes", "modes_to_dict", "rod_modes"]

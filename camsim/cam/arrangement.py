@@ -35,8 +35,10 @@ GEOMETRY_PARAMS: tuple[Param, ...] = (
     Param("rotation", "string", "`ccw` or `cw`, as the profile is drawn", default="ccw"),
     Param("width", "length", "face width in contact (for the Hertz stress; none: no stress)", minimum=0.0,
           strict=True),
-    Param("cam_material", "table", "`youngs_modulus`, `poisson_ratio` (below); default steel"),
-    Param("follower_material", "table", "`youngs_modulus`, `poisson_ratio` (below); default steel"),
+    Param("cam_material", "table", "a material name (library or `[[material]]`, e.g. `\"cast-iron\"`) or a table "
+          "of `youngs_modulus`, `poisson_ratio` (below); default steel"),
+    Param("follower_material", "table", "a material name or a table of `youngs_modulus`, `poisson_ratio` (below); "
+          "default steel"),
     Param("max_pressure_angle", "angle", "a warning above it; < 90°; bare number = degrees; default 30° "
           "translating, 35° oscillating", minimum=0.0, strict=True),
 )
@@ -157,9 +159,10 @@ def _fmt(value) -> str:
 
 
 class _Reader:
-    def __init__(self, source: str, path: str):
+    def __init__(self, source: str, path: str, materials: dict | None = None):
         self.source = source
         self.path = path
+        self.materials = materials or {}
 
     def error(self, key: str, message: str) -> MachineFileError:
         return MachineFileError(self.source, f"{self.path}.{key}" if key else self.path, message)
@@ -206,9 +209,18 @@ class _Reader:
         if key not in table:
             return Material()
         value = table[key]
+        if isinstance(value, str):  # issue 39: a library or [[material]] name
+            from camsim.physics.materials import library_names, lookup
+
+            try:
+                named = lookup(value, self.materials)
+            except KeyError:
+                raise self.error(key, f'unknown material "{value}"; '
+                                 f"{_suggest(value, [*self.materials, *library_names()])}") from None
+            return Material(youngs_modulus=named.youngs_modulus, poisson_ratio=named.poisson_ratio)
         if not isinstance(value, dict):
-            raise self.error(key, f"expected a table ({key} = {{ youngs_modulus = \"206.8 GPa\", poisson_ratio = 0.28 }}), "
-                             f"got {_fmt(value)}")
+            raise self.error(key, f"expected a material name (\"steel\") or a table ({key} = {{ youngs_modulus = "
+                             f"\"206.8 GPa\", poisson_ratio = 0.28 }}), got {_fmt(value)}")
         self.check_keys(value, MATERIAL_KEYS, prefix=f"{key}.")
         modulus = self.quantity(value, "youngs_modulus", "pressure", positive=True, prefix=f"{key}.")
         nu = STEEL.poisson_ratio
@@ -239,7 +251,8 @@ def _angle(value) -> float:
     return to_si(value, "angle", bare_unit="deg")
 
 
-def parse_geometry(table, source: str, cam_arm: float | None = None, path: str = "cam.geometry") -> CamGeometry:
+def parse_geometry(table, source: str, cam_arm: float | None = None, path: str = "cam.geometry",
+                   materials: dict | None = None) -> CamGeometry:
     """Read and check a ``[cam.geometry]`` table.
 
     Parameters
@@ -252,6 +265,9 @@ def parse_geometry(table, source: str, cam_arm: float | None = None, path: str =
         ``cam.arm`` [m]: the default ``arm_length`` of an oscillating roller.
     path : str
         Key path of the table in the file.
+    materials : dict, optional
+        The file's ``[[material]]`` tables by name (issue 39): ``cam_material`` and
+        ``follower_material`` may name one of them or a library material instead of a table.
 
     Returns
     -------
@@ -265,7 +281,7 @@ def parse_geometry(table, source: str, cam_arm: float | None = None, path: str =
         base radius, an offset outside the prime circle, a pivot from which the roller
         cannot reach the prime circle, keys the follower kind does not use.
     """
-    r = _Reader(source, path)
+    r = _Reader(source, path, materials)
     if not isinstance(table, dict):
         raise MachineFileError(source, path, f"expected a table [{path}], got {_fmt(table)}")
     r.check_keys(table, GEOMETRY_KEYS)
@@ -354,6 +370,9 @@ def apply_geometry_override(cam: dict, key: str, rest: list[tuple[str, int | Non
     geometry = cam.setdefault("geometry", {})
     if not isinstance(geometry, dict):
         raise MachineFileError(source, "cam.geometry", "expected a table")
+    if name in ("cam_material", "follower_material") and len(rest) == 1:  # issue 39: a material name
+        geometry[name] = value
+        return f"cam.geometry.{name}"
     if name in ("cam_material", "follower_material"):
         if len(rest) != 2 or rest[1][0] not in MATERIAL_KEYS:
             word = rest[1][0] if len(rest) > 1 else ""

@@ -226,6 +226,16 @@ _FUNCTIONS = {
 assert set(_FUNCTIONS) == set(LAWS)
 
 
+#: Where inside a law (u in (0, 1)) a derivative of y jumps: the joins of the pieces of the
+#: piecewise laws (their jerk jumps there). The engine stops a stretch at each, as at a
+#: segment join, so that no integration step carries the cam input across a kink (issue 34:
+#: across them, the step's polynomial input depended on the grid by ~1e-9 of a trace).
+INNER_BREAKS: dict[str, tuple[float, ...]] = {
+    "modified-trapezoid": tuple(p.u0 for p in _MOD_TRAP.pieces[1:]),
+    "modified-sine": tuple(p.u0 for p in _MOD_SINE.pieces[1:]),
+}
+
+
 def rise(name: str, u) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Normalised rise y(u) and its derivatives with respect to u.
 

@@ -27,7 +27,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from camsim.cam.laws import rise
+from camsim.cam.laws import INNER_BREAKS, rise
 from camsim.cam.description import SYNTHESIS_LAWS, Cam
 
 __all__ = ["CamProgram", "law_peaks", "sample_revolution"]
@@ -175,6 +175,7 @@ class CamProgram:
         self._signed = signed
         self._h0 = np.concatenate(([0.0], np.cumsum(signed)[:-1]))
         self._laws = laws
+        self._breaks = _inner_break_angles(self._starts, betas, laws)
         # issue 27: every segment's shape; polynomial/spline ones solved together (synthesis.py)
         from camsim.cam.synthesis import build_shapes
 
@@ -197,6 +198,7 @@ class CamProgram:
             # Same joins as the written program: the integrator must not step across them.
             self.kind = "segments"
             self._starts, self._betas = w._starts, w._betas
+            self._breaks = w._breaks
         else:
             self.kind = "table"
             self._starts = np.zeros(0)
@@ -395,6 +397,23 @@ class CamProgram:
         keep = (times > t_start + tol) & (times < t_end - tol)
         return np.unique(times[keep])
 
+    def break_times(self, t_start: float, t_end: float) -> np.ndarray:
+        """:meth:`boundary_times` and the times where a law's derivative jumps inside its
+        segment (the piece joins of the modified trapezoid and sine, :data:`INNER_BREAKS`):
+        every time in (t_start, t_end) across which the cam motion is not smooth. The
+        engine stops a stretch at each (no step carries the input across a kink)."""
+        joins = self.boundary_times(t_start, t_end)
+        breaks = getattr(self, "_breaks", np.zeros(0))
+        if not breaks.size or not t_end > t_start:
+            return joins
+        w, th0 = self.speed, self.start_angle
+        lo, hi = th0 + w * t_start, th0 + w * t_end
+        k = np.arange(math.floor(lo / _TWO_PI) - 1, math.ceil(hi / _TWO_PI) + 2)
+        times = ((breaks[None, :] + _TWO_PI * k[:, None]).reshape(-1) - th0) / w
+        tol = _BOUNDARY_TOLERANCE * self.period
+        times = times[(times > t_start + tol) & (times < t_end - tol)]
+        return np.unique(np.concatenate([joins, times]))
+
     # ------------------------------------------------------------------ reporting
     def boundary_angles(self) -> np.ndarray:
         """Cam angles [rad] in [0, 2π) where segments start (empty for a table or no cam)."""
@@ -592,3 +611,9 @@ def sample_revolution(program: CamProgram, points: int = 3600) -> dict[str, np.n
         "acceleration": a,
         "jerk": j,
     }
+
+
+def _inner_break_angles(starts: np.ndarray, betas: np.ndarray, laws) -> np.ndarray:
+    """Cam angles [rad] inside the segments where a law's derivative jumps (INNER_BREAKS)."""
+    out = [start + u * beta for start, beta, law in zip(starts, betas, laws) for u in INNER_BREAKS.get(law, ())]
+    return np.array(sorted(out), dtype=float)

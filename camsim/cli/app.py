@@ -46,6 +46,9 @@ class _OneLineErrors(typer.core.TyperGroup):
         except ImportError:
             from click import exceptions as click_exceptions
 
+        from camsim.cli.units_option import reset_error_units
+
+        reset_error_units()
         try:
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except getattr(click_exceptions, "NoArgsIsHelpError", ()) as exc:
@@ -129,12 +132,14 @@ def fail(message: str, code: int = 2) -> typer.Exit:
 @contextmanager
 def user_errors() -> Iterator[None]:
     """Turn camsim errors into one line on stderr and the documented exit code."""
+    from camsim.cli.units_option import error_text  # values quoted in the command's display units
+
     try:
         yield
     except InputError as exc:
-        raise fail(str(exc), 2) from None
+        raise fail(error_text(str(exc)), 2) from None
     except SimulationError as exc:
-        raise fail(str(exc), 1) from None
+        raise fail(error_text(str(exc)), 1) from None
     except KeyboardInterrupt:
         err_console.print("camsim: interrupted; nothing was written under the output name")
         raise typer.Exit(code=130) from None

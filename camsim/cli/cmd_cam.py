@@ -18,10 +18,12 @@ from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.units_option import check_units, machine_units, units_option
 from camsim.errors import InputError, MachineFileError
 
 if TYPE_CHECKING:
     from camsim.cam import CamProgram
+    from camsim.display import DisplayUnits
 
 
 def __getattr__(name: str):
@@ -38,17 +40,18 @@ def _num(value: float | None, fmt: str = ".4g") -> str:
     return "-" if value is None else format(value, fmt)
 
 
-def _print_table(machine, program: CamProgram, peaks: list[dict], heading: str = "") -> None:
-    rpm = program.speed * 60.0 / (2.0 * math.pi)
+def _print_table(machine, program: CamProgram, peaks: list[dict], heading: str = "", units: DisplayUnits | None = None) -> None:
+    u = units if units is not None else machine.display_units
+    (lu, lk), (vu, vk), (au, ak), (ju, jk) = (u.shown(x) for x in ("m", "m/s", "m/s^2", "m/s^3"))
     title = (
-        f"{machine.name}{': ' + heading if heading else ''}: cam at {rpm:.6g} rpm, ratio {program.ratio:.6g}, "
-        f"start angle {math.degrees(program.start_angle):.6g} deg; model axis, SI; "
+        f"{machine.name}{': ' + heading if heading else ''}: cam at {u.quantity(program.speed, 'rad/s', '.6g')}, "
+        f"ratio {program.ratio:.6g}, start angle {u.quantity(program.start_angle, 'rad', '.6g')}; model axis; "
         "@ = cam angle of the peak"
     )
     table = Table(title=escape(title), title_justify="left", box=box.SIMPLE_HEAD, pad_edge=False)
     headers = (
-        "#", "segment", "cam angle [deg]", "lift [mm]",
-        "|v| [m/s]", "@ [deg]", "|a| [m/s^2]", "@ [deg]", "|j| [m/s^3]", "@ [deg]",
+        "#", "segment", "cam angle [deg]", f"lift [{lu}]",
+        f"|v| [{vu}]", "@ [deg]", f"|a| [{au}]", "@ [deg]", f"|j| [{ju}]", "@ [deg]",
     )  # fmt: skip
     for header in headers:
         table.add_column(escape(header), justify="left" if header == "segment" else "right")
@@ -60,17 +63,22 @@ def _print_table(machine, program: CamProgram, peaks: list[dict], heading: str =
             str(p["index"]),
             name,
             f"{p['start_deg']:.5g}-{end:.5g}",
-            f"{1e3 * p['lift_m']:.5g}" if moving else "-",
-            _num(p["peak_velocity"] if moving else None),
+            f"{lk * p['lift_m']:.5g}" if moving else "-",
+            _num(vk * p["peak_velocity"] if moving else None),
             _num(p["peak_velocity_deg"], ".5g"),
-            _num(p["peak_acceleration"] if moving else None),
+            _num(ak * p["peak_acceleration"] if moving else None),
             _num(p["peak_acceleration_deg"], ".5g"),
-            _num(p["peak_jerk"] if moving else None),
+            _num(jk * p["peak_jerk"] if moving else None),
             _num(p["peak_jerk_deg"], ".5g"),
         )
     # Off a terminal (a log, a pipe) do not squeeze the table into 80 columns.
     console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
     console.print(table)
+
+
+def _tolerance(tol: float, unit: str) -> str:
+    """The chordal tolerance in the profile's own length unit (in: 0.0001 in; mm: 0.001 mm)."""
+    return f"{tol / 0.0254:.4g} in" if unit == "in" else f"{tol * 1e3:.4g} mm"
 
 
 def _parse_tolerance(text: str) -> float:
@@ -93,7 +101,7 @@ def cam_command(
         "-o",
         "--output",
         help=(
-            "Write one revolution of s [m], v [m/s], a [m/s^2], j [m/s^3] on the model axis "
+            "Write one revolution of s [m], v [m/s], a [m/s²], j [m/s³] (SI) on the model axis "
             "against time [s] and cam angle [deg]: .h5 (HDF5) or .csv. With [cam.geometry] the "
             ".h5 file also holds /cam/pressure_angle [deg], /cam/pitch_radius_of_curvature, "
             "/cam/surface_radius_of_curvature [m], /cam/pitch_curve, /cam/surface (N, 2) [m]."
@@ -130,11 +138,12 @@ def cam_command(
         help='Chordal tolerance of --profile and --dxf, with units (e.g. "1um", "0.0001 in"; bare number: m).',
     ),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command under -o."),
+    units: str = units_option(),
 ) -> None:
     """Show the cam program: per segment its law, duration, lift and peak |v|, |a|, |j|.
 
     Values are on the model axis (roller lift times the cam ratio) at the machine's cam
-    speed, in SI; angles are cam angles in degrees. Jumps of displacement, velocity or
+    speed, in the machine file's units (--units); angles are cam angles in degrees. Jumps of displacement, velocity or
     acceleration where segments meet are printed as warnings on stderr.
 
     With [cam.geometry] it also prints the design checks: the largest |pressure angle|
@@ -145,11 +154,13 @@ def cam_command(
     """
     from camsim.cam import CamProgram
     from camsim.cam.files import write_cam_csv, write_cam_hdf5
+    from camsim.display import in_units
     from camsim.io.atomic import check_writable
 
     with user_errors():
         from camsim.io.outputs import CSV, FIGURES, HDF5, check_output, output_format, same_file
 
+        check_units(units)
         kind = None
         inputs = [("machine file", machine_file)]
         named = [(o, p) for o, p in (("-o", output), ("--plot", plot), ("--profile", profile), ("--dxf", dxf)) if p is not None]
@@ -175,6 +186,7 @@ def cam_command(
         from camsim.machine.loader import load_machine
 
         machine = load_machine(machine_file, overrides=overrides)
+        shown = machine_units(units, machine)
         if machine.cam is None:
             raise MachineFileError(str(machine_file), "cam", "the machine has no cam")
         try:
@@ -217,25 +229,24 @@ def cam_command(
             if output_program is not None:
                 comp = machine.cam.compensated
                 _print_table(machine, output_program, output_program.segment_peaks(),
-                             heading=f"wanted motion of {comp.output} (the written program)")
-                rpm = comp.speed * 60.0 / (2.0 * math.pi)
+                             heading=f"wanted motion of {comp.output} (the written program)", units=shown)
                 _print_table(machine, program, peaks, heading=f"compensated cam ({comp.kind}, design speed "
-                             f"{rpm:.6g} rpm, path {' - '.join(comp.path)})")
+                             f"{shown.quantity(comp.speed, 'rad/s', '.6g')}, path {' - '.join(comp.path)})", units=shown)
             else:
-                _print_table(machine, program, peaks)
+                _print_table(machine, program, peaks, units=shown)
             if checks is not None:
                 from camsim.reports.summary import render_geometry_checks
 
                 console = err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
-                render_geometry_checks(checks, console, title=(
-                    f"cam geometry: {geometry.follower}, Rb {1e3 * geometry.base_radius:.5g} mm"
-                    + (f", Rr {1e3 * geometry.roller_radius:.5g} mm" if geometry.is_roller else "")
+                render_geometry_checks(checks, console, units=shown, title=(
+                    f"cam geometry: {geometry.follower}, Rb {shown.quantity(geometry.base_radius, 'm', '.5g')}"
+                    + (f", Rr {shown.quantity(geometry.roller_radius, 'm', '.5g')}" if geometry.is_roller else "")
                     + f", {geometry.rotation}; angles are cam angles, lift at the roller"))
         for message in program.warnings:
-            err_console.print(f"camsim: warning: {message}", markup=False)
+            err_console.print(f"camsim: warning: {in_units(message, shown)}", markup=False)
         if checks is not None and as_json:
             for message in checks["warnings"]:
-                err_console.print(f"camsim: warning: {message}", markup=False)
+                err_console.print(f"camsim: warning: {in_units(message, shown)}", markup=False)
         written = []
         if kind == "h5":
             write_cam_hdf5(output, machine, program, points)  # type: ignore[arg-type]
@@ -249,10 +260,10 @@ def cam_command(
             pts = profile_points(geometry, program, tol)
             if profile is not None:
                 write_profile_csv(profile, pts, unit)
-                written.append(f"{profile} ({pts['theta'].size} points, chordal tolerance {tol * 1e6:.4g} um, {unit})")
+                written.append(f"{profile} ({pts['theta'].size} points, chordal tolerance {_tolerance(tol, unit)}, {unit})")
             if dxf is not None:
                 write_profile_dxf(dxf, pts, geometry, unit)
-                written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {tol * 1e6:.4g} um, {unit})")
+                written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {_tolerance(tol, unit)}, {unit})")
         if plot is not None:
             from camsim.figures.cam import plot_cam_design
             from camsim.io.atomic import atomic_path
@@ -261,7 +272,7 @@ def cam_command(
             metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
             figures = []
             if geometry is not None and output_program is None:
-                figures.append((plot, plot_cam_design(geometry, program, title=f"{machine.name}: cam design")))
+                figures.append((plot, plot_cam_design(geometry, program, title=f"{machine.name}: cam design", units=shown)))
             else:
                 from camsim.figures.svaj import plot_svaj
 
@@ -270,12 +281,12 @@ def cam_command(
                     curves = [(f"wanted motion of {name}", output_program), ("compensated cam", program)]
                 else:
                     curves = [("cam", program)]
-                figures.append((plot, plot_svaj(curves, title=f"{machine.name}: SVAJ on the model axis")))
+                figures.append((plot, plot_svaj(curves, title=f"{machine.name}: SVAJ on the model axis", units=shown)))
                 if geometry is not None:
                     design = plot.with_name(f"{plot.stem}-design{plot.suffix}")
                     check_writable(design)
                     figures.append((design, plot_cam_design(geometry, program, title=f"{machine.name}: "
-                                                                                      "compensated cam design")))
+                                                                                      "compensated cam design", units=shown)))
             for path_, fig in figures:
                 with atomic_path(path_) as tmp:
                     fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.units_option import check_units, units_option
 from camsim.analyses.tolerances import DEFAULT_ATOL, DEFAULT_RTOL
 
 
@@ -22,6 +23,8 @@ def check_command(
     ),
     show: int = typer.Option(10, "--show", metavar="N", help="Rows of the table of worst differences."),
     json_: bool = typer.Option(False, "--json", help="Print the full report as JSON on stdout."),
+    units: str = units_option("Units of the differences shown: file (the result's machine file's own, recorded in the "
+                              "result; the default), si or us. --rtol and --atol are SI; --json is SI."),
 ) -> None:
     """Check every trace and the events table: pass when |result - golden| <= atol + rtol*max|golden|.
 
@@ -30,13 +33,17 @@ def check_command(
     """
     with user_errors():
         from camsim.analyses.check import check_files, render_report, summary_line
+        from camsim.io.results import file_display_units, open_h5
 
+        check_units(units)
         report = check_files(result, against, rtol=rtol, atol=atol)
+        with open_h5(result) as f:
+            shown = file_display_units(f, units)
     if json_:
         print_json(report.to_dict())
     else:
-        render_report(report, err_console, limit=max(show, 1))
+        render_report(report, err_console, limit=max(show, 1), units=shown)
     if not report.passed:
         if json_:
-            err_console.print(summary_line(report), markup=False, highlight=False)
+            err_console.print(summary_line(report, shown), markup=False, highlight=False)
         raise typer.Exit(code=1)

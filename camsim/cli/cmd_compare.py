@@ -10,21 +10,24 @@ from rich.table import Table
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 _SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 
-def render_comparison(comparison, console, system: str = "si") -> None:
+def render_comparison(comparison, console, units=None) -> None:
+    """The comparison table in ``units`` (a DisplayUnits, ``si``/``us``; default SI)."""
     from rich.markup import escape
 
-    from camsim.reports.display import shown
+    from camsim.reports.display import as_display
 
+    system = as_display(units or "si")
     a, b = comparison.labels
     table = Table(title=escape(f"{a} vs {b}: difference = 100·(A − B)/max|A|"), title_justify="left")
     for column in ("mass", "quantity [unit]", f"peak A ({a})", f"peak B ({b})", "largest |difference| [%]", "at t [s]"):
         table.add_column(escape(column), justify="right" if column not in ("mass", "quantity [unit]") else "left")
     for row in comparison.rows():
-        unit, scale = shown(_SI_UNITS[row.quantity], system)
+        unit, scale = system.shown(_SI_UNITS[row.quantity])
         diff = row.max_difference_percent
         table.add_row(
             escape(row.mass), escape(f"{row.quantity} [{unit}]"), f"{row.peak_impact * scale:.4g}", f"{row.peak_no_impact * scale:.4g}",
@@ -33,16 +36,18 @@ def render_comparison(comparison, console, system: str = "si") -> None:
     console.print(table)
 
 
-def render_design_comparison(rows, console) -> None:
-    """Peak stress and torque with and without impact (issue 14)."""
+def render_design_comparison(rows, console, units=None) -> None:
+    """Peak stress and torque with and without impact (issue 14), in ``units``."""
     from rich.markup import escape
 
+    from camsim.reports.display import as_display
+
+    system = as_display(units or "si")
     table = Table(title="cam design: impact vs no impact", title_justify="left")
     for column in ("quantity", "impact", "no impact", "unit", "change [%]"):
         table.add_column(escape(column), justify="left" if column == "quantity" else "right")
-    scale = {"Pa": (1e-6, "MPa")}
     for row in rows:
-        factor, unit = scale.get(row["units"], (1.0, row["units"]))
+        unit, factor = system.shown(row["units"])
         fmt = lambda v: "–" if v is None else f"{v * factor:.4g}"  # noqa: E731
         change = row["change_percent"]
         table.add_row(row["quantity"], fmt(row["impact"]), fmt(row["no_impact"]), unit,
@@ -60,8 +65,8 @@ def compare_command(
     set_: list[str] = typer.Option([], "--set", help='Override a machine key, e.g. --set cam.speed="150 rpm" (repeatable).'),
     json_: bool = typer.Option(False, "--json", help="Print the comparison table as JSON on stdout."),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    units: str = typer.Option("si", "--units", help="Units of the human table: si (mm, m/s) or us (in, in/s). Files and --json are always SI."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    units: str = units_option(),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP + " Of the comparison file; of both run files when two are compared without -o."),
 ) -> None:
     """Compare the machine with impact and over-travel against its no-impact variant (thesis §8.4).
@@ -74,12 +79,11 @@ def compare_command(
     """
     from camsim.cli.app import parse_sample_rate
     from camsim.cli.progress import FractionBar
-    from camsim.reports.display import check_unit_system
     from camsim.run.lifecycle import sigterm_as_interrupt
     from camsim.analyses.compare import compare_files, compare_machine, write_file_comparison
 
     with user_errors(), sigterm_as_interrupt():
-        check_unit_system(units)
+        check_units(units)
         check_report_target(report, [(f"input {i + 1}", p) for i, p in enumerate(inputs)], force)
         if len(inputs) == 2:
             if set_ or cycles or warmup is not None or sample_rate:
@@ -91,6 +95,10 @@ def compare_command(
                 check_output(output, output_format(output, HDF5), owner="compare", force=force,
                              inputs=[("result file A", a), ("result file B", b)])
             comparison = compare_files(a, b)
+            from camsim.io.results import file_display_units, open_h5
+
+            with open_h5(a) as f:  # the display units of file A's machine file
+                shown = file_display_units(f, units)
             if output is not None:
                 write_file_comparison(comparison, a, b, output)
         elif len(inputs) == 1:
@@ -106,6 +114,7 @@ def compare_command(
                            "with and without impact) or two result files (HDF5: A against B)")
             rate = parse_sample_rate(sample_rate)
             machine = load_machine(machine_path, overrides=set_)
+            shown = machine_units(units, machine)
             target = output if output is not None else beside(machine_path, "_compare.h5")
             check_output(target, output_format(target, HDF5), owner="compare", force=force,
                          inputs=[("machine file", machine_path)])
@@ -133,9 +142,9 @@ def compare_command(
             payload["output"] = str(output) if output is not None else None
             print_json(payload)
         else:
-            render_comparison(comparison, err_console, units)
+            render_comparison(comparison, err_console, shown)
             if design_rows:  # issue 14
-                render_design_comparison(design_rows, err_console)
+                render_design_comparison(design_rows, err_console, shown)
             if output is not None:
                 err_console.print(f"wrote {output}")
-        write_report_page([output] if output is not None else list(inputs), report, quiet=json_)
+        write_report_page([output] if output is not None else list(inputs), report, quiet=json_, units=units)

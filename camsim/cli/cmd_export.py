@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, print_json, user_errors
+from camsim.cli.units_option import check_units
 
 
 @app.command("export")
@@ -30,13 +31,20 @@ def export_command(
         None, "--group", metavar="GROUP", help="For a comparison file: impact, no_impact or difference."
     ),
     json_: bool = typer.Option(False, "--json", help="Print what was written as JSON on stdout."),
+    units: str = typer.Option(
+        None, "--units", metavar="file|si|us",
+        help="Write the values in display units: file (the result's machine file's own, recorded in the result), "
+        "si (mm, N, kg, m/s) or us (in, lbf, lb, in/s); the header names them. Default: the SI values as stored, exact.",
+    ),
 ) -> None:
-    """Export traces as CSV: header 'path [unit]' (SI units), full float precision (exact round trip)."""
+    """Export traces as CSV: header 'path [unit]' (SI units, or --units), full float precision (exact round trip)."""
     with user_errors():
+        if units is not None:
+            check_units(units)
         from camsim.analyses.export import export_csv
 
         picked = [p.strip() for c in columns or () for p in c.split(",") if p.strip()]
-        result = export_csv(file, out, picked or None, events_csv, events=not no_events, group=group)
+        result = export_csv(file, out, picked or None, events_csv, events=not no_events, group=group, units=units)
     if json_:
         print_json(
             {

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 def evaluation_store_for(target: Path) -> Path:
@@ -45,43 +46,74 @@ def written_units(params: list[str], targets: list[str]) -> dict[str, str]:
     return out
 
 
-def _converter(si_unit: str, unit: str | None):
-    """(unit shown, SI -> shown function); SI when the written unit does not convert."""
+def _converter(si_unit: str, unit: str | None, display=None):
+    """(unit shown, SI -> shown function): the unit written for this key when it converts,
+    else the display units (issue 36; SI without them)."""
+    from camsim.reports.display import as_display
+
+    shown_unit, factor = as_display(display or "si").shown(si_unit or "")
+    fallback = (shown_unit, lambda v: v * factor)
     if not unit or not si_unit:
-        return si_unit, lambda v: v
+        return fallback
     from camsim.units import ureg
 
     try:
         factor = float(ureg.Quantity(1.0, si_unit.replace("²", "^2")).to(unit).magnitude)
-    except Exception:  # noqa: BLE001 - an offset unit or a unit pint cannot scale: show SI
-        return si_unit, lambda v: v
+    except Exception:  # noqa: BLE001 - an offset unit or a unit pint cannot scale: the display units
+        return fallback
     return unit, lambda v: v * factor
 
 
-def misfit_lines(result, written: dict[str, str]) -> list[str]:
-    """:attr:`FitResult.misfits` with each target in the unit the user wrote."""
+def measured_units(measured: Path | None) -> list[str]:
+    """The units in the header of the measured CSV (``transducer/force [lbf]`` → ``"1 lbf"``): units
+    the user wrote, shown first like the command line's (issue 36). Nothing for an unreadable file."""
+    import re
+
+    if measured is None:
+        return []
+    try:
+        with open(measured, encoding="utf-8-sig") as fh:
+            header = fh.readline()
+    except (OSError, UnicodeDecodeError):
+        return []
+    return [f"1 {u.strip()}" for u in re.findall(r"\[([^\]]+)\]", header)]
+
+
+def _path_unit(path: str) -> str:
+    from camsim.analyses.study.outputs import scalar_unit, trace_unit
+
+    return trace_unit(path) if "/" in path else scalar_unit(path)
+
+
+def misfit_lines(result, written: dict[str, str], display=None) -> list[str]:
+    """:attr:`FitResult.misfits` with each target in the unit the user wrote (else the display units)."""
     lines = []
     for name, t in result.targets.items():
         error = t["achieved"] - t["value"]
         if math.isfinite(error) and abs(error) <= t["sigma"]:
             continue
-        unit, conv = _converter(t["unit"], written.get(name))
+        unit, conv = _converter(t["unit"], written.get(name), display)
         lines.append(f"{name}: fitted {conv(t['achieved']):.6g} {unit}, target {conv(t['value']):.6g} {unit} "
                      f"± {conv(t['sigma']):.3g} (missed by {abs(error) / t['sigma']:.3g} sigma)")
     lines += [m for m in result.misfits if m.startswith("residual variance")]
     return lines
 
 
-def _render(result, err, written: dict[str, str] | None = None) -> None:
+def _render(result, err, written: dict[str, str] | None = None, display=None) -> None:
+    """The fit's table and lines: each key in the unit written for it, else in ``display``."""
     from rich.table import Table
     from rich.text import Text
 
+    from camsim.display import in_units
+    from camsim.reports.display import as_display
+
+    display = as_display(display or "si")
     written = written or {}
     table = Table(show_edge=False, pad_edge=False)
     for name in ("parameter", "unit", "start", "fitted", "std. error", "95 % interval"):
         table.add_column(Text(name), overflow="fold")
     for i, key in enumerate(result.keys):
-        unit, conv = _converter(result.units[i], written.get(key))
+        unit, conv = _converter(result.units[i], written.get(key), display)
         lo, hi = conv(result.ci95[i][0]), conv(result.ci95[i][1])
         table.add_row(
             Text(key),
@@ -98,8 +130,9 @@ def _render(result, err, written: dict[str, str] | None = None) -> None:
             for i in range(len(result.keys)) for j in range(i + 1, len(result.keys))
         ), markup=False)
     for path, rms in result.rms_residual.items():
-        unit, conv = _converter(result.targets[path]["unit"] if path in result.targets else "", written.get(path))
-        shown = f" {unit}" if unit and path in written else ""
+        si_unit = result.targets[path]["unit"] if path in result.targets else _path_unit(path)
+        unit, conv = _converter(si_unit, written.get(path), display)
+        shown = f" {unit}" if unit else ""
         err.print(f"rms residual {path}: {conv(rms):.4g}{shown} (noise level used: {conv(result.sigma.get(path, float('nan'))):.4g}{shown})", markup=False)
     state = "converged" if result.converged else "NOT converged"
     err.print(
@@ -108,7 +141,7 @@ def _render(result, err, written: dict[str, str] | None = None) -> None:
         markup=False,
     )
     for w in result.warnings:
-        err.print(f"warning: {w}", markup=False)
+        err.print(f"warning: {in_units(w, display)}", markup=False)
 
 
 @app.command("fit")
@@ -157,6 +190,10 @@ def fit_command(
     accept_misfit: bool = typer.Option(False, "--accept-misfit", help="Write the fitted file (exit 0) even when a --target is missed by more than its sigma or the residual variance of a trace fit is above 2 (the misfit is printed as a warning)."),
     fresh: bool = typer.Option(False, "--fresh", help="Discard the evaluations an interrupted fit left (FITTED.toml.evaluations.h5) and start again."),
     force: bool = typer.Option(False, "--force", help="Replace an existing FITTED.toml that is not the result of a fit (a machine file written by hand or by lump)."),
+    units: str = units_option("Units of the human output: file (the machine file's units per dimension, with the units "
+                              "written in --param/--target/--sigma and in the measured CSV's header first; the default), "
+                              "si or us. A --param or --target is shown in the unit written for it. --json is SI."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (each iteration on a terminal, the latest every 10 s elsewhere)."),
 ) -> None:
     """Calibrate MACHINE to MEASURED traces: fit the --param keys by weighted least squares.
 
@@ -172,8 +209,11 @@ def fit_command(
     from camsim.io.atomic import check_writable
 
     rate = parse_sample_rate(sample_rate)
-    show = err_console.print if err_console.is_terminal else None
+    from camsim.cli.progress import Lines
+
+    show = Lines(quiet)
     with user_errors():
+        check_units(units)
         target_path = output if output is not None else _default_output(machine)
         from camsim.io.outputs import FIGURES, HDF5, TOML, check_journal, check_output, output_format
         from camsim.io.rowstore import journal_path_for
@@ -211,18 +251,22 @@ def fit_command(
             starts=starts,
             seed=seed,
             max_evaluations=max_evaluations,
-            progress=(lambda line: show(line, markup=False)) if show else None,
+            progress=show,
             evaluations=evaluation_store_for(target_path),
             resume=resume,
         )
         written_in = written_units(param, target)
+        from camsim.machine.loader import load_machine
+
+        loaded = load_machine(machine, overrides=set_)
+        shown = machine_units(units, loaded, [*param, *target, *sigma, *set_, *measured_units(measured)])
         if json_:
             print_json(result.to_json())
         else:
-            _render(result, err_console, written_in)
+            _render(result, err_console, written_in, shown)
         if not result.converged:
             raise fail("the fit did not converge (above: what it reached); nothing was written", 1)
-        misfit = misfit_lines(result, written_in)
+        misfit = misfit_lines(result, written_in, shown)
         if misfit and not accept_misfit:
             raise fail("the fit did not match: " + "; ".join(misfit)
                        + "; nothing was written (--accept-misfit writes it anyway)", 1)
@@ -237,11 +281,12 @@ def fit_command(
             from camsim.cli.report_option import command_line
             from camsim.reports.build import build_report_from
 
-            build_report_from((result, machine, text), "fit", report, command=command_line(), title=f"{machine} — fit report")
+            build_report_from((result, machine, text), "fit", report, command=command_line(),
+                              title=f"{loaded.name} — fit report", units=shown)
         elif report is not None:
             from camsim.figures.fit import write_report
 
-            write_report(report, result, title=str(machine))
+            write_report(report, result, title=loaded.name, units=shown)
         written = write_fitted(target_path, text, result, source=str(machine))
         if not json_:
             err_console.print(f"wrote {written}" + (f" and {report}" if report is not None else ""), markup=False)

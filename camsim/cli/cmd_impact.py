@@ -16,12 +16,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.units_option import check_units, units_option
 from camsim.errors import InputError
 from camsim.units import QuantityError, to_si
 
 from camsim.units import LBF  # noqa: E402
 
 if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
     from camsim.physics import impact
 
 impact_app = typer.Typer(
@@ -35,7 +37,7 @@ impact_app = typer.Typer(
         "Estimate the peak force of a striking impact (Johnson's common-velocity bounds, "
         "Burr's deflection and correction factor, Burr's wave method; thesis §3.3), or fit "
         "a power-law contact to force-deflection data with 'camsim impact fit'. "
-        "Values are quantities with their units, quoted; results in N and lbf."
+        "Values are quantities with their units, quoted; results in the units written (--units)."
     ),
     epilog=(
         "\b\nExample (thesis appendix C, table 6: a 0.375 in steel ball dropped 1 in on the hard stop):\n"
@@ -169,10 +171,23 @@ def impact_command(
         help=_UNITS_HELP + '"386.4 in/s**2": for --drop-height and Burr\'s weight. Default 9.80665 m/s**2.',
     ),
     json_out: bool = typer.Option(False, "--json", help="Print the estimates as JSON on stdout."),
+    materials: bool = typer.Option(False, "--materials", help="Rank material pairs for a Hertz contact of a machine "
+                                   "(--machine) by simulated peak force, contact stress against yield, and rebound."),
+    machine: Path = typer.Option(None, "--machine", metavar="FILE", help="With --materials: the machine file."),
+    contact: str = typer.Option(None, "--contact", metavar="NAME", help="With --materials: the contact (default: the "
+                                "machine's only law = \"hertz\" contact)."),
+    pair: list[str] = typer.Option([], "--pair", metavar="BODY,FLAT", help="With --materials: a pair to try "
+                                   "(repeatable); default every pair of the library."),
+    candidates: str = typer.Option(None, "--candidates", metavar="A,B,...", help="With --materials: every pair of "
+                                   "these materials."),
+    set_: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="With --materials: override a machine key."),
+    workers: int = typer.Option(1, "--workers", min=1, help="With --materials: processes running the pairs."),
+    units: str = units_option("Units of the table: file (the units written in the options, per dimension: "
+                              "--stiffness \"60800 lbf/in\" shows forces in lbf; the default), si or us. --json has N and lbf."),
 ) -> None:
     """Estimate the peak force of a striking impact.
 
-    Prints every estimate the inputs allow, in N and lbf: Johnson's lower and upper bounds
+    Prints every estimate the inputs allow, in the units of the options (--units): Johnson's lower and upper bounds
     (--stiffness, or --coefficient/--exponent, or --sphere-diameter with --modulus),
     Burr's deflection and correction factor (--stiffness) and Burr's wave method (--bar-area,
     --bar-length, --modulus, --density). Values are quantities with units, in quotes.
@@ -194,6 +209,17 @@ def impact_command(
         "eta": eta,
         "gravity": gravity,
     }
+    if materials:  # issue 39: the thesis's third recommendation as a command
+        from camsim.cli.impact_materials import materials_command
+
+        extra = [name for name, value in given.items() if value != _CALCULATOR_DEFAULTS[name]]
+        if extra:
+            raise fail(f"--{extra[0].replace('_', '-')} is a calculator option; --materials takes a machine file")
+        with user_errors():
+            materials_command(machine, contact, pair, candidates, set_, workers, json_out)
+        return
+    if any((machine, contact, pair, candidates, set_)):
+        raise fail("--machine, --contact, --pair, --candidates and --set go with --materials")
     if ctx.invoked_subcommand is not None:
         extra = [name for name, value in given.items() if value != _CALCULATOR_DEFAULTS[name]]
         if extra:
@@ -204,11 +230,15 @@ def impact_command(
         ctx.obj = {"json": json_out}
         return
     with user_errors():
+        check_units(units)
         inputs, estimates = _calculate(**given)
+        from camsim.display import display_units
+
+        shown = display_units(units, None, [v for v in given.values() if v is not None])
     if json_out:
         print_json(_payload(inputs, estimates))
     else:
-        _print_table(inputs, estimates)
+        _print_table(inputs, estimates, shown)
 
 
 def _calculate(**given: str | None) -> tuple[dict[str, Any], impact.ImpactEstimates]:
@@ -359,24 +389,24 @@ def _needs(est: impact.ImpactEstimates, key: str, inputs: dict[str, Any]) -> str
     return "needs " + ", ".join(_OPTION_OF[name] for name in est.missing[key] if name not in given)
 
 
-def _print_table(inputs: dict[str, Any], est: impact.ImpactEstimates) -> None:
+def _print_table(inputs: dict[str, Any], est: impact.ImpactEstimates, units: DisplayUnits) -> None:
     law = {"linear": "linear k", "power": "power law C*d^a", None: ""}[est.johnson_law]
     target = (
         "fixed target"
         if inputs["target_mass_kg"] is None
-        else f"target {inputs['target_mass_kg']:.6g} kg"
+        else f"target {units.quantity(inputs['target_mass_kg'], 'kg', '.6g')}"
     )
     table = Table(
         title=(
-            f"Impact of {inputs['mass_kg']:.6g} kg at {est.velocity:.6g} m/s "
-            f"({est.velocity / 0.0254:.6g} in/s) on a {target}"
+            f"Impact of {units.quantity(inputs['mass_kg'], 'kg', '.6g')} at {units.quantity(est.velocity, 'm/s', '.6g')} "
+            f"on a {target}"
         ),
         title_justify="left",
     )
+    force_unit, k = units.shown("N")
     table.add_column("estimate")
     table.add_column("source")
-    table.add_column(escape("force [N]"), justify="right")
-    table.add_column(escape("force [lbf]"), justify="right")
+    table.add_column(escape(f"force [{force_unit}]"), justify="right")
     rows = [
         ("Johnson lower (finite mass)", f"thesis eq. 3.27/3.34, {law}", est.johnson_lower, "johnson"),
         ("Johnson upper (infinite mass)", f"thesis eq. 3.29/3.35, {law}", est.johnson_upper, "johnson"),
@@ -390,9 +420,9 @@ def _print_table(inputs: dict[str, Any], est: impact.ImpactEstimates) -> None:
     ]
     for name, source, value, key in rows:
         if value is None:
-            table.add_row(name, _needs(est, key, inputs), "-", "-")
+            table.add_row(name, _needs(est, key, inputs), "-")
         else:
-            table.add_row(name, source, f"{value:.6g}", f"{value / LBF:.6g}")
+            table.add_row(name, source, f"{value * k:.6g}")
     err_console.print(table)
 
 
@@ -406,11 +436,13 @@ def fit_command(
         metavar="DATA",
         help='Force-deflection samples; header with units in brackets, e.g. "deflection [in],force [lbf]".',
     ),
-    json_out: bool = typer.Option(False, "--json", help="Print C, a and R^2 as JSON on stdout."),
+    json_out: bool = typer.Option(False, "--json", help="Print C, a and R² as JSON on stdout."),
+    units: str = units_option("Units of C in the table: file (the data file's, e.g. lbf/in^a for a header "
+                              "\"deflection [in],force [lbf]\"; the default), si (N/m^a) or us (lbf/in^a). --json has both."),
 ) -> None:
     """Fit a power-law contact F = C*d^a to force-deflection data (log-log least squares).
 
-    Prints C in N/m^a and in the file's units, the exponent a and R^2 of the log-log fit.
+    Prints C in the data file's units (--units), the exponent a and R^2 of the log-log fit.
     At least 3 samples, all positive.
     """
     from camsim.io.forcedeflection import read_force_deflection_csv
@@ -418,6 +450,7 @@ def fit_command(
 
     json_out = json_out or bool((ctx.obj or {}).get("json"))
     with user_errors():
+        check_units(units)
         samples = read_force_deflection_csv(data)
         deflection, force = samples.deflection, samples.force
         length_unit, force_unit = samples.deflection_unit, samples.force_unit
@@ -450,8 +483,13 @@ def fit_command(
     table.add_column("quantity")
     table.add_column("value", justify="right")
     table.add_column("unit")
-    table.add_row("C", f"{fit.coefficient:.6g}", f"N/m**{fit.exponent:.6g}")
-    table.add_row("C", f"{file_coefficient:.6g}", escape(file_unit))
+    if units == "file":
+        table.add_row("C", f"{file_coefficient:.6g}", escape(file_unit.replace("**", "^")))
+    else:
+        from camsim.display import display_units
+
+        c_unit, c_k = display_units(units).power_coefficient(fit.exponent)
+        table.add_row("C", f"{fit.coefficient * c_k:.6g}", escape(c_unit))
     table.add_row("a", f"{fit.exponent:.6g}", "-")
-    table.add_row("R^2 (log-log)", f"{fit.r_squared:.6f}", "-")
+    table.add_row("R² (log-log)", f"{fit.r_squared:.6f}", "-")
     err_console.print(table)

@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.units_option import check_units
 
 
 @app.command("lump")
@@ -28,10 +29,11 @@ def lump_command(
         show_default=False,
     ),
     units: str = typer.Option(
-        "us",
+        "file",
         "--units",
-        help="Units of the computed values in the machine file: 'us' = lb, lbf/in, lbf "
-        "(the thesis's); 'si' = kg, N/m, N.",
+        metavar="file|si|us",
+        help="Units of the computed values, in the table and in the machine file: 'file' = the units the parts "
+        "file is written in, per dimension (the default); 'us' = lb, lbf/in, lbf; 'si' = kg, N/m, N.",
     ),
     json_out: bool = typer.Option(
         False, "--json", help="Print the lumped values and parts in SI (kg, N/m, N) with their provenance, as JSON on stdout."
@@ -41,11 +43,10 @@ def lump_command(
     """Lump components (masses, inertias about pivots, helical springs, rods, series and
     parallel springs, lever ratios) into the masses and elements of a machine file."""
     from camsim.io.atomic import check_writable
-    from camsim.analyses.lump.lumping import UNIT_SYSTEMS, load_parts, write_machine
+    from camsim.analyses.lump.lumping import load_parts, write_machine
 
     with user_errors():
-        if units not in UNIT_SYSTEMS:
-            raise fail(f"--units: expected one of {', '.join(UNIT_SYSTEMS)}, got {units!r}", 2)
+        check_units(units)
         if output is not None:
             from camsim.io.outputs import TOML, check_output, output_format
 
@@ -55,13 +56,11 @@ def lump_command(
             write_machine(result, output)
     table = Table(title=f"Lumped values of {parts}", title_justify="left")
     table.add_column("value")
-    table.add_column("written", justify="right")
-    table.add_column("SI", justify="right")
+    table.add_column("lumped", justify="right")
     table.add_column("how it was obtained", overflow="fold")
-    si_units = {"mass": "kg", "stiffness": "N/m", "force": "N", "dimensionless": ""}
     for v in result.values:
         written = v.text if isinstance(v.text, str) else f"{v.text:.7g}"
-        table.add_row(v.key, written, f"{v.value:.6g} {si_units[v.kind]}".strip(), v.provenance.split(" = ", 1)[1])
+        table.add_row(v.key, written, v.provenance.split(" = ", 1)[1])
     err_console.print(table)
     if output is not None:
         err_console.print(f"wrote {output}", markup=False)

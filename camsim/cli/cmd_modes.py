@@ -6,9 +6,11 @@ import math
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.units_option import check_units, units_option
 
 
 @app.command("modes")
@@ -16,6 +18,8 @@ def modes_command(
     machine: Path = typer.Argument(..., help="Machine file (TOML)."),
     set_: list[str] = typer.Option([], "--set", help="Override a machine key (repeatable)."),
     json_: bool = typer.Option(False, "--json", help="Print the modes as JSON on stdout."),
+    units: str = units_option("Units of the human output, as for every command: file (the default), si or us. Natural "
+                              "frequencies are in Hz and damping ratios are numbers in every system."),
 ) -> None:
     """Natural frequencies [Hz] and damping ratios of every branch configuration.
 
@@ -25,13 +29,15 @@ def modes_command(
     closed power-law contact list only their linear part (marked nonlinear).
     """
     from camsim.machine.loader import load_machine
-    from camsim.analyses.modes import machine_modes, modes_to_dict
+    from camsim.analyses.modes import machine_modes, modes_to_dict, rod_modes
 
     with user_errors():
+        check_units(units)
         loaded = load_machine(machine, overrides=set_)
         modes = machine_modes(loaded)
+        rods = rod_modes(loaded)
     if json_:
-        print_json(modes_to_dict(modes))
+        print_json(modes_to_dict(modes, rods))
         return
     table = Table(title=f"{loaded.name}: modes per configuration", title_justify="left")
     table.add_column("configuration")
@@ -49,3 +55,12 @@ def modes_command(
             f"{m.stiffness_ratio:.3g}" if m.stiffness_ratio else "–",
         )
     err_console.print(table)
+    for rod in rods:  # issue 39: each rod's own axial modes, free at both ends
+        t = Table(title=escape(f"rod {rod['rod']}: {rod['segments_reason']}"), title_justify="left")
+        for col in ("mode", "lumped [Hz]", "continuum j*c/2L [Hz]", "error", "damping ratio"):
+            t.add_column(escape(col), justify="right")
+        for j, (f, g, e, z) in enumerate(zip(rod["lumped_hz"], rod["continuum_hz"], rod["error"], rod["damping_ratios"]), 1):
+            t.add_row(str(j), f"{f:.5g}", f"{g:.5g}", f"{100 * e:+.3g} %", f"{z:.3g}")
+        err_console.print(t)
+        err_console.print(f"highest mode of the discretisation: {rod['highest_hz']:.5g} Hz (the machine's configurations "
+                          "above include the rod, coupled to its nodes)", markup=False)

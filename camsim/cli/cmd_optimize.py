@@ -3,47 +3,35 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 class _Progress:
-    """Evaluations done / budget, the best feasible objective so far and an ETA, on stderr."""
+    """Evaluations done / budget and the best feasible objective so far, on stderr
+    (:class:`camsim.cli.progress.Bar`: a live bar on a terminal, a line every 10 s elsewhere)."""
 
     def __init__(self, quiet: bool, unit: str = "") -> None:
-        self.enabled = not quiet and err_console.is_terminal
-        self.progress = None
-        self.task = None
-        self.t0 = time.monotonic()
+        from camsim.cli.progress import Bar
+
+        self.bar = Bar("optimize", "evaluations", quiet=quiet)
         self.unit = unit
 
     def start(self, budget: int, stored: int, executor: str) -> None:
         if stored:
             err_console.print(f"resuming: {stored} runs already stored are reused", markup=False)
-        if not self.enabled:
-            return
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-        self.progress = Progress(TextColumn(f"optimize ({executor})"), BarColumn(), MofNCompleteColumn(),
-                                 TextColumn("evaluations"), TextColumn("{task.fields[best]}"), TextColumn("ETA"),
-                                 TimeRemainingColumn(), console=err_console, transient=True)
-        self.progress.start()
-        self.task = self.progress.add_task("optimize", total=budget, best="best: none feasible yet")
+        self.bar.start(budget, executor, note="best: none feasible yet")
 
     def __call__(self, done: int, budget: int | None, best: float | None) -> None:
-        if self.progress is None:
-            return
         text = "best: none feasible yet" if best is None else f"best: {best:.6g} {self.unit}".rstrip()
-        self.progress.update(self.task, completed=done, total=budget, best=text)
+        self.bar(done, budget, note=text)
 
     def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
-            self.progress = None
+        self.bar.close()
 
 
 def _fmt(v) -> str:
@@ -54,25 +42,38 @@ def _fmt(v) -> str:
     return "—" if not math.isfinite(v) else f"{v:.6g}"
 
 
-def _render(result) -> None:
+def _render(result, display=None) -> None:
+    """The optimum, objectives and constraints in ``display`` (default the machine file's units)."""
+    from camsim.display import in_units
+    from camsim.reports.display import as_display
+
     p = result.problem
+    display = as_display(display, getattr(p, "base", None))
     err = err_console
+
+    def q(value, si_unit: str) -> str:
+        """A value with its display unit (a number alone without a unit)."""
+        if value is None or isinstance(value, str) or not math.isfinite(value):
+            return _fmt(value)
+        return display.quantity(value, si_unit, ".6g") if si_unit else _fmt(value)
+
     head = {"optimal": "optimum", "infeasible": "NO FEASIBLE CANDIDATE; the least-violating one"}[result.status]
     err.print(f"{head} after {len(result.candidates)} evaluations ({result.runs} runs, {result.method}, seed {result.seed}):", markup=False)
     for v in p.variables:
         new = result.best.values.get(v.key)
-        unit = f" {v.unit}" if v.unit and not v.is_choice else ""
-        err.print(f"  {v.key} = {_fmt(new)}{unit}   (file: {_fmt(v.initial)}{unit})", markup=False)
+        unit = "" if v.is_choice else v.unit
+        err.print(f"  {v.key} = {q(new, unit)}   (file: {q(v.initial, unit)})", markup=False)
     if p.absorb is not None:
-        err.print(f"  {p.absorb} = {_fmt(math.degrees(result.best.values[p.absorb]))} deg (absorbs the rest of 360 deg; "
-                  f"file: {_fmt(math.degrees(p.absorb_initial))} deg)", markup=False)
+        err.print(f"  {p.absorb} = {q(result.best.values[p.absorb], 'rad')} (absorbs the rest of 360 deg; "
+                  f"file: {q(p.absorb_initial, 'rad')})", markup=False)
     for k, g in enumerate(p.goals):
-        init = "" if result.initial is None else f"   (file: {_fmt(result.initial.objectives[k])} {g.unit})".replace(" )", ")")
-        err.print(f"  {g.sense}imise {g.text} = {_fmt(result.best.objectives[k])} {g.unit}{init}", markup=False)
+        init = "" if result.initial is None else f"   (file: {q(result.initial.objectives[k], g.unit)})"
+        err.print(f"  {g.sense}imise {g.text} = {q(result.best.objectives[k], g.unit)}{init}", markup=False)
+    units = {c.text: c.unit for c in p.constraints}
     for s in result.best.per_speed:
-        where = "" if s["speed"] is None else f" at {s['speed'] * 60 / (2 * math.pi):.6g} rpm"
+        where = "" if s["speed"] is None else f" at {display.quantity(s['speed'], 'rad/s', '.6g')}"
         for c in s["constraints"]:
-            line = f"  {c['expr']}{where}: {_fmt(c['value'])} ({'ok' if c['satisfied'] else 'VIOLATED'})"
+            line = f"  {c['expr']}{where}: {q(c['value'], units.get(c['expr'], ''))} ({'ok' if c['satisfied'] else 'VIOLATED'})"
             if "probability" in c:
                 lo, hi = c["ci95"]
                 line += f", P(violation) = {_fmt(c['probability'])} (95 % {_fmt(lo)} … {_fmt(hi)}, {c['method']})"
@@ -82,9 +83,9 @@ def _render(result) -> None:
     if result.front:
         err.print(f"Pareto front: {len(result.front)} points", markup=False)
         for c in result.front:
-            err.print("  " + "  ".join(f"{g.text} = {_fmt(c.objectives[k])}" for k, g in enumerate(p.goals)), markup=False)
+            err.print("  " + "  ".join(f"{g.text} = {q(c.objectives[k], g.unit)}" for k, g in enumerate(p.goals)), markup=False)
     for n in result.notes:
-        err.print(f"note: {n}", markup=False)
+        err.print(f"note: {in_units(n, display)}", markup=False)
 
 
 @app.command("optimize")
@@ -121,7 +122,8 @@ def optimize_command(
     scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
     dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers."),
     json_: bool = typer.Option(False, "--json", help="Print the result as JSON on stdout (schema in docs/optimize.md)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    units: str = units_option(),
 ) -> None:
     """Optimise MACHINE: the --var/--choice values that minimise or maximise the objective
     while every --constraint holds at every --speeds speed (with --robust: for all but
@@ -138,6 +140,7 @@ def optimize_command(
 
     bar = _Progress(quiet)
     with user_errors(), sigterm_as_interrupt():
+        check_units(units)
         rate = None
         if sample_rate is not None:
             from camsim.units import QuantityError, to_si
@@ -163,14 +166,16 @@ def optimize_command(
                        "run the same command with --resume to continue", 130) from None
         finally:
             bar.close()
+        shown = machine_units(units, getattr(result.problem, "base", None),
+                              [*var, *constraint, *dist, *set_, *([speeds] if speeds else [])])
         if plot is not None:
             from camsim.figures.optimize import save_optimize_plot
 
-            save_optimize_plot(result, plot)
+            save_optimize_plot(result, plot, units=shown)
         if json_:
             print_json(result.to_json())
         else:
-            _render(result)
+            _render(result, shown)
             wrote = [str(p) for p in (result.output, result.history, plot) if p is not None]
             if wrote:
                 err_console.print("wrote " + ", ".join(wrote), markup=False)

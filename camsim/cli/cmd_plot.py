@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from camsim.cli.app import app, print_json, user_errors
+from camsim.cli.units_option import check_units, units_option
 
 
 @app.command("plot")
@@ -18,11 +19,11 @@ def plot_command(
         metavar="KINDS",
         help=(
             "Which plots (comma-separated or repeated): svaj (cam s, v, a, j against cam angle [deg]), "
-            "masses (displacement [m], velocity [m/s], acceleration [m/s^2] of each mass against time [s], "
-            "impacts marked), forces (element, cam-contact and transducer forces [N]; a negative cam-contact "
+            "masses (displacement, velocity, acceleration of each mass against time [s], "
+            "impacts marked), forces (element, cam-contact and transducer forces; a negative cam-contact "
             "force, i.e. jump, is shaded), compare (impact vs no-impact with the % difference), sweep (peaks "
             "against the swept parameter), design (with [cam.geometry]: pressure angle [deg], surface radius of "
-            "curvature [mm], contact normal force [N], Hertz stress [MPa], camshaft torque [N*m]). Default: all "
+            "curvature, contact normal force, Hertz stress, camshaft torque). Values in --units. Default: all "
             "that the file holds."
         ),
     ),
@@ -40,9 +41,12 @@ def plot_command(
     ),
     dpi: float = typer.Option(150.0, "--dpi", metavar="DPI", help="Resolution of png images [dots per inch], 20 to 2400."),
     json_: bool = typer.Option(False, "--json", help="Print the written paths as a JSON list on stdout."),
+    units: str = units_option("Units of the axes: file (the result's machine file's own units, recorded in the result; "
+                              "the default), si (mm, N, kg, m/s) or us (in, lbf, lb, in/s)."),
 ) -> None:
     """Plot a result file: one image per figure, named <stem>_<what>.<format>; prints the paths."""
     with user_errors():
+        check_units(units)
         from camsim.figures import plots as plot  # matplotlib is imported only by this command
 
         figures = plot.make_plots(
@@ -52,6 +56,7 @@ def plot_command(
             quantities=quantity,
             time_window=plot.parse_window(time, "--time"),
             angle_window=plot.parse_window(angle, "--angle"),
+            units=units,
         )
         written = plot.save_figures(figures, out if out is not None else plot.default_output_dir(file), fmt, dpi)
     if json_:

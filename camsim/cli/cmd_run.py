@@ -8,6 +8,7 @@ import typer
 
 from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 def default_output(machine_path: Path, suffix: str = "") -> Path:
@@ -36,11 +37,11 @@ def run_command(
     record_last: int = typer.Option(None, "--record-last", min=1, metavar="N", help="Store only the last N recorded revolutions of traces; the summary and events cover every revolution."),
     summary_only: bool = typer.Option(False, "--summary-only", help="Store no traces: the event table and the summary (/summary) only."),
     compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    units: str = typer.Option("si", "--units", help="Units of the human summary: si (N, mm, m/s) or us (lbf, in, in/s). The file and --json are always SI."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    units: str = units_option(),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
-    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = dE/(Cs*w^2) in the cam design summary; needs [cam.geometry]."),
+    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = ΔE/(Cs·ω²) in the cam design summary; needs [cam.geometry]."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
@@ -59,7 +60,6 @@ def run_command(
     """
     from camsim.run.budget import check_budget, estimate_run, parse_size, record_fraction
     from camsim.cli.progress import FractionBar
-    from camsim.reports.display import check_unit_system
     from camsim.errors import InputError
     from camsim.io.atomic import check_writable, remove_stale_temps
     from camsim.run.lifecycle import sigterm_as_interrupt
@@ -70,13 +70,14 @@ def run_command(
     rate = parse_sample_rate(sample_rate)
     patterns = [p.strip() for item in record for p in item.split(",") if p.strip()]
     with user_errors(), sigterm_as_interrupt():
-        check_unit_system(units)
+        check_units(units)
         limit = parse_size(max_output)
         if summary_only and (patterns or record_last is not None):
             raise InputError("--summary-only: stores no traces; it cannot be combined with --record or --record-last")
         if record and not patterns:
             raise InputError("--record: give at least one pattern, e.g. 'transducer/*'")
         loaded = load_machine(machine, overrides=set_)
+        shown = machine_units(units, loaded)  # also the units of the errors below
         if record_last is not None and loaded.cam is None:
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")
         target = output if output is not None else default_output(machine)
@@ -116,14 +117,14 @@ def run_command(
             payload["output"] = str(target)
             print_json(payload)
         else:
-            render_run_summary(result, err_console, units, cs=cs)
+            render_run_summary(result, err_console, shown, cs=cs)
             err_console.print(f"wrote {target}")
-        write_report_page([target], report, quiet=json_)
+        write_report_page([target], report, quiet=json_, units=units)
         if check_against is not None:
             from camsim.analyses.check import check_files, render_report
 
             kwargs = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
             report = check_files(target, check_against, **kwargs)
-            render_report(report, err_console)
+            render_report(report, err_console, units=shown)
             if not report.passed:
                 raise typer.Exit(code=1)

@@ -9,6 +9,7 @@ import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 class _Start:
@@ -32,18 +33,22 @@ def _fmt(value: float) -> str:
     return "—" if value is None or (isinstance(value, float) and not math.isfinite(value)) else f"{value:.5g}"
 
 
-def _render(result, err, system: str = "si") -> None:
+def _render(result, err, system=None) -> None:
+    """The study's tables in ``system`` (DisplayUnits; default the machine file's units)."""
     from rich.table import Table
     from rich.text import Text
 
-    from camsim.reports.display import shown
+    from camsim.display import in_units
+    from camsim.reports.display import as_display
+
+    system = as_display(system, getattr(result, "machine", None))
 
     units = dict(result.columns)
     table = Table(show_edge=False, pad_edge=False, title=f"{result.n_runs} runs ({result.method}, seed {result.seed}), 95 % bootstrap intervals of the mean")
     for head in ("output", "unit", "mean", "mean 95 %", "std", "p1", "p50", "p99", "min", "max"):
         table.add_column(Text(head))
     for q, s in result.stats.items():
-        unit, k = shown(units.get(q, ""), system)
+        unit, k = system.shown(units.get(q, ""))
         ci = s["ci95"]["mean"]
 
         def v(x):
@@ -84,7 +89,7 @@ def _render(result, err, system: str = "si") -> None:
             for k, (key, total) in enumerate(result.ranking, 1):
                 err.print(f"  {k}. {key}  (ST = {total:.3f})", markup=False)
     for note in result.notes:
-        err.print(f"note: {note}", markup=False)
+        err.print(f"note: {in_units(note, system)}", markup=False)
 
 
 @app.command("study")
@@ -122,8 +127,8 @@ def study_command(
     json_: bool = typer.Option(False, "--json", help="Print the statistics as JSON on stdout (schema in docs/tolerance.md)."),
     fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    units: str = typer.Option("si", "--units", help="Units of the human tables: si (N, mm) or us (lbf, in). Files and --json are always SI."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    units: str = units_option(),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
@@ -148,9 +153,7 @@ def study_command(
     bar = Bar("study", "runs", quiet=quiet)
     start = _Start(bar)
     with user_errors(), sigterm_as_interrupt():
-        from camsim.reports.display import check_unit_system
-
-        check_unit_system(units)
+        check_units(units)
         cfg = read_config(config) if config is not None else {}
         if machine is None:
             if "machine" not in cfg:
@@ -229,20 +232,22 @@ def study_command(
             ) from None
         finally:
             bar.close()
-        from camsim.reports.display import in_system
+        from camsim.display import in_units
 
+        written = [*(cfg.get("dist", []) or []), *dist, *(cfg.get("limit", []) or []), *limit, *(cfg.get("set", []) or []), *set_]
+        shown = machine_units(units, getattr(result, "machine", None), written)
         for w in result.warnings:
-            err_console.print(f"warning: {in_system(w, units)}", markup=False)
+            err_console.print(f"warning: {in_units(w, shown)}", markup=False)
         if plot is not None:
             from camsim.figures.study import save_study_plot
 
-            save_study_plot(result, plot)
+            save_study_plot(result, plot, units=shown)
         if json_:
             print_json(result.to_json())
         else:
-            _render(result, err_console, units)
+            _render(result, err_console, shown)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
-        write_report_page([Path(result.output)], report, quiet=json_)
+        write_report_page([Path(result.output)], report, quiet=json_, units=shown)
         if result.failed:
             raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
                        "'status'); no probability is concluded from the others", 1)

@@ -9,6 +9,7 @@ import typer
 
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 
 def _default_output(machine: Path) -> Path:
@@ -18,11 +19,15 @@ def _default_output(machine: Path) -> Path:
     return beside(machine, "_sweep.h5")
 
 
-def _render(result, err, system: str = "si") -> None:
+def _render(result, err, system=None) -> None:
+    """The sweep's table and verdicts in ``system`` (DisplayUnits; default the machine file's units)."""
     from rich.table import Table
     from rich.text import Text
 
-    from camsim.reports.display import shown
+    from camsim.display import in_units
+    from camsim.reports.display import as_display
+
+    system = as_display(system, result.machine)
 
     rows = result.rows
     params = [name for name, _ in result.columns if name.startswith("param:")]
@@ -32,7 +37,7 @@ def _render(result, err, system: str = "si") -> None:
         columns = params + ["peak_transducer_force", "min_cam_contact_force", "jump", "impacts", "status"]
         design = [n for n in ("max_pressure_angle", "min_surface_radius", "peak_hertz_stress", "peak_torque") if n in units]
         columns[-1:-1] = design  # issue 14: cam design columns with [cam.geometry]
-        display = {name: shown(units.get(name, ""), system) for name in columns}
+        display = {name: system.shown(units.get(name, "")) for name in columns}
         for name in columns:
             unit = display[name][0]
             table.add_column(Text(f"{name.removeprefix('param:')}" + (f" [{unit}]" if unit else "")), overflow="fold")
@@ -69,15 +74,21 @@ def _render(result, err, system: str = "si") -> None:
         elif result.first_jump_rpm is None:
             err.print("the follower does not jump at any swept speed", markup=False)
         else:
-            err.print(f"lowest swept speed at which the follower jumps: {result.first_jump_rpm:.6g} rpm", markup=False)
+            err.print(f"lowest swept speed at which the follower jumps: {_rpm(result.first_jump_rpm, system, '.6g')}", markup=False)
         if result.jump_onset_rpm is not None:
             lo, hi = result.jump_bracket_rpm
             err.print(
-                f"jump onset (bisection): {result.jump_onset_rpm:.1f} rpm (no jump at {lo:.3f}, jump at {hi:.3f} rpm)",
+                f"jump onset (bisection): {_rpm(result.jump_onset_rpm, system, '.5g')} (no jump at {_rpm(lo, system, '.7g')}, "
+                f"jump at {_rpm(hi, system, '.7g')})",
                 markup=False,
             )
     for note in result.notes:
-        err.print(f"note: {note}", markup=False)
+        err.print(f"note: {in_units(note, system)}", markup=False)
+
+
+def _rpm(rpm: float, system, spec: str) -> str:
+    """A speed the sweep reports in rpm, in the display units of speeds (rpm unless the file writes rad/s)."""
+    return system.quantity(rpm * 2.0 * math.pi / 60.0, "rad/s", spec)
 
 
 def _scaled(value, factor: float):
@@ -131,13 +142,13 @@ def sweep_command(
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted sweep into the same output: run only the variants missing from <output>.journal (same machine, ranges, --set and settings, else exit 2). Without a journal: a fresh sweep."),
     fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    units: str = typer.Option("si", "--units", help="Units of the human table: si (N, m) or us (lbf, in). Files and --json are always SI."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    units: str = units_option(),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
 ) -> None:
     """Run MACHINE for every combination of the varied keys; one summary row per variant.
 
-    Columns (SI): param:<key> per varied key; peak_displacement:<mass>,
+    Columns (SI in the files; the table on stderr in --units): param:<key> per varied key; peak_displacement:<mass>,
     peak_velocity:<mass>, peak_acceleration:<mass> per mass; peak_transducer_force,
     max_cam_contact_force, min_cam_contact_force [N]; jump; impacts;
     max_impact_velocity [m/s]; periodicity_residual; status ("ok" or the error of a
@@ -155,12 +166,11 @@ def sweep_command(
     from camsim.cli.progress import Bar
     from camsim.run.lifecycle import sigterm_as_interrupt
     from camsim.analyses.sweep.runner import csv_path_for, finish_sweep, jsonable_rows, run_sweep, write_sweep
-    from camsim.reports.display import check_unit_system
 
     rate = parse_sample_rate(sample_rate)
     bar = Bar("sweep", "variants", quiet=quiet)
     with user_errors(), sigterm_as_interrupt():
-        check_unit_system(units)
+        check_units(units)
         target = output if output is not None else _default_output(machine)
         from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
         from camsim.io.rowstore import journal_path_for
@@ -212,9 +222,11 @@ def sweep_command(
         else:
             if result.resumed:
                 err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
-            _render(result, err_console, units)
+            shown = machine_units(units, result.machine, [*vary, *values, *set_])
+            _render(result, err_console, shown)
             err_console.print(f"wrote {h5_path} and {csv_path}", markup=False)
-        write_report_page([h5_path], report, quiet=json_)
+        write_report_page([h5_path], report, quiet=json_,
+                          units=machine_units(units, result.machine, [*vary, *values, *set_]))
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
             raise fail(

@@ -1,4 +1,4 @@
-"""``camsim validate``: load a machine file and show it in SI, or say what is wrong.
+"""``camsim validate``: load a machine file and show it as loaded (in its own units), or say what is wrong.
 
 A thin layer over :func:`camsim.machine.loader.load_machine` and
 :func:`camsim.machine.loader.machine_to_dict`.
@@ -6,7 +6,6 @@ A thin layer over :func:`camsim.machine.loader.load_machine` and
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 from pathlib import Path
 
@@ -15,8 +14,10 @@ from rich.markup import escape
 from rich.table import Table
 
 from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.units_option import check_units, machine_units, units_option
 
 if TYPE_CHECKING:  # numpy and the element kinds: imported by the command, not by --help
+    from camsim.display import DisplayUnits
     from camsim.elements import Param
     from camsim.machine.description import Machine
 
@@ -39,8 +40,9 @@ def validate(
     json_output: bool = typer.Option(
         False, "--json", help="Print only the machine in SI as JSON on stdout (units in its 'units' map)."
     ),
+    units: str = units_option(),
 ) -> None:
-    """Check a machine file and print the machine in SI units (m, kg, s, N, rad).
+    """Check a machine file and print the machine as loaded (in the file's units; --units si for SI).
 
     Exit 0 if the file is valid; exit 2 with one line naming the file and the key
     (e.g. element[3].stiffness: expected [force]/[length], got "25 lbf") if not.
@@ -48,17 +50,19 @@ def validate(
     from camsim.machine.loader import load_machine, machine_to_dict
 
     with user_errors():
+        check_units(units)
         machine = load_machine(machine_file, overrides=overrides)
+        shown = machine_units(units, machine)
     if json_output:
         print_json(machine_to_dict(machine))
         return
-    _print_machine(machine)
+    _print_machine(machine, shown)
 
 
-def _g(x: float | None, unit: str = "") -> str:
+def _g(x: float | None, si_unit: str, u: DisplayUnits) -> str:
     if x is None:
         return "-"
-    return f"{x:.6g} {unit}".strip()
+    return u.quantity(x, si_unit, ".6g")
 
 
 def _shown(p: Param, element) -> bool:
@@ -69,20 +73,28 @@ def _shown(p: Param, element) -> bool:
     return value is not None and value is not False
 
 
-def _param_text(p: Param, value) -> str:
+def _param_text(p: Param, value, element, u: DisplayUnits) -> str:
     if value is True:
         return p.key
     if isinstance(value, str):
         return f"{p.key} {value}"
-    unit = p.unit.replace("exponent", "a") if p.unit else ""
-    return f"{p.key} {value:.6g} {unit}".strip()
+    if p.dimension in ("material", "materials"):  # issue 39: materials by name
+        return f"{p.key} " + "/".join(m.name for m in (value if isinstance(value, tuple) else (value,)))
+    if p.dimension == "integer":
+        return f"{p.key} {value}"
+    if p.dimension == "power_coefficient":
+        unit, k = u.power_coefficient(getattr(element, "exponent", 1.0))
+        return f"{p.key} {value * k:.6g} {unit}"
+    return f"{p.key} {u.quantity(value, p.unit, '.6g')}".strip()
 
 
-def _print_machine(machine: Machine) -> None:
-    """Human summary on stderr: cam, masses, elements (with damping coefficients), settings."""
+def _print_machine(machine: Machine, u: DisplayUnits) -> None:
+    """Human summary on stderr: cam, masses, elements (with damping coefficients), settings, in ``u``."""
+    from camsim.display import engineering
     from camsim.machine.loader import damping_coefficients, reference_mass_of
 
     err_console.print(f"{machine.name}  ({machine.source}): valid", markup=False, style="bold")
+    length = u.shown("m")[0]
     cam = machine.cam
     if cam is None:
         err_console.print("cam: none (the cam node stays at x = 0)")
@@ -90,50 +102,51 @@ def _print_machine(machine: Machine) -> None:
         head = Table(title="cam", title_justify="left", show_header=False)
         head.add_column("key")
         head.add_column("value")
-        head.add_row("speed", f"{cam.speed:.6g} rad/s  ({cam.speed * 30 / math.pi:.6g} rpm)")
-        head.add_row("period", _g(cam.period, "s"))
+        head.add_row("speed", _g(cam.speed, "rad/s", u))
+        head.add_row("period", f"{cam.period:.6g} s")
         head.add_row("ratio (roller -> model axis)", f"{cam.ratio:.6g}")
-        head.add_row("arm", _g(cam.arm, "m"))
+        head.add_row("arm", _g(cam.arm, "m", u))
         head.add_row("drives", escape(cam.drives or "- (no driven mass)"))
-        head.add_row("start_angle", f"{cam.start_angle:.6g} rad ({math.degrees(cam.start_angle):.6g} deg)")
+        head.add_row("start_angle", _g(cam.start_angle, "rad", u))
         err_console.print(head)
         if cam.segments:
+            angle = u.shown("rad")[0]
             seg = Table(title="cam segments (lift at the roller; on the model axis = ratio x lift)",
                         title_justify="left")
-            for col in ("#", "motion", "law", "duration [rad]", "[deg]", "lift [m]", "model axis [m]"):
+            for col in ("#", "motion", "law", f"duration [{angle}]", f"lift [{length}]", f"model axis [{length}]"):
                 seg.add_column(escape(col), justify="right" if col not in ("motion", "law") else "left")
             for i, s in enumerate(cam.segments):
-                seg.add_row(str(i), s.motion, s.law or "-", f"{s.duration:.6g}", f"{math.degrees(s.duration):.6g}",
-                            f"{s.lift:.6g}", f"{s.lift * cam.ratio:.6g}")
+                seg.add_row(str(i), s.motion, s.law or "-", f"{u.convert(s.duration, 'rad'):.6g}",
+                            f"{u.convert(s.lift, 'm'):.6g}", f"{u.convert(s.lift * cam.ratio, 'm'):.6g}")
             err_console.print(seg)
         if cam.table is not None:
             t = cam.table
             err_console.print(
-                f"cam table: {escape(t.source)}, {len(t.angle)} rows, angle {math.degrees(t.angle[0]):.6g} to "
-                f"{math.degrees(t.angle[-1]):.6g} deg, roller lift {min(t.displacement):.6g} to "
-                f"{max(t.displacement):.6g} m"
+                f"cam table: {escape(t.source)}, {len(t.angle)} rows, angle {_g(t.angle[0], 'rad', u)} to "
+                f"{_g(t.angle[-1], 'rad', u)}, roller lift {_g(min(t.displacement), 'm', u)} to "
+                f"{_g(max(t.displacement), 'm', u)}"
             )
-        if cam.geometry is not None:  # issue 14: [cam.geometry] in SI
+        if cam.geometry is not None:  # issue 14: [cam.geometry]
             from camsim.cam.arrangement import geometry_to_dict
 
-            geo = Table(title="cam geometry (SI; checks: camsim cam)", title_justify="left", show_header=False)
+            geo = Table(title="cam geometry (checks: camsim cam)", title_justify="left", show_header=False)
             geo.add_column("key")
             geo.add_column("value")
             units = {"max_pressure_angle": "rad"}
             for key, value in geometry_to_dict(cam.geometry).items():
                 if isinstance(value, dict):
-                    value = f"E {value['youngs_modulus']:.6g} Pa, nu {value['poisson_ratio']:.6g}"
+                    value = f"E {_g(value['youngs_modulus'], 'Pa', u)}, nu {value['poisson_ratio']:.6g}"
                 elif isinstance(value, float):
-                    value = f"{value:.6g} {units.get(key, 'm')}"
+                    value = _g(value, units.get(key, "m"), u)
                 geo.add_row(key, escape(str(value if value is not None else "-")))
             err_console.print(geo)
     masses = Table(title="masses", title_justify="left")
     masses.add_column("name")
-    masses.add_column(escape("mass [kg]"), justify="right")
+    masses.add_column(escape(u.header("mass", "kg")), justify="right")
     masses.add_column("role")
     for m in machine.masses:
         role = "driven by the cam" if cam is not None and cam.drives == m.name else "free"
-        masses.add_row(escape(m.name), f"{m.mass:.6g}", role)
+        masses.add_row(escape(m.name), f"{u.convert(m.mass, 'kg'):.6g}", role)
     err_console.print(masses)
 
     elements = Table(title="elements (force tension-positive; contacts compressive-positive)", title_justify="left")
@@ -141,25 +154,32 @@ def _print_machine(machine: Machine) -> None:
         elements.add_column(col)
     for e in machine.elements:
         kind = f"{e.type_name} ({e.law_name})" if e.law_name else e.type_name
-        params = ", ".join(_param_text(p, getattr(e, p.attribute)) for p in e.params if _shown(p, e))
+        params = ", ".join(_param_text(p, getattr(e, p.attribute), e, u) for p in e.params if _shown(p, e))
         coefficients = damping_coefficients(machine, e)
         if e.damping.ratio is not None:
             damping = f"zeta {e.damping.ratio:g} (m_ref {reference_mass_of(e)}): " + ", ".join(
-                f"{k} {v:.6g} N*s/m" for k, v in coefficients.items())
+                f"{k} {_g(v, 'N*s/m', u)}" for k, v in coefficients.items())
         elif e.damping.coefficient is not None:
-            damping = ", ".join(f"{k} {v:.6g} N*s/m" for k, v in coefficients.items())
+            damping = ", ".join(f"{k} {_g(v, 'N*s/m', u)}" for k, v in coefficients.items())
         else:
             damping = e.damping_note() or "none"
         elements.add_row(*(escape(x) for x in (e.name, kind, f"{e.lower} -> {e.upper}", params, damping)))
     err_console.print(elements)
+    for e in machine.elements:  # issue 39: how each rod is discretised, and why
+        if e.compound:
+            err_console.print(
+                f"rod {e.name}: {e.segments_reason}; c = {e.wave_speed:.5g} m/s, Z = A*sqrt(E*rho) = "
+                f"{e.impedance:.5g} N*s/m, mass {e.rod_mass:.5g} kg, 2L/c = {e.transit_time:.4g} s, interior nodes "
+                + (f"{e.interior_nodes()[0]} ... {e.interior_nodes()[-1]}" if e.interior_nodes() else "none"),
+                markup=False)
 
     sim = machine.simulation
-    run = (f"{_g(sim.duration, 's')} recorded" if sim.duration is not None else f"{sim.cycles} cycle(s) recorded")
+    run = (f"{sim.duration:.6g} s recorded" if sim.duration is not None else f"{sim.cycles} cycle(s) recorded")
     err_console.print(
-        f"simulation: {run}, {sim.warmup_cycles} warm-up cycle(s), {sim.sample_rate:.6g} Hz, "
-        f"gravity {sim.gravity:.6g} m/s^2"
+        f"simulation: {run}, {sim.warmup_cycles} warm-up cycle(s), {engineering(sim.sample_rate, 'Hz', 6)}, "
+        f"gravity {_g(sim.gravity, 'm/s^2', u)}"
     )
     for ic in machine.initial:
         err_console.print(
-            f"initial {escape(ic.mass)}: displacement {_g(ic.displacement, 'm')}, velocity {_g(ic.velocity, 'm/s')}"
+            f"initial {escape(ic.mass)}: displacement {_g(ic.displacement, 'm', u)}, velocity {_g(ic.velocity, 'm/s', u)}"
         )

@@ -37,12 +37,16 @@ def check_report_target(page: Path | None, inputs=(), force: bool = False, optio
     require("bokeh", "report")
 
 
-def write_report_page(results: list[Path], page: Path | None, quiet: bool = False) -> None:
-    """The page of ``results`` at the end of another command (``--report``); one line when written."""
+def write_report_page(results: list[Path], page: Path | None, quiet: bool = False, units=None) -> None:
+    """The page of ``results`` at the end of another command (``--report``); one line when written.
+
+    ``units``: the command's display units (a :class:`~camsim.display.DisplayUnits` or
+    ``--units``' text; default each file's own, issue 36).
+    """
     if page is None:
         return
     from camsim.reports.build import build_report
 
-    build_report(results, page, command=command_line())
+    build_report(results, page, command=command_line(), units=units)
     if not quiet:
         err_console.print(f"wrote {page}", markup=False)

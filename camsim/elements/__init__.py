@@ -19,6 +19,7 @@ from camsim.elements.base import (
     Param,
     classes,
     element_class,
+    pair_mass,
     element_types,
     key_laws,
     laws_of,
@@ -34,11 +35,13 @@ from camsim.elements.linear_contact import LinearContact  # isort: skip
 from camsim.elements.power_contact import PowerContact  # isort: skip
 from camsim.elements.rigid_contact import RigidContact  # isort: skip
 from camsim.elements.adams_impact import AdamsImpactContact  # isort: skip
+from camsim.elements.hertz_contact import HertzContact  # isort: skip
 from camsim.elements.lash import Lash  # isort: skip
+from camsim.elements.rod import Rod  # isort: skip
 
 __all__ = [
-    "AdamsImpactContact", "CAM", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
+    "AdamsImpactContact", "CAM", "HertzContact", "Rod", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
     "Branch", "Contact", "Damping", "Element", "GuardKind", "Lash", "LinearContact", "Outcome", "Param",
     "PowerContact", "PreloadedLink", "RigidContact", "Spring",
-    "classes", "element_class", "element_types", "key_laws", "laws_of", "param", "register", "type_keys",
+    "classes", "element_class", "pair_mass", "element_types", "key_laws", "laws_of", "param", "register", "type_keys",
 ]

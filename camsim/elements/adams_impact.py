@@ -28,7 +28,7 @@ from typing import ClassVar
 import numpy as np
 
 from camsim.elements.affine import Affine
-from camsim.elements.base import FORCE_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, register
+from camsim.elements.base import FORCE_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, pair_mass, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
 
 #: The branches of a closed phase (the law acting, or clamped at zero).
@@ -176,3 +176,8 @@ class AdamsImpactContact(Contact):
         from camsim.physics.impact import johnson_power
 
         return johnson_power(m1, m2, v, 0.0, self.stiffness, self.exponent)
+
+    def impact_duration(self, m1, m2, v):
+        from camsim.physics.duration import power_contact_duration
+
+        return power_contact_duration(self.stiffness, self.exponent, pair_mass(m1, m2), v)

@@ -202,6 +202,11 @@ class Element:
     impact_only: ClassVar[bool] = False
     #: Key prefix → why this kind refuses such a key (appended to the loader's message).
     refused_hints: ClassVar[dict[str, str]] = {}
+    #: A distributed element (a rod) that the model expands into lumped masses and
+    #: springs (``expand``, ``interior_nodes``); never itself a term of the equations.
+    compound: ClassVar[bool] = False
+    #: Result quantities besides ``force`` a compound element records: name → (unit, long name).
+    result_quantities: ClassVar[dict[str, tuple[str, str]]] = {}
 
     @property
     def nodes(self) -> tuple[str, str]:
@@ -211,6 +216,23 @@ class Element:
     def force_sense(self) -> str:
         """How the element's force is signed in results."""
         return "compressive-positive" if self.unilateral else "tension-positive"
+
+    def reported_as(self, key: str) -> tuple[str, str]:
+        """(element name, key) a message about ``key`` of this element names (a rod's segment
+        names its rod's ``segments``)."""
+        return self.name, key
+
+    def parent(self) -> str | None:
+        """The compound element this one is a part of (a rod's segment: the rod), else None."""
+        return None
+
+    def interior_nodes(self) -> tuple[str, ...]:
+        """Nodes the element adds to the machine (a rod's ``<rod>[k]``); none for lumped elements."""
+        return ()
+
+    def node_mass(self, node: str) -> float:
+        """Mass [kg] the element lumps at its end ``node`` (a rod's m/(2N)); 0 for lumped elements."""
+        return 0.0
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -325,6 +347,16 @@ class Element:
         """The force whose peak is an impact's simulated peak (None: no finite peak)."""
         return force
 
+    def impact_duration(self, m1: float, m2: float, v: float) -> float | None:
+        """Estimated duration [s] of an undamped impact between masses ``m1`` and ``m2`` [kg]
+        (either may be ``inf``) approaching at ``v`` [m/s]; None when the element has no
+        compliant impact (a rigid contact, a spring). Used to choose a rod's segments."""
+        return None
+
+    def stress(self, peak_force: float) -> dict | None:
+        """Contact stress at ``peak_force`` [N] against the materials' yield (Hertz contacts), else None."""
+        return None
+
     # ------------------------------------------------------------------ description
     def damping_note(self) -> str | None:
         """How the element is damped when not viscously (for ``camsim validate``)."""
@@ -340,6 +372,15 @@ class Element:
                 continue
             out[p.key] = getattr(self, p.attribute)
         return out
+
+
+def pair_mass(m1: float, m2: float) -> float:
+    """m1·m2/(m1 + m2) [kg], either mass may be ``inf`` (not both)."""
+    if math.isinf(m1):
+        return m2
+    if math.isinf(m2):
+        return m1
+    return m1 * m2 / (m1 + m2)
 
 
 # ---------------------------------------------------------------------- the registry

@@ -18,7 +18,7 @@ from typing import ClassVar
 import numpy as np
 
 from camsim.elements.affine import N_INPUT, Affine
-from camsim.elements.base import DAMPING_PARAMS, DEFAULT_LAW, FORCE_TOL, Branch, GuardKind, Param, register
+from camsim.elements.base import DAMPING_PARAMS, DEFAULT_LAW, FORCE_TOL, Branch, GuardKind, Param, pair_mass, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
 from camsim.physics.restitution import linear_damping_ratio
 
@@ -89,6 +89,11 @@ class LinearContact(Contact):
         from camsim.physics.impact import johnson_linear
 
         return johnson_linear(m1, m2, v, 0.0, self.stiffness)
+
+    def impact_duration(self, m1, m2, v):
+        from camsim.physics.duration import linear_contact_duration
+
+        return linear_contact_duration(self.stiffness, pair_mass(m1, m2))
 
 
 DEFAULT_LAW["contact"] = LinearContact.law_name

@@ -19,7 +19,7 @@ from typing import ClassVar
 import numpy as np
 
 from camsim.elements.affine import Affine
-from camsim.elements.base import FACTOR_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, register
+from camsim.elements.base import FACTOR_TOL, LENGTH_TOL, Branch, GuardKind, Outcome, Param, pair_mass, register
 from camsim.elements.contact import CONTACT_PARAMS, Contact
 from camsim.elements.events import EventKind
 from camsim.physics.restitution import DAMPING_MODELS, hc_alpha
@@ -183,3 +183,8 @@ class PowerContact(Contact):
         from camsim.physics.impact import johnson_power
 
         return johnson_power(m1, m2, v, 0.0, self.coefficient, self.exponent)
+
+    def impact_duration(self, m1, m2, v):
+        from camsim.physics.duration import power_contact_duration
+
+        return power_contact_duration(self.coefficient, self.exponent, pair_mass(m1, m2), v)

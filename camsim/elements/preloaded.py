@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from camsim.elements.affine import Affine
-from camsim.elements.base import DAMPING_PARAMS, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, register
+from camsim.elements.base import DAMPING_PARAMS, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, pair_mass, register
 from camsim.elements.events import EventKind
 
 
@@ -81,6 +81,11 @@ class PreloadedLink(Element):
         from camsim.physics.impact import johnson_linear
 
         return johnson_linear(m1, m2, v, 0.0, self.push_stiffness)
+
+    def impact_duration(self, m1, m2, v):
+        from camsim.physics.duration import linear_contact_duration
+
+        return linear_contact_duration(self.push_stiffness, pair_mass(m1, m2))
 
     def impact_force(self, force):
         return self.preload - force  # compression at the interface of the two parts

@@ -21,6 +21,38 @@ from camsim.engine.stepping import _FACT, _P, step_input_derivatives
 COLLOC_STEPS = 8
 
 
+#: Loop gain c·h·|∂δ̈/∂F| of the contact's damping over one grid step from which a span is
+#: integrated by scipy's Radau instead of DOP853 (see :func:`_stiff_solver`).
+STIFF_GAIN = 100.0
+
+
+def _stiff_solver(A, L, Mz, input_at, stepper, v_impact, t0, z0, t_stop, integ):
+    """scipy's Radau (implicit, L-stable) on the one-contact system, for a contact whose
+    damping dominates: a Hunt–Crossley law with a restitution near 0 resting closed has a
+    tangent damping c = F·χ of 1e7 N·s/m and more, a time constant m/c of ~1e-9 s that
+    limits an explicit method's steps (DOP853 took ~1e5 steps per grid step and a run
+    did not end, issue 34), while the motion itself is a slow creep. Same tolerances as
+    DOP853; the Jacobian is exact: A + L·(k·∂δ/∂z + c·∂δ̇/∂z)."""
+    from scipy.integrate import Radau
+
+    n = z0.size
+    element = stepper.element
+
+    def rhs(t, z):
+        w = input_at(t)
+        d, r = Mz @ z + w[n:]
+        return A @ z + w[:n] + L * element.nonlinear_force_scalar(float(d), float(r), v_impact)
+
+    def jac(t, z):
+        w = input_at(t)
+        d, r = Mz @ z + w[n:]
+        _, k, c = element.nonlinear_tangent(np.array([d]), np.array([r]), v_impact)
+        return A + np.outer(L, float(k[0]) * Mz[0] + float(c[0]) * Mz[1])
+
+    return Radau(rhs, t0, z0, t_stop, rtol=integ.rtol_nonlinear, atol=integ.nonlinear_atol(n),
+                 max_step=integ.dop853_max_step(), jac=jac)
+
+
 def _releasing(delta, rate, h):
     """A contact unloading so fast that it releases within one collocation call at its
     present rate (the collocation would refuse the step; DOP853 goes on)."""
@@ -153,11 +185,16 @@ def bounce_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, r
     structure = stepper.__dict__.get("dop853_structure")
     if structure is None:
         structure = stepper.dop853_structure = OneContactDOP853.structure(A, L, Mz)
-    solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
-                              integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure,
-                              exponent=getattr(stepper.element, "exponent", 1.0), onset=onset,
-                              crossing_step=memory.get(True))
     n_z = z0.size
+    d0, r0 = (Mz @ z0 + input_at(t0)[n_z:]).tolist()
+    c0 = float(stepper.element.nonlinear_tangent(np.array([d0]), np.array([r0]), v_impact)[2][0])
+    if c0 * integ.h * abs(float(Mz[1] @ L)) >= STIFF_GAIN:
+        solver = _stiff_solver(A, L, Mz, input_at, stepper, v_impact, t0, z0, t_stop, integ)
+    else:
+        solver = OneContactDOP853(A, L, Mz, inputs, input_at, force, t0, z0, t_stop, integ.rtol_nonlinear,
+                                  integ.nonlinear_atol(z0.size), integ.dop853_max_step(), memory.get(onset), structure,
+                                  exponent=getattr(stepper.element, "exponent", 1.0), onset=onset,
+                                  crossing_step=memory.get(True))
 
     def forces(t, z):
         """The one contact's force F_nl at (t, z), for guards that read it (issue 25)."""
@@ -173,9 +210,9 @@ def bounce_span(integ, t0, state, config, z0, guards, t_stop, record, stepper, r
             grid2, Zs2, z_end, fired, t_end = dop853_span(integ, None, z_end, t_end, releasing_to, guards, cam_input,
                                                                 solver, forces=forces)
             grid, Zs = np.concatenate([grid, grid2]), np.concatenate([Zs, Zs2])
-    if onset and solver.first_accepted is not None:
+    if onset and getattr(solver, "first_accepted", None) is not None:
         memory[True] = solver.first_accepted
-    elif not onset and solver.largest > 0.0:
+    elif not onset and getattr(solver, "largest", 0.0) > 0.0:
         memory[False] = solver.largest
     stretch = None
     if record and grid.size:

@@ -71,7 +71,7 @@ class EngineContext:
     ----------
     model : Model
     cam : CamProgram
-        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+        Provides ``svaj(t)`` and ``break_times(t0, t1)``.
     step : float
         Internal grid step h [s]; the grid is t_ref + k·h.
     t_ref : float
@@ -91,7 +91,8 @@ class EngineContext:
         self._deltas: dict[tuple[tuple[Branch, ...], int], tuple[Affine, Affine]] = {}
         self._instant_count = 0
         self._instant_time = -math.inf
-        self.rtol_nonlinear = 1e-11
+        #: DOP853's relative tolerance in a closed nonlinear contact (see camsim.engine.nonlinear.RTOL).
+        self.rtol_nonlinear = 3e-13
         self._chunk = 512
         self._input_cache: dict[float, np.ndarray] = {}
         self._grid_cache: dict[int, np.ndarray] = {}  # cam input on the grid, per block
@@ -125,9 +126,10 @@ class EngineContext:
         s_, v_, a_, j_ = self.cam.svaj(np.array([float(t)]))
         return np.array([s_[0], v_[0], a_[0], j_[0]])
 
-    def analytic_inputs_at(self, t: np.ndarray, step_end: float) -> np.ndarray:
+    def analytic_inputs_at(self, t: np.ndarray, step_end) -> np.ndarray:
         """[s, ṡ, s̈, s⃛] at times t from the cam laws: (N, 4); a time at or past ``step_end``
-        takes the limit from the left (the end of a stretch may be a cam segment join)."""
+        (a float, or one per time) takes the limit from the left (the end of a stretch may be
+        a cam segment join)."""
         t = np.asarray(t, dtype=float)
         right = t < step_end
         out = np.empty((t.size, N_INPUT))
@@ -315,9 +317,9 @@ class EngineContext:
 
     @staticmethod
     def nonlinear_atol(dim: int) -> np.ndarray:
-        """Absolute tolerances of a nonlinear phase's state: 1e-13 m on the positions,
-        1e-10 m/s on the velocities (DOP853's, and the collocation's local-error test)."""
-        return np.concatenate([np.full(dim // 2, 1e-13), np.full(dim // 2, 1e-10)])
+        """Absolute tolerances of a nonlinear phase's state: 3e-15 m on the positions,
+        3e-12 m/s on the velocities (DOP853's, and the collocation's local-error test)."""
+        return np.concatenate([np.full(dim // 2, 3e-15), np.full(dim // 2, 3e-12)])
 
     def dop853_max_step(self) -> float:
         """Largest DOP853 step of a nonlinear phase [s] (four grid steps)."""

@@ -208,10 +208,9 @@ class _DenseStretch:
         # degree-7 polynomial carries it only to about (h/β)^6 of itself, which made a flat
         # maximum depend on the grid by 3e-8)
         times = self.nodes[steps][:, None] + h[:, None] * sigma
-        ends = self.nodes[steps + 1]
-        Us = np.empty(times.shape + (N_INPUT,))
-        for r in range(S):
-            Us[r] = self.ctx.analytic_inputs_at(times[r], float(ends[r]))
+        ends = np.broadcast_to(self.nodes[steps + 1][:, None], times.shape)
+        # one evaluation of the law for every point (the limit from the left at a step's end)
+        Us = self.ctx.analytic_inputs_at(times.reshape(-1), ends.reshape(-1)).reshape(times.shape + (N_INPUT,))
         if self.exact:
             return taylor_states(self.config, self.Z[steps], D, h, sigma), Us
         Zs = np.empty((S, sigma.shape[1], self.Z.shape[1]))
@@ -382,12 +381,9 @@ def _maximise(values: np.ndarray) -> np.ndarray:
 
 
 def _chebval_rows(x: np.ndarray, coef: np.ndarray) -> np.ndarray:
-    """Chebyshev series coef[i] at x[i] for each row i (Clenshaw, vectorised over rows)."""
-    b1 = np.zeros_like(x)
-    b2 = np.zeros_like(x)
-    for k in range(coef.shape[1] - 1, 0, -1):
-        b1, b2 = 2.0 * x * b1 - b2 + coef[:, k], b1
-    return x * b1 - b2 + coef[:, 0]
+    """Chebyshev series coef[i] at x[i] ∈ [−1, 1] for each row i: T_k(x) = cos(k·arccos x)."""
+    T = np.cos(np.arccos(np.clip(x, -1.0, 1.0))[:, None] * np.arange(coef.shape[1]))
+    return np.einsum("rk,rk->r", coef, T)
 
 
 # ---------------------------------------------------------------------- building the record

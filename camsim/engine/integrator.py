@@ -56,7 +56,7 @@ class Integrator(EngineContext):
     ----------
     model : Model
     cam : CamProgram
-        Provides ``svaj(t)`` and ``boundary_times(t0, t1)``.
+        Provides ``svaj(t)`` and ``break_times(t0, t1)``.
     step : float
         Internal grid step h [s]; the grid is t_ref + k·h.
     t_ref : float
@@ -176,7 +176,7 @@ class Integrator(EngineContext):
 
     # ------------------------------------------------------------------ driver
     def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
-            on_stretch=None, observe=None, record_to: float = math.inf):
+            on_stretch=None, observe=None, record_to: float = math.inf, check=None):
         """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
@@ -191,6 +191,9 @@ class Integrator(EngineContext):
         ``observe(config, branches, v_impacts, Z, U) -> (N, n)``, when given, are the
         quantities whose extremes each recorded stretch locates on the solution over
         [``record_from``, ``record_to``] (``Stretch.extremes``, camsim.engine.extremes).
+
+        ``check(state)``, when given, sees the state after every stretch and raises to stop
+        the run (the physical bounds of camsim.run.bounds: a comparison per stretch).
         """
         stretches: list[Stretch] = []
         self._observe = observe
@@ -198,7 +201,7 @@ class Integrator(EngineContext):
         state = self.settle(state)
         if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
             on_stop(state)
-        joins = [float(t) for t in self.cam.boundary_times(state.t - self.h, t_end + self.h)]
+        joins = [float(t) for t in self.cam.break_times(state.t - self.h, t_end + self.h)]  # joins and inner kinks
         self._joins = set(joins)
         self._join_array = sorted(joins)
         joins = [t for t in joins if state.t < t < t_end]
@@ -231,6 +234,8 @@ class Integrator(EngineContext):
                 state = self.settle(state)
             if on_stretch is not None and kept is not None:  # streaming hook (camsim.run.stream)
                 on_stretch(kept, state.t)
+            if check is not None:
+                check(state)
             if progress is not None:
                 progress(state.t)
             count += 1

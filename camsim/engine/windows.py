@@ -13,8 +13,8 @@ import numpy as np
 #: Ratio of the stiffness / damping ladder of the reference linear laws.
 LADDER = 1.05
 #: Largest interpolation error of the remainder, relative to the peak contact force (the
-#: same reasoning as RTOL).
-INTERP_TOL = 1e-10
+#: same reasoning as camsim.engine.nonlinear.RTOL, and its value).
+INTERP_TOL = 3e-12
 
 def _fresh(guards):
     """The guards as they are (DOP853 handles a guard at zero at its start itself)."""

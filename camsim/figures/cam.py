@@ -9,6 +9,7 @@ Object-oriented matplotlib (``Figure()``, never pyplot), as in :mod:`camsim.figu
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import matplotlib
 import numpy as np
@@ -23,6 +24,10 @@ from camsim.cam.geometry import (
     roller_side_motion,
 )
 from camsim.cam.profile import profile_points
+from camsim.figures.style import displayed, shown
+
+if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
 
 __all__ = ["draw_cam", "plot_cam_design", "plot_design_file"]
 
@@ -41,15 +46,15 @@ _STYLE = {
 }
 
 
-def draw_cam(ax, geometry: CamGeometry, program, tolerance: float = 5e-6) -> None:
-    """Draw the cam to scale [mm] in its frame at θ = 0 with the follower in place.
+def draw_cam(ax, geometry: CamGeometry, program, tolerance: float = 5e-6, units: DisplayUnits | None = None) -> None:
+    """Draw the cam to scale in its frame at θ = 0 with the follower in place (lengths in ``units``, default mm).
 
     Surface (filled), pitch curve (dashed, roller followers), base and prime circles,
     the centre, the follower (roller and stem, flat face, or arm and pivot) and an
     arrow for the sense of rotation.
     """
     pts = profile_points(geometry, program, tolerance)
-    k = 1e3
+    length, k = shown("m", units)
     surf = np.vstack([pts["surface"], pts["surface"][:1]]) * k
     ax.fill(surf[:, 0], surf[:, 1], color="0.85", zorder=1)
     ax.plot(surf[:, 0], surf[:, 1], color="k", lw=1.2, label="cam surface", zorder=3)
@@ -97,19 +102,20 @@ def draw_cam(ax, geometry: CamGeometry, program, tolerance: float = 5e-6) -> Non
                 arrowprops={"arrowstyle": "->", "color": "0.3"})
     ax.text(0.0, -0.55 * r, geometry.rotation, ha="center", va="top", fontsize=8, color="0.3")
     ax.set_aspect("equal")
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
+    ax.set_xlabel(f"x [{length}]")
+    ax.set_ylabel(f"y [{length}]")
     ax.legend(loc="lower left", fontsize=7)
 
 
-def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
+def plot_cam_design(geometry: CamGeometry, program, title: str = "", units: DisplayUnits | None = None) -> Figure:
     """SVAJ at the roller, pressure angle and radii of curvature against cam angle, and the cam.
 
-    Left: roller-side lift [mm], velocity [m/s], acceleration [m/s^2], jerk [m/s^3] at
-    the cam's speed; pressure angle [deg] with the ± limit; pitch and surface radius of
-    curvature [mm] (left out beyond ±4·Rp, where ρ passes through infinity on a
-    nearly straight stretch, so that those do not flatten the rest). Right: :func:`draw_cam`.
+    Left: roller-side lift, velocity, acceleration, jerk at the cam's speed; pressure angle
+    [deg] with the ± limit; pitch and surface radius of curvature (left out beyond ±4·Rp,
+    where ρ passes through infinity on a nearly straight stretch, so that those do not
+    flatten the rest). Right: :func:`draw_cam`. Values in ``units`` (default SI, lengths in mm).
     """
+    length, lk = shown("m", units)
     theta, left = design_grid(program, 4)
     s, s1, s2, s3 = (np.array(v) for v in roller_side_motion(program, theta))
     if np.any(left):
@@ -118,7 +124,7 @@ def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
     w = program.speed
     deg = np.degrees(theta)
     phi = np.degrees(pressure_angle(geometry, s, s1))
-    rho = pitch_radius(geometry, s, s1, s2, s3) * 1e3
+    rho = pitch_radius(geometry, s, s1, s2, s3) * lk
     limit = math.degrees(geometry.pressure_angle_limit)
     with matplotlib.rc_context(_STYLE):
         fig = Figure(figsize=(11.0, 8.0))
@@ -128,13 +134,14 @@ def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
         for i in range(1, 6):
             axes.append(fig.add_subplot(grid[i, 0], sharex=axes[0]))
         panels = (
-            (s * 1e3, "lift s [mm]"),
-            (s1 * w, "velocity [m/s]"),
-            (s2 * w * w, "accel. [m/s²]"),
-            (s3 * w**3, "jerk [m/s³]"),
+            (s, "lift s", "m"),
+            (s1 * w, "velocity", "m/s"),
+            (s2 * w * w, "accel.", "m/s^2"),
+            (s3 * w**3, "jerk", "m/s^3"),
         )
-        for ax, (y, label) in zip(axes, panels):
-            ax.plot(deg, y, color="tab:blue")
+        for ax, (y, name, si_unit) in zip(axes, panels):
+            label, k = displayed(name, si_unit, units)
+            ax.plot(deg, y * k, color="tab:blue")
             ax.set_ylabel(label)
         ax = axes[4]
         ax.plot(deg, phi, color="tab:purple")
@@ -143,40 +150,41 @@ def plot_cam_design(geometry: CamGeometry, program, title: str = "") -> Figure:
             ax.axhline(-limit, color="tab:red", ls="--", lw=0.8)
         ax.set_ylabel("press. angle [deg]")
         ax = axes[5]
-        cap = 4.0 * geometry.prime_radius * 1e3
+        cap = 4.0 * geometry.prime_radius * lk
         clip = lambda y: np.where(np.abs(y) > cap, np.nan, y)  # noqa: E731 - gaps where ρ passes through ∞
         ax.plot(deg, clip(rho), color="tab:green", label="pitch" if geometry.is_roller else "surface")
         if geometry.is_roller:
-            ax.plot(deg, clip(rho - geometry.roller_radius * 1e3), color="k", lw=0.9, label="surface")
-            ax.axhline(geometry.roller_radius * 1e3, color="tab:red", ls="--", lw=0.8, label="Rr")
+            ax.plot(deg, clip(rho - geometry.roller_radius * lk), color="k", lw=0.9, label="surface")
+            ax.axhline(geometry.roller_radius * lk, color="tab:red", ls="--", lw=0.8, label="Rr")
         ax.axhline(0.0, color="0.4", lw=0.6)
-        ax.set_ylabel("ρ [mm]")
+        ax.set_ylabel(f"ρ [{length}]")
         ax.set_ylim(-cap, cap)
         ax.legend(loc="lower right", ncols=3)
         ax.set_xlabel("cam angle [deg]")
         for a in axes[:-1]:
             a.tick_params(labelbottom=False)
-        draw_cam(fig.add_subplot(grid[:, 1]), geometry, program)
+        draw_cam(fig.add_subplot(grid[:, 1]), geometry, program, units=units)
         fig.suptitle(title or f"cam design: {geometry.follower}, {geometry.rotation}")
     return fig
 
 
-def plot_design_file(group, time_window=None, angle_window=None, title: str = "") -> Figure:
+def plot_design_file(group, time_window=None, angle_window=None, title: str = "", units: DisplayUnits | None = None) -> Figure:
     """The design datasets of a result file against time (run) or cam angle (cam file).
 
-    Panels, as present: ``cam/pressure_angle`` [deg], ``cam/surface_radius_of_curvature``
-    [mm], ``cam_contact/normal_force`` [N], ``cam_contact/hertz_stress`` [MPa],
-    ``camshaft/torque`` [N·m].
+    Panels, as present: ``cam/pressure_angle`` [deg], ``cam/surface_radius_of_curvature``,
+    ``cam_contact/normal_force``, ``cam_contact/hertz_stress``, ``camshaft/torque``, in
+    ``units`` (default SI: mm, N, MPa, N·m).
     """
     from camsim.figures.style import _in, _sample_mask  # the window helpers of camsim plot
 
-    panels = [
-        ("cam/pressure_angle", 1.0, "pressure angle [deg]"),
-        ("cam/surface_radius_of_curvature", 1e3, "surface ρ [mm]"),
-        ("cam_contact/normal_force", 1.0, "normal force [N]"),
-        ("cam_contact/hertz_stress", 1e-6, "Hertz stress [MPa]"),
-        ("camshaft/torque", 1.0, "torque [N·m]"),
-    ]
+    panels = []
+    for path, name, si_unit in (("cam/pressure_angle", "pressure angle", "deg"),
+                                ("cam/surface_radius_of_curvature", "surface ρ", "m"),
+                                ("cam_contact/normal_force", "normal force", "N"),
+                                ("cam_contact/hertz_stress", "Hertz stress", "Pa"),
+                                ("camshaft/torque", "torque", "N*m")):
+        label, scale = displayed(name, si_unit, units)
+        panels.append((path, scale, label))
     panels = [p for p in panels if p[0] in group]
     run = "cam_contact/normal_force" in group
     if run and "time" in group:

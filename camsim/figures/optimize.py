@@ -24,7 +24,6 @@ import numpy as np
 
 __all__ = ["plot_optimize", "save_optimize_plot", "objective_trace"]
 
-_RPM = 60.0 / (2.0 * math.pi)
 
 
 def objective_trace(text: str) -> str | None:
@@ -82,16 +81,20 @@ def _responses(result):
     return path, out
 
 
-def plot_optimize(result):
-    """Build the figure (a :class:`matplotlib.figure.Figure`, not shown)."""
+def plot_optimize(result, units=None):
+    """Build the figure (a :class:`matplotlib.figure.Figure`, not shown), values in ``units``
+    (default the machine file's)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
-    from camsim.figures.style import _STYLE
+    from camsim.figures.style import _STYLE, displayed, shown
 
     p = result.problem
+    display = units if units is not None else getattr(getattr(p, "base", None), "display_units", None)
+    goal = [displayed(g.text, g.unit, display) for g in p.goals]
+    s_unit, s_scale = shown("rad/s", display)
     senses = [g.sense for g in p.goals]
     path, responses = _responses(result)
     n = 3 if responses else 2
@@ -100,7 +103,7 @@ def plot_optimize(result):
         axes = fig.subplots(1, n)
         ax = axes[0]
         k = np.array([c.index for c in result.candidates])
-        f0 = np.array([c.objectives[0] for c in result.candidates], dtype=float)
+        f0 = np.array([c.objectives[0] for c in result.candidates], dtype=float) * goal[0][1]
         feas = np.array([c.feasible for c in result.candidates], dtype=bool)
         ax.plot(k[~feas], f0[~feas], ".", color="0.7", label="infeasible")
         ax.plot(k[feas], f0[feas], ".", color="C0", label="feasible")
@@ -109,48 +112,51 @@ def plot_optimize(result):
             if c.feasible:
                 v = c.f(senses)[0]
                 run = v if run is None else min(run, v)
-            best.append(math.nan if run is None else (run if senses[0] == "min" else -run))
+            best.append(math.nan if run is None else (run if senses[0] == "min" else -run) * goal[0][1])
         ax.plot(k, best, "-", color="C3", label="best so far")
         ax.set_xlabel("evaluation")
-        ax.set_ylabel(f"{p.goals[0].text} [{p.goals[0].unit or '-'}]")
+        ax.set_ylabel(goal[0][0])
         ax.set_title("convergence")
         ax.legend(fontsize="small")
         ax = axes[1]
         if result.front:
+            scale = np.array([goal[0][1], goal[1][1]])
             allf = np.array([c.objectives for c in result.candidates if c.feasible], dtype=float)
             if allf.size:
+                allf = allf[:, :2] * scale
                 ax.plot(allf[:, 0], allf[:, 1], ".", color="0.7", label="evaluated")
-            fr = np.array([c.objectives for c in result.front], dtype=float)
+            fr = np.array([c.objectives for c in result.front], dtype=float)[:, :2] * scale
             ax.plot(fr[:, 0], fr[:, 1], "o-", color="C3", label="Pareto front")
-            ax.set_xlabel(f"{p.goals[0].text} [{p.goals[0].unit or '-'}]")
-            ax.set_ylabel(f"{p.goals[1].text} [{p.goals[1].unit or '-'}]")
+            ax.set_xlabel(goal[0][0])
+            ax.set_ylabel(goal[1][0])
             ax.set_title("Pareto front")
             ax.legend(fontsize="small")
         else:
-            speeds = [0.0 if s is None else s * _RPM for s in p.speeds]
+            speeds = [0.0 if s is None else s * s_scale for s in p.speeds]
             if result.initial is not None and result.initial.per_speed:
-                ax.plot(speeds, [s["objectives"][0] for s in result.initial.per_speed], "s--", color="0.4", label="file")
+                ax.plot(speeds, [s["objectives"][0] * goal[0][1] for s in result.initial.per_speed], "s--", color="0.4", label="file")
             if result.best is not None and result.best.per_speed:
-                ax.plot(speeds, [s["objectives"][0] for s in result.best.per_speed], "o-", color="C3", label="optimum")
-            ax.set_xlabel("cam speed [rpm]")
-            ax.set_ylabel(f"{p.goals[0].text} [{p.goals[0].unit or '-'}]")
+                ax.plot(speeds, [s["objectives"][0] * goal[0][1] for s in result.best.per_speed], "o-", color="C3", label="optimum")
+            ax.set_xlabel(f"cam speed [{s_unit}]")
+            ax.set_ylabel(goal[0][0])
             ax.set_title("objective over the speeds")
             ax.legend(fontsize="small")
         if responses:
             ax = axes[2]
+            y_label, y_scale = displayed(path, responses[0][5], display)
             for i, (speed, a_ang, a, b_ang, b, unit) in enumerate(responses):
-                label = "" if speed is None else f" {speed * _RPM:.4g} rpm"
-                ax.plot(a_ang, a, "--", color=f"C{i % 10}", lw=0.8, label=f"file{label}")
-                ax.plot(b_ang, b, "-", color=f"C{i % 10}", lw=1.0, label=f"optimum{label}")
+                label = "" if speed is None else f" {speed * s_scale:.4g} {s_unit}"
+                ax.plot(a_ang, np.asarray(a) * y_scale, "--", color=f"C{i % 10}", lw=0.8, label=f"file{label}")
+                ax.plot(b_ang, np.asarray(b) * y_scale, "-", color=f"C{i % 10}", lw=1.0, label=f"optimum{label}")
             ax.set_xlabel("cam angle [deg]")
-            ax.set_ylabel(f"{path} [{responses[0][5] or '-'}]")
+            ax.set_ylabel(y_label)
             ax.set_title("response")
             ax.legend(fontsize="x-small", ncol=2)
     return fig
 
 
-def save_optimize_plot(result, path: str | os.PathLike[str], dpi: float = 120.0) -> Path:
-    """Write the figure atomically (format from the suffix: png, svg, pdf)."""
+def save_optimize_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, units=None) -> Path:
+    """Write the figure atomically (format from the suffix: png, svg, pdf), values in ``units``."""
     import matplotlib
 
     from camsim.figures.style import _METADATA
@@ -158,7 +164,7 @@ def save_optimize_plot(result, path: str | os.PathLike[str], dpi: float = 120.0)
 
     target = Path(path)
     fmt = target.suffix.lower().lstrip(".")
-    fig = plot_optimize(result)
+    fig = plot_optimize(result, units=units)
     with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
         fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
     return target

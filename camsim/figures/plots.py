@@ -11,7 +11,8 @@ Figure names are ``<stem>_<what>``, where ``<stem>`` is the input file's stem an
 ``cdtm_elements_seat_force``, ``cdtm_cam_svaj``, ``cdtm_compare_M2_acceleration``,
 ``sweep_sweep_M2``.
 
-Values are plotted in the SI units stored in the file; every axis label carries them.
+Values are plotted in display units (:mod:`camsim.display`): by default the units of the
+result's machine file, recorded in the file (``display_units``); every axis label carries them.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import os
 import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import h5py
 import matplotlib
@@ -27,7 +29,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from camsim.errors import InputError, ResultFileError
-from camsim.figures.style import _METADATA, _STYLE, _WIDTH, _in, _sample_mask, _window_text, axis_label, pretty_units  # noqa: F401 - shared with the other figure modules
+from camsim.figures.style import shown
+from camsim.figures.style import _METADATA, _STYLE, _WIDTH, _in, _sample_mask, _window_text, axis_label, displayed, pretty_units  # noqa: F401 - shared with the other figure modules
+from camsim.figures.sweep import plot_sweep_columns, plot_sweep_mass, sweep_masses  # noqa: F401 - part of this module's API
 from camsim.io.atomic import atomic_path
 from camsim.io.results import (
     file_kind,
@@ -36,9 +40,11 @@ from camsim.io.results import (
     open_h5,
     read_events,
     require,
-    table_units,
     units_of,
 )
+
+if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
 
 #: Plot families, in the order :func:`make_plots` builds them.
 PLOT_KINDS = ("svaj", "masses", "forces", "compare", "sweep", "design")  # design: issue 14
@@ -124,7 +130,7 @@ def _impact_rows(events: dict[str, np.ndarray] | None, *, mass: str | None = Non
     return rows
 
 
-def _mark_impacts(ax, t: np.ndarray, y: np.ndarray, events, rows: Sequence[int]) -> None:
+def _mark_impacts(ax, t: np.ndarray, y: np.ndarray, events, rows: Sequence[int], units: DisplayUnits | None = None) -> None:
     """Mark impacts at their times on the curve (t, y) and label them (element, |Δv|)."""
     times = np.array([float(events["time"][i]) for i in rows])
     keep = (times >= t[0]) & (times <= t[-1]) if t.size else np.zeros(times.shape, bool)
@@ -139,7 +145,8 @@ def _mark_impacts(ax, t: np.ndarray, y: np.ndarray, events, rows: Sequence[int])
             break
         text = str(events["element"][i])
         if "relative_velocity" in events and np.isfinite(events["relative_velocity"][i]):
-            text += f"\n{abs(float(events['relative_velocity'][i])):.3g} m/s"
+            unit, k = shown("m/s", units)
+            text += f"\n{abs(float(events['relative_velocity'][i])) * k:.3g} {unit}"
         ax.annotate(
             text,
             (ti, yi),
@@ -154,7 +161,7 @@ def _mark_impacts(ax, t: np.ndarray, y: np.ndarray, events, rows: Sequence[int])
 # Run files
 
 
-def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str = "") -> Figure:
+def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str = "", units: DisplayUnits | None = None) -> Figure:
     """Cam displacement, velocity, acceleration and jerk against cam angle (four panels).
 
     Segment joins (``cam/boundaries_deg``, in [0, 360)) are drawn as vertical lines at
@@ -197,8 +204,9 @@ def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str
     with matplotlib.rc_context(_STYLE):
         fig, axes = _new_figure(8.0, 4)
         for ax, q, ds in zip(axes, names, dsets):
-            ax.plot(x, ds[()][mask], color="tab:blue")
-            ax.set_ylabel(axis_label(q, units_of(ds)))
+            label, scale = displayed(q, units_of(ds), units)
+            ax.plot(x, ds[()][mask] * scale, color="tab:blue")
+            ax.set_ylabel(label)
             if marks.size:
                 ax.vlines(marks, 0, 1, transform=ax.get_xaxis_transform(), colors="0.5", linestyles=":", linewidth=0.9)
         axes[-1].set_xlabel(axis_label("cam angle", units_of(angle_ds)))
@@ -216,6 +224,7 @@ def plot_trace(
     impacts_of_element: str | None = None,
     shade_negative: bool = False,
     title: str = "",
+    units: DisplayUnits | None = None,
 ) -> Figure:
     """One trace of a run layout against time, impacts marked and labelled.
 
@@ -232,12 +241,15 @@ def plot_trace(
         ``element`` is this element.
     shade_negative : bool
         Shade where the trace is negative (a cam contact force below zero: jump).
+    units : DisplayUnits, optional
+        Units drawn in (default SI).
     """
     ds = require(group, path)
     mask = _sample_mask(group, time_window, angle_window)
     time_ds = group["time"]
     t = time_ds[()][mask]
-    y = ds[()][mask]
+    y_label, scale = displayed(path.rsplit("/", 1)[-1], units_of(ds), units)
+    y = ds[()][mask] * scale
     with matplotlib.rc_context(_STYLE):
         fig, (ax,) = _new_figure(3.6)
         ax.plot(t, y, color="tab:blue", label=long_name_of(ds))
@@ -246,14 +258,15 @@ def plot_trace(
             ax.legend(loc="best")
         if events is not None and (impacts_of_mass or impacts_of_element):
             rows = _impact_rows(events, mass=impacts_of_mass, element=impacts_of_element)
-            _mark_impacts(ax, t, y, events, rows)
+            _mark_impacts(ax, t, y, events, rows, units)
         ax.set_xlabel(axis_label("time", units_of(time_ds)))
-        ax.set_ylabel(axis_label(path.rsplit("/", 1)[-1], units_of(ds)))
+        ax.set_ylabel(y_label)
         ax.set_title(title or long_name_of(ds))
     return fig
 
 
-def plot_mass(group: h5py.Group, mass: str, quantity: str, time_window=None, angle_window=None, title: str = "") -> Figure:
+def plot_mass(group: h5py.Group, mass: str, quantity: str, time_window=None, angle_window=None, title: str = "",
+              units: DisplayUnits | None = None) -> Figure:
     """Displacement, velocity or acceleration of one mass against time, its impacts marked."""
     _check_quantity(quantity)
     return plot_trace(
@@ -264,10 +277,12 @@ def plot_mass(group: h5py.Group, mass: str, quantity: str, time_window=None, ang
         events=read_events(group),
         impacts_of_mass=mass,
         title=title or f"{quantity} of {mass}",
+        units=units,
     )
 
 
-def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None, title: str = "") -> Figure:
+def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None, title: str = "",
+               units: DisplayUnits | None = None) -> Figure:
     """An element, cam-contact or transducer force against time.
 
     Impacts of the element are marked on element forces; a negative cam contact force
@@ -283,6 +298,7 @@ def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None
         impacts_of_element=element,
         shade_negative=path == "cam_contact/force",
         title=title,
+        units=units,
     )
 
 
@@ -290,7 +306,8 @@ def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None
 # Comparison files
 
 
-def plot_compare(f: h5py.Group, mass: str, quantity: str, time_window=None, angle_window=None) -> Figure:
+def plot_compare(f: h5py.Group, mass: str, quantity: str, time_window=None, angle_window=None,
+                 units: DisplayUnits | None = None) -> Figure:
     """Impact vs no-impact overlay with the percent difference under it (thesis figs 8.21-8.26).
 
     Top panel: ``/impact/masses/<mass>/<quantity>`` and ``/no_impact/...`` against their
@@ -313,10 +330,11 @@ def plot_compare(f: h5py.Group, mass: str, quantity: str, time_window=None, angl
         fig = Figure(figsize=(_WIDTH, 5.0), layout="constrained")
         top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
         t, y, ds = data["impact"]
-        top.plot(t, y, color="tab:blue", label="with impact")
+        label, scale = displayed(quantity, units_of(ds), units)
+        top.plot(t, y * scale, color="tab:blue", label="with impact")
         t2, y2, _ = data["no_impact"]
-        top.plot(t2, y2, color="tab:orange", linestyle="--", label="without impact")
-        top.set_ylabel(axis_label(quantity, units_of(ds)))
+        top.plot(t2, y2 * scale, color="tab:orange", linestyle="--", label="without impact")
+        top.set_ylabel(label)
         top.legend(loc="best")
         top.set_title(f"{quantity} of {mass}: with and without impact")
         td, d, dds = data["difference"]
@@ -324,84 +342,6 @@ def plot_compare(f: h5py.Group, mass: str, quantity: str, time_window=None, angl
         bottom.set_ylabel(axis_label("difference", units_of(dds) or "%"))
         bottom.set_xlabel(axis_label("time", units_of(groups["impact"]["time"])))
     return fig
-
-
-# --------------------------------------------------------------------------------------
-# Sweep files
-
-
-def _sweep_table(f: h5py.Group) -> tuple[dict[str, np.ndarray], dict[str, str], str]:
-    from camsim.io.hdf5 import read_table
-
-    ds = require(f, "sweep/summary", "sweep table")
-    table = read_table(ds)
-    units = table_units(ds)
-    params = [c for c in table if c.startswith("param:")]
-    if not params:
-        raise ResultFileError(f"{f.file.filename}: /sweep/summary: no param:<key> column")
-    ok = np.ones(len(table[params[0]]), dtype=bool)
-    if "status" in table:
-        ok = np.array([str(s) == "ok" for s in table["status"]], dtype=bool)
-    if not ok.any():
-        raise ResultFileError(f"{f.file.filename}: /sweep/summary: no point has status ok, nothing to plot")
-    table = {k: v[ok] for k, v in table.items()}
-    return table, units, params[0]
-
-
-#: Swept parameters shown in a unit designers read more easily than SI: (unit, factor).
-_SWEEP_DISPLAY_UNITS = {"rad/s": ("rpm", 60.0 / (2.0 * np.pi)), "rad": ("deg", 180.0 / np.pi)}
-
-
-def _sweep_figure(table, units, xcol: str, columns: Sequence[str], title: str) -> Figure:
-    x = np.asarray(table[xcol], dtype=float)
-    x_unit = units.get(xcol, "")
-    if x_unit in _SWEEP_DISPLAY_UNITS:
-        x_unit, factor = _SWEEP_DISPLAY_UNITS[x_unit]
-        x = x * factor
-    order = np.argsort(x, kind="stable")
-    with matplotlib.rc_context(_STYLE):
-        fig, axes = _new_figure(max(2.4 * len(columns), 3.6), len(columns))
-        for ax, col in zip(axes, columns):
-            ax.plot(x[order], np.asarray(table[col], dtype=float)[order], marker="o", markersize=4, color="tab:blue")
-            ax.set_ylabel(axis_label(col.replace("_", " ").replace(":", " "), units.get(col, "")), fontsize=9)
-        axes[-1].set_xlabel(axis_label(xcol.removeprefix("param:"), x_unit))
-        fig.suptitle(title)
-    return fig
-
-
-def plot_sweep_mass(f: h5py.Group, mass: str, quantities: Sequence[str] = QUANTITIES) -> Figure:
-    """Peak displacement/velocity/acceleration of one mass against the first swept parameter.
-
-    Points whose ``status`` is not ``"ok"`` are left out.
-    """
-    table, units, xcol = _sweep_table(f)
-    cols = []
-    for q in quantities:
-        _check_quantity(q)
-        col = f"peak_{q}:{mass}"
-        if col not in table:
-            raise ResultFileError(f"{f.file.filename}: /sweep/summary: no column {col}")
-        cols.append(col)
-    return _sweep_figure(table, units, xcol, cols, f"peaks of {mass}")
-
-
-def sweep_masses(f: h5py.Group) -> list[str]:
-    """Masses with peak columns in a sweep table."""
-    ds = require(f, "sweep/summary")
-    names = []
-    for col in ds.dtype.names or ():
-        if col.startswith("peak_displacement:"):
-            names.append(col.split(":", 1)[1])
-    return names
-
-
-def plot_sweep_columns(f: h5py.Group, columns: Sequence[str], title: str) -> Figure | None:
-    """The given summary columns (those present and not all NaN) against the first parameter."""
-    table, units, xcol = _sweep_table(f)
-    cols = [c for c in columns if c in table and np.any(np.isfinite(np.asarray(table[c], dtype=float)))]
-    if not cols:
-        return None
-    return _sweep_figure(table, units, xcol, cols, title)
 
 
 # --------------------------------------------------------------------------------------
@@ -438,6 +378,7 @@ def make_plots(
     quantities: Iterable[str] | None = None,
     time_window: tuple[float | None, float | None] | None = None,
     angle_window: tuple[float | None, float | None] | None = None,
+    units: str | DisplayUnits = "file",
 ) -> dict[str, Figure]:
     """Build every figure requested from a result file, keyed by stable names.
 
@@ -457,6 +398,9 @@ def make_plots(
         Time range [s].
     angle_window : (float or None, float or None), optional
         Cam-angle range [deg] of the continuing angle ``/cam/angle``.
+    units : str or DisplayUnits
+        Units drawn in: ``"file"`` (the result's machine file's, the default), ``"si"``,
+        ``"us"``, or a :class:`~camsim.display.DisplayUnits`.
 
     Returns
     -------
@@ -470,7 +414,7 @@ def make_plots(
         an unknown mass or quantity, an empty window. No figure is returned then.
     """
     with open_h5(path) as f:
-        return figures_for_file(f, what, masses, quantities, time_window, angle_window, stem=Path(path).stem)
+        return figures_for_file(f, what, masses, quantities, time_window, angle_window, stem=Path(path).stem, units=units)
 
 
 def figures_for_file(
@@ -481,9 +425,14 @@ def figures_for_file(
     time_window: tuple[float | None, float | None] | None = None,
     angle_window: tuple[float | None, float | None] | None = None,
     stem: str = "run",
+    units: str | DisplayUnits = "file",
 ) -> dict[str, Figure]:
     """The figures of :func:`make_plots` from an open result file (or an in-memory image
     of a :class:`~camsim.run.result.RunResult`); figure names start with ``stem``."""
+    from camsim.display import DisplayUnits
+    from camsim.io.results import file_display_units
+
+    units = units if isinstance(units, DisplayUnits) else file_display_units(f, units)
     if time_window is not None and angle_window is not None:
         raise InputError("--time and --angle: give one window, not both")
     stem = _safe(stem)
@@ -509,26 +458,26 @@ def figures_for_file(
     kinds = [k for k in PLOT_KINDS if k in kinds]
     for k in kinds:
         if k == "svaj":
-            figs[f"{stem}_cam_svaj"] = plot_svaj(f, time_window, angle_window)
+            figs[f"{stem}_cam_svaj"] = plot_svaj(f, time_window, angle_window, units=units)
         elif k == "masses":
             chosen = _pick_masses(f, names_with(f, "masses", wanted_q[0]), wanted_masses, "/masses")
             for m in chosen:
                 for q in wanted_q:
-                    figs[f"{stem}_masses_{_safe(m)}_{q}"] = plot_mass(f, m, q, time_window, angle_window)
+                    figs[f"{stem}_masses_{_safe(m)}_{q}"] = plot_mass(f, m, q, time_window, angle_window, units=units)
         elif k == "forces":
             paths = [f"elements/{e}/force" for e in names_with(f, "elements", "force")]
             paths += [p for p in ("cam_contact/force", "transducer/force") if p in f]
             if not paths and explicit:
                 raise ResultFileError(f"{f.filename}: --what forces: no element, cam-contact or transducer forces in the file")
             for p in paths:
-                figs[f"{stem}_{_safe(p.replace('/', '_'))}"] = plot_force(f, p, time_window, angle_window)
+                figs[f"{stem}_{_safe(p.replace('/', '_'))}"] = plot_force(f, p, time_window, angle_window, units=units)
         elif k == "compare":
             if "impact" not in f:
                 raise ResultFileError(f"{f.filename}: /impact: not in the file (not a comparison file?)")
             chosen = _pick_masses(f, names_with(f["impact"], "masses", wanted_q[0]), wanted_masses, "/impact/masses")
             for m in chosen:
                 for q in wanted_q:
-                    figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window)
+                    figs[f"{stem}_compare_{_safe(m)}_{q}"] = plot_compare(f, m, q, time_window, angle_window, units=units)
         elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
             if "cam/pressure_angle" not in f:
                 if explicit:
@@ -536,13 +485,13 @@ def figures_for_file(
                 continue
             from camsim.figures.cam import plot_design_file
 
-            figs[f"{stem}_cam_design"] = plot_design_file(f, time_window, angle_window)
+            figs[f"{stem}_cam_design"] = plot_design_file(f, time_window, angle_window, units=units)
         elif k == "sweep":
             if time_window is not None or angle_window is not None:
                 raise InputError("--time/--angle: a sweep plot has no time axis")
             chosen = _pick_masses(f, sweep_masses(f), wanted_masses, "/sweep/summary")
             for m in chosen:
-                figs[f"{stem}_sweep_{_safe(m)}"] = plot_sweep_mass(f, m, wanted_q)
+                figs[f"{stem}_sweep_{_safe(m)}"] = plot_sweep_mass(f, m, wanted_q, units=units)
             extra = {
                 "forces": (("peak_transducer_force", "max_cam_contact_force", "min_cam_contact_force"), "peak forces"),
                 "impacts": (("impacts", "max_impact_velocity"), "impacts"),
@@ -551,7 +500,7 @@ def figures_for_file(
             }
             if not wanted_masses:
                 for name, (cols, title) in extra.items():
-                    fig = plot_sweep_columns(f, cols, title)
+                    fig = plot_sweep_columns(f, cols, title, units=units)
                     if fig is not None:
                         figs[f"{stem}_sweep_{name}"] = fig
     return figs

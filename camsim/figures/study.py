@@ -57,7 +57,7 @@ def _influential(result, q: str, ok: np.ndarray) -> str:
     return best
 
 
-def plot_study(result, outputs: list[str] | None = None):
+def plot_study(result, outputs: list[str] | None = None, units=None):
     """Build the study figure (a :class:`matplotlib.figure.Figure`, not shown).
 
     Parameters
@@ -65,13 +65,17 @@ def plot_study(result, outputs: list[str] | None = None):
     result : StudyResult
     outputs : list of str, optional
         The outputs to show, in order (default :func:`plotted_outputs`).
+    units : DisplayUnits, optional
+        Units drawn in (default the machine file's).
     """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
-    from camsim.figures.style import _STYLE, axis_label
+    from camsim.figures.style import _STYLE, displayed
+
+    display = units if units is not None else getattr(result.machine, "display_units", None)
 
     units = dict(result.columns)
     outputs = plotted_outputs(result) if outputs is None else list(outputs)
@@ -86,11 +90,12 @@ def plot_study(result, outputs: list[str] | None = None):
         if result.sensitivity is not None:
             ok = ok & np.isin(rows["design"].to_numpy(), ["A", "B"])
         for r, q in enumerate(outputs):
-            y = rows[q].to_numpy(dtype=float)[ok]
             unit = units.get(q, "")
+            q_label, q_scale = displayed(q, unit, display)
+            y = rows[q].to_numpy(dtype=float)[ok] * q_scale
             ax = axes[r][0]
             ax.hist(y[np.isfinite(y)], bins=min(50, max(10, int(np.sqrt(y.size)))), color="#4477aa")
-            ax.set_xlabel(axis_label(q, unit))
+            ax.set_xlabel(q_label)
             ax.set_ylabel("runs")
             finite = y[np.isfinite(y)]
             lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
@@ -101,7 +106,7 @@ def plot_study(result, outputs: list[str] | None = None):
                 if text.startswith(q) and text[len(q):len(q) + 1] in "<>":
                     from camsim.analyses.study.statistics import parse_limit
 
-                    threshold = parse_limit(text, {q: unit}).threshold
+                    threshold = parse_limit(text, {q: unit}).threshold * q_scale
                     label = f"{text[len(q):]}: P = {lim['probability']:.3g}"
                     if lo - 0.5 * span <= threshold <= hi + 0.5 * span:
                         ax.axvline(threshold, color="#cc3311", lw=1.5)
@@ -112,10 +117,11 @@ def plot_study(result, outputs: list[str] | None = None):
                 ax.text(0.02, 0.95, "\n".join(off_scale), transform=ax.transAxes, color="#cc3311", va="top", fontsize=8)
             k = _influential(result, q, ok)
             ax = axes[r][1]
-            x = rows[f"param:{k}"].to_numpy(dtype=float)[ok]
+            k_label, k_scale = displayed(k, units.get(f"param:{k}", ""), display)
+            x = rows[f"param:{k}"].to_numpy(dtype=float)[ok] * k_scale
             ax.plot(x, y, ".", ms=2.5, color="#4477aa", rasterized=True)
-            ax.set_xlabel(axis_label(k, units.get(f"param:{k}", "")))
-            ax.set_ylabel(axis_label(q, unit))
+            ax.set_xlabel(k_label)
+            ax.set_ylabel(q_label)
             if sens:
                 ax = axes[r][2]
                 s = result.sensitivity.get(q)
@@ -139,8 +145,9 @@ def plot_study(result, outputs: list[str] | None = None):
     return fig
 
 
-def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, outputs: list[str] | None = None) -> Path:
-    """Write the study figure to ``path`` (format from the suffix: png, svg, pdf), atomically."""
+def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, outputs: list[str] | None = None,
+                    units=None) -> Path:
+    """Write the study figure to ``path`` (format from the suffix: png, svg, pdf), atomically, in ``units``."""
     import matplotlib
 
     from camsim.errors import InputError
@@ -151,7 +158,7 @@ def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, ou
     fmt = target.suffix.lstrip(".").lower()
     if fmt not in _METADATA:
         raise InputError(f"--plot {path}: unknown format '{fmt}' (png, svg or pdf)")
-    fig = plot_study(result, outputs)
+    fig = plot_study(result, outputs, units=units)
     with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
         fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
     return target

@@ -1,16 +1,24 @@
 """What every camsim figure shares: the style, the sample windows, the axis labels.
 
+Values are drawn in display units (:mod:`camsim.display`: the machine file's own by default,
+issue 36): :func:`displayed` gives an axis label with its unit and the factor from SI.
+
 The figure modules (:mod:`camsim.figures.plots`, :mod:`camsim.figures.cam`,
 :mod:`camsim.figures.study`, :mod:`camsim.figures.fit`) all read these from here.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import h5py
 import numpy as np
 
 from camsim.errors import InputError, ResultFileError
 from camsim.io.results import require
+
+if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
 
 #: Style for figures readable at report size (≈ 16 cm wide).
 _STYLE = {
@@ -81,10 +89,31 @@ def _sample_mask(group: h5py.Group, time_window, angle_window, angle_source: h5p
 
 
 def pretty_units(units: str) -> str:
-    """Display form of a unit text: ``m/s^2`` -> ``m/s²``."""
-    return units.replace("^2", "²").replace("^3", "³").replace("^-1", "⁻¹")
+    """Display form of a unit text: ``m/s^2`` -> ``m/s²`` (:func:`camsim.display.typographic`)."""
+    from camsim.display import typographic
+
+    return typographic(units)
 
 
 def axis_label(name: str, units: str) -> str:
     """``name [units]`` (``name`` alone for dimensionless quantities)."""
     return f"{name} [{pretty_units(units)}]" if units not in ("", "1") else name
+
+
+def shown(si_unit: str, units: DisplayUnits | None) -> tuple[str, float]:
+    """(unit shown, factor from SI) of values stored in ``si_unit``; as stored (SI, factor 1)
+    when ``units`` is None (a figure function called on its own from Python), but speeds in
+    rpm and angles in deg even then."""
+    if units is None:
+        if si_unit in ("rad/s", "rad"):
+            from camsim.display import system_units
+
+            return system_units("si").shown(si_unit)
+        return pretty_units(si_unit), 1.0
+    return units.shown(si_unit)
+
+
+def displayed(name: str, si_unit: str, units: DisplayUnits | None) -> tuple[str, float]:
+    """(axis label with the display unit, factor from SI): ``("force [lbf]", 0.2248)``."""
+    unit, scale = shown(si_unit, units)
+    return axis_label(name, unit), scale

@@ -7,6 +7,7 @@ With dynamic compensation it overlays the wanted output motion and the compensat
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -14,14 +15,17 @@ from matplotlib.figure import Figure
 from camsim.figures.cam import _STYLE
 from camsim.cam.program import CamProgram
 
+if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
+
 __all__ = ["plot_svaj"]
 
-_PANELS = (("displacement", "s [mm]", 1e3), ("velocity", "v [m/s]", 1.0),
-           ("acceleration", "a [m/s²]", 1.0), ("jerk", "j [m/s³]", 1.0))
+_PANELS = (("s", "m"), ("v", "m/s"), ("a", "m/s^2"), ("j", "m/s^3"))
 
 
-def plot_svaj(curves: list[tuple[str, CamProgram]], title: str = "", points: int = 3601) -> Figure:
-    """Four stacked panels s, v, a, j (model axis, SI; s in mm) against cam angle [deg].
+def plot_svaj(curves: list[tuple[str, CamProgram]], title: str = "", points: int = 3601,
+              units: DisplayUnits | None = None) -> Figure:
+    """Four stacked panels s, v, a, j (model axis) against cam angle [deg], in ``units`` (default SI).
 
     Parameters
     ----------
@@ -31,7 +35,11 @@ def plot_svaj(curves: list[tuple[str, CamProgram]], title: str = "", points: int
         Figure title.
     points : int
         Samples over the revolution.
+    units : DisplayUnits, optional
+        Units drawn in (the machine file's for ``camsim cam --plot``).
     """
+    from camsim.figures.style import displayed
+
     import matplotlib
 
     with matplotlib.rc_context(_STYLE):
@@ -41,9 +49,10 @@ def plot_svaj(curves: list[tuple[str, CamProgram]], title: str = "", points: int
             theta = np.linspace(0.0, 2.0 * math.pi, points)
             t = (theta - program.start_angle) / program.speed
             values = program.svaj(t, side="left")
-            for ax, (name, unit, k), v in zip(axes, _PANELS, values):
+            for ax, (name, si_unit), v in zip(axes, _PANELS, values):
+                y_label, k = displayed(name, si_unit, units)
                 ax.plot(np.degrees(theta), k * v, label=label)
-                ax.set_ylabel(unit)
+                ax.set_ylabel(y_label)
         axes[-1].set_xlabel("cam angle [deg]")
         axes[-1].set_xlim(0.0, 360.0)
         axes[-1].set_xticks(np.arange(0, 361, 45))

@@ -18,6 +18,7 @@ import numpy as np
 from camsim._version import __version__
 
 if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
     from camsim.machine.description import Machine
 
 #: Compression used for every trace (lossless; shuffle helps the float bytes compress).
@@ -28,9 +29,10 @@ COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 SCHEMA = 1
 
 
-def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> None:
+def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str, display: DisplayUnits | None = None) -> None:
     """Root attributes every camsim file carries (spec §7): the version, the schema, the file's
-    kind, and the machine it came from (name, TOML text, its SHA-256)."""
+    kind, the machine it came from (name, TOML text, its SHA-256) and the display units of its
+    human output (``display_units``, JSON: default the machine file's, docs/units.md)."""
     f.attrs["camsim_version"] = __version__
     f.attrs["schema"] = SCHEMA
     f.attrs["file_kind"] = file_kind
@@ -38,6 +40,9 @@ def write_root_attributes(f: h5py.File, machine: Machine, file_kind: str) -> Non
     f.attrs["machine_toml"] = machine.text
     f.attrs["machine_sha256"] = hashlib.sha256(machine.text.encode()).hexdigest()
     f.attrs["units_system"] = "SI"
+    # The units human output shows this file's values in (issue 36): the machine file's own,
+    # so that plot, report, export --units and compare of the file use them.
+    f.attrs["display_units"] = (display if display is not None else machine.display_units).to_json()
 
 
 def create_file(path: Any, **options: Any) -> h5py.File:

@@ -24,6 +24,7 @@ import h5py
 import numpy as np
 
 from camsim.errors import ResultFileError
+from camsim.display import DisplayUnits
 from camsim.io.hdf5 import read_table
 
 #: Result-file schema versions this version of camsim reads.
@@ -99,6 +100,17 @@ def attr_text(obj: h5py.HLObject, name: str, default: str = "") -> str:
     if name not in obj.attrs:
         return default
     return _text(obj.attrs[name])
+
+
+def file_display_units(f: h5py.File, system: str = "file") -> DisplayUnits:
+    """The display units of a result file's human output under ``--units system`` (issue 36).
+
+    ``file``: the ``display_units`` root attribute the writer recorded (the machine file's
+    units); a file written before it existed counts them from its ``machine_toml``.
+    """
+    from camsim.display import display_units
+
+    return display_units(system, attr_text(f, "machine_toml") or None, recorded=attr_text(f, "display_units") or None)
 
 
 def file_kind(f: h5py.File) -> str:

@@ -23,7 +23,16 @@ links to ground or to nodes already known, and open contacts (no force). Then
   solution is taken in the frequency domain (δ̂ₙ = ĝₙ/(K_j + i·n·ω·C_j) on a uniform grid
   of 2¹⁵ points a revolution; the signal is smooth, so the sampling error is spectrally
   small) and whose derivatives follow exactly from the equation itself:
-  δ⁽ᵏ⁾ = (g⁽ᵏ⁻¹⁾ − K_j·δ⁽ᵏ⁻¹⁾)/C_j;
+  δ⁽ᵏ⁾ = (g⁽ᵏ⁻¹⁾ − K_j·δ⁽ᵏ⁻¹⁾)/C_j. That recursion multiplies the error of δ⁽ᵏ⁻¹⁾ by
+  K/(C·ω) at every order (ω the signal's frequency): harmless for a well-damped element
+  (about 80 per order for the CDTM's links at ζ = 0.06), ruinous for a nearly undamped
+  one (8e7 per order at ζ = 6e-8: the cam's third derivative came out 1e15 times too
+  large and the run blew up, issue 34). Where the recursion would multiply the error by
+  more than :data:`RECURSION_GAIN_MAX` over the orders the cam needs, the solution is
+  split into its quasi-static expansion and a remainder,
+  δ = Σ_{j<J} (−τ)ʲ·g⁽ʲ⁾/K + δ_r with τ = C/K and C·δ̇_r + K·δ_r = (−τ)ᴶ·g⁽ᴶ⁾
+  (an identity: the sum telescopes), whose first J derivatives need no division by C
+  (the remainder is (τ·ω)ᴶ smaller, which cancels the gain);
 * rigid (a closed restitution contact): δ_j = its gap;
 
 and x(n_j) = x(n_{j−1}) + δ_j. At the top, s = x(n_P).
@@ -54,10 +63,18 @@ from camsim.elements import CAM, GROUND, Element
 from camsim.elements.base import Branch
 from camsim.machine.description import Cam, Machine
 
-__all__ = ["CompensationError", "compensate", "GRID_POINTS"]
+__all__ = ["CompensationError", "compensate", "GRID_POINTS", "RECURSION_GAIN_MAX"]
 
 #: Grid points over one revolution for a damped path's periodic solution.
 GRID_POINTS = 2**15
+#: Largest error gain the derivative recursion δ⁽ᵏ⁾ = (g⁽ᵏ⁻¹⁾ − K·δ⁽ᵏ⁻¹⁾)/C may have over the
+#: orders the cam needs (the product of K/(C·ω_k) over them); above it the quasi-static
+#: expansion takes over (:func:`_periodic`). The FFT leaves δ with an error near 1e-13 of
+#: itself, so 1e9 keeps the needed derivatives to about 1e-4; the shipped machines (gain
+#: 4e7 at ζ = 0.06) stay on the recursion, their numbers unchanged.
+RECURSION_GAIN_MAX = 1e9
+#: Cam-table orders the compensation delivers: s and its first three derivatives.
+_TABLE_ORDERS = 4
 _TWO_PI = 2.0 * math.pi
 #: A derivative jump smaller than this fraction of its peak over the revolution is rounding.
 _JUMP_TOLERANCE = 1e-8
@@ -218,6 +235,10 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
     """
     cam = machine.cam
     comp = cam.compensation
+    for e in machine.elements:  # issue 39: a rod is many masses and springs; not compensated
+        if e.compound:
+            raise CompensationError(_element_key(machine, e), f"{e.name} is a rod: dynamic compensation works on "
+                                    "lumped masses and springs; model the rod as a spring (its E*A/L) for the design")
     written = dataclasses.replace(cam, compensation=None, compensated=None, output_program=None, geometry=None)
     program = CamProgram(written)
     omega = comp.speed
@@ -264,9 +285,14 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
 
     # The written output motion y(t) on the model axis, at the design speed.
     req_order = 2 + 2 * (len(path) - 1) + 4  # generous: y jets carried on the grid
+    expansion = [0] * len(path)
     if damped:
         theta = np.arange(grid_points) * (_TWO_PI / grid_points)
         lift = program.lift_derivatives(theta, req_order)
+        expansion, orders = _expansion_plan(laws, lift, omega)
+        if orders > req_order:
+            req_order = orders
+            lift = program.lift_derivatives(theta, req_order)
         rows = np.array([cam.ratio * omega**n * lift[n] for n in range(req_order + 1)])
         y = _Jet(rows)
     else:
@@ -310,7 +336,7 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
             if C == 0.0:
                 delta = rhs * (1.0 / K)
             else:
-                delta = _periodic(rhs, K, C, omega)
+                delta = _periodic(rhs, K, C, omega, expansion[j])
                 orders_lost -= 1
         x[path[j]] = xi + delta
         reaction = q * -1.0
@@ -329,7 +355,9 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
         profile = CompensatedProfile(written=written, output=output, speed=omega, kind="algebraic",
                                      coefficients=coeffs, offset=s.const / cam.ratio, path=names)
     else:
-        rows = s.rows[:4]
+        rows = s.rows[:_TABLE_ORDERS]
+        if not np.all(np.isfinite(rows)):  # a row _periodic could not form reached the cam
+            raise AssertionError("compensation: the cam table's derivatives are not all available")
         jets = np.array([rows[n] / (cam.ratio * omega**n) for n in range(len(rows))])
         profile = CompensatedProfile(written=written, output=output, speed=omega, kind="table",
                                      theta=theta, jets=jets, path=names)
@@ -337,17 +365,73 @@ def compensate(machine: Machine, grid_points: int = GRID_POINTS) -> Machine:
     return dataclasses.replace(machine, cam=new_cam)
 
 
-def _periodic(rhs, K: float, C: float, omega: float) -> _Jet:
-    """Periodic solution δ of C·δ̇ + K·δ = rhs(t) and its derivatives from the equation."""
+def _expansion_plan(laws, lift: np.ndarray, omega: float) -> tuple[list[int], int]:
+    """Terms J of the quasi-static expansion for each damped path element (0: the plain
+    recursion), and the highest order of y the walk then needs.
+
+    Walking down from the cam: the top element delivers δ up to order 3 (the table's s‴).
+    An element that delivers orders up to k with J terms reads its right-hand side up to
+    order k + J − 1, which holds the acceleration (two orders more) of the node below it,
+    so the element below delivers orders up to k + J + 1. The recursion's error gain over
+    k orders is estimated from the written motion's spectrum: g⁽ⁱ⁾ ~ y⁽ⁱ⁺²⁾, so
+    K/(C·ω_i) ≈ K·‖y⁽ⁱ⁺¹⁾‖/(C·‖y⁽ⁱ⁺²⁾‖) (``lift``: θ-derivatives of y, ``omega`` [rad/s]).
+    """
+    peak = np.max(np.abs(lift), axis=1)
+    # ‖L⁽ⁱ⁾‖/‖L⁽ⁱ⁺¹⁾‖ [rad]; a derivative that vanishes has nothing to amplify
+    spacing = [peak[i] / peak[i + 1] if peak[i + 1] > 0.0 else 0.0 for i in range(len(peak) - 1)]
+
+    def gain(K: float, C: float, orders: int) -> float:
+        out = 1.0
+        for i in range(1, orders + 1):
+            out *= max(1.0, K * spacing[min(i + 1, len(spacing) - 1)] / (C * omega))
+        return out
+
+    plan = [0] * len(laws)
+    need = _TABLE_ORDERS - 1
+    for j in range(len(laws) - 1, 0, -1):
+        linear = [law for _, law, _ in laws[j] if law is not None]
+        K = sum(law[0] for law in linear)
+        C = sum(law[1] for law in linear)
+        if linear and len(linear) == len(laws[j]) and C > 0.0 and K > 0.0 and gain(K, C, need) > RECURSION_GAIN_MAX:
+            plan[j] = need
+        need += plan[j] + 1
+    return plan, need
+
+
+def _periodic(rhs, K: float, C: float, omega: float, terms: int = 0) -> _Jet:
+    """Periodic solution δ of C·δ̇ + K·δ = rhs(t) and its derivatives.
+
+    ``terms`` = 0: δ by FFT, its derivatives from the equation, δ⁽ᵏ⁾ = (g⁽ᵏ⁻¹⁾ − K·δ⁽ᵏ⁻¹⁾)/C.
+    ``terms`` = J > 0 (a nearly undamped element, :func:`_expansion_plan`): the quasi-static
+    expansion Σ_{j<J} (−τ)ʲ·g⁽ᵏ⁺ʲ⁾/K (τ = C/K, exact pointwise from the rows) plus the same
+    FFT and recursion for the remainder C·δ̇_r + K·δ_r = (−τ)ᴶ·g⁽ᴶ⁾. Rows that would need g
+    beyond its last row are NaN, so that no inexact row reaches the cam unnoticed. The
+    result has one row more than ``rhs`` either way.
+    """
     rows = rhs.rows
     n = rows.shape[1]
     period = _TWO_PI / omega
     freq = _TWO_PI / period * np.arange(n // 2 + 1)
-    d0 = np.fft.irfft(np.fft.rfft(rows[0]) / (K + 1j * freq * C), n)
-    out = np.empty((len(rows) + 1, n))
-    out[0] = d0
-    for k in range(1, len(rows) + 1):
-        out[k] = (rows[k - 1] - K * out[k - 1]) / C
+    J = min(terms, len(rows) - 1)
+    if J <= 0:
+        d0 = np.fft.irfft(np.fft.rfft(rows[0]) / (K + 1j * freq * C), n)
+        out = np.empty((len(rows) + 1, n))
+        out[0] = d0
+        for k in range(1, len(rows) + 1):
+            out[k] = (rows[k - 1] - K * out[k - 1]) / C
+        return _Jet(out)
+    tau = C / K
+    top = len(rows) - J  # the highest order both parts can form
+    out = np.full((len(rows) + 1, n), np.nan)
+    weights = (-tau) ** np.arange(J - 1, -1, -1)  # smallest term first
+    for k in range(top + 1):
+        out[k] = np.tensordot(weights, rows[k : k + J][::-1], axes=1) / K
+    rest = rows[J:] * (-tau) ** J
+    r = np.fft.irfft(np.fft.rfft(rest[0]) / (K + 1j * freq * C), n)
+    out[0] += r
+    for k in range(1, top + 1):
+        r = (rest[k - 1] - K * r) / C
+        out[k] += r
     return _Jet(out)
 
 

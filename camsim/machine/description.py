@@ -9,8 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING
 
 from camsim.errors import InputError
+
+if TYPE_CHECKING:
+    from camsim.display import DisplayUnits
 
 # Elements are the element kinds' own classes (camsim/elements/); re-exported here because
 # a Machine is made of them.
@@ -137,12 +142,30 @@ class Machine:
             raise InputError(f"{self.source}: with_values needs a machine loaded from a machine file (camsim.load_machine)")
         return self.rebuild(self, values)
 
+    @cached_property
+    def display_units(self) -> DisplayUnits:
+        """The units this machine's file was written in, per dimension (issue 36).
+
+        What human output shows by default (``--units file``): counted from :attr:`text` by
+        :func:`camsim.display.written_units` (docs/units.md); SI for a machine without text.
+        """
+        from camsim.display import written_units
+
+        return written_units(self.text)
+
     def mass_of(self, name: str) -> float:
-        """Mass [kg] of the mass called ``name``."""
+        """Mass [kg] of the node called ``name``: the mass as written plus what the elements lump
+        there (a rod's end adds m/(2N): the node's mass in the model, issue 39)."""
         for m in self.masses:
             if m.name == name:
-                return m.mass
+                return m.mass + sum(e.node_mass(name) for e in self.elements)
         raise KeyError(name)
+
+    @property
+    def node_names(self) -> tuple[str, ...]:
+        """Every mass node of the model, as the results name them: the masses, then each
+        rod's interior nodes ``<rod>[1]`` … (issue 39)."""
+        return (*(m.name for m in self.masses), *(n for e in self.elements for n in e.interior_nodes()))
 
     @property
     def free_masses(self) -> tuple[Mass, ...]:

@@ -119,6 +119,10 @@ def assignments(values: dict[str, Any]) -> list[str]:
             text = "true" if value else "false"
         elif isinstance(value, (int, float)):
             text = repr(value)
+        elif isinstance(value, (list, tuple)):  # e.g. a contact's materials (issue 39)
+            import tomli_w
+
+            text = tomli_w.dumps({"v": list(value)}).split("=", 1)[1].strip()
         else:
             text = '"' + str(value).replace("\\", "\\\\").replace('"', '\\"') + '"'
         out.append(f"{key}={text}")
@@ -185,18 +189,19 @@ def load_machine_text(
     try:
         machine = _Validator(source, Path(base_dir)).machine(doc)
     except MachineFileError as exc:
+        message = _in_file_units(exc.message, text, overrides)
         if exc.key in origin:
-            raise MachineFileError(
-                exc.file, exc.key, f"{exc.message} (value from --set {origin[exc.key]})"
-            ) from None
-        raise
+            message += f" (value from --set {origin[exc.key]})"
+        if message == exc.message:
+            raise
+        raise MachineFileError(exc.file, exc.key, message) from None
     if machine.cam is not None and machine.cam.compensation is not None:  # issue 27
         from camsim.machine.compensation import CompensationError, compensate
 
         try:
             machine = compensate(machine)
         except CompensationError as exc:
-            message = exc.message
+            message = _in_file_units(exc.message, text, overrides)
             if exc.key in origin:
                 message += f" (value from --set {origin[exc.key]})"
             raise MachineFileError(source, exc.key, message) from None
@@ -206,6 +211,18 @@ def load_machine_text(
         header = "".join(f"# --set {a}\n" for a in overrides)
         text = f"# {source} with command-line overrides:\n{header}" + tomli_w.dumps(doc)
     return _replace_text(machine, text, base_dir)
+
+
+def _in_file_units(message: str, text: str, overrides: Sequence[str]) -> str:
+    """An error message with the SI quantities it quotes in the units the file is written in
+    (issue 36: ``roller_radius ... (0.9843 in >= 0.7874 in)`` for an inch file)."""
+    from camsim.display import in_units, option_quantities, written_units
+
+    try:
+        shown = written_units(text, option_quantities(overrides))
+    except Exception:  # noqa: BLE001 - the message as composed rather than no message
+        return message
+    return in_units(message, shown)
 
 
 def apply_override(doc: dict, assignment: str, source: str) -> None:

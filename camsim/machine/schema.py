@@ -29,6 +29,17 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("element", "array of tables", "springs, links and contacts"),
         Param("simulation", "table", "run settings"),
         Param("initial", "table", "initial state of free masses"),
+        Param("material", "array of tables", "materials of the file, by name, for rods and Hertz contacts "
+              "(besides the library; below)"),
+    ),
+    # issue 39: [[material]]
+    "material": (
+        Param("name", "string", "unique; not a library name (`steel`, …; docs/impact.md)", required=True),
+        Param("youngs_modulus", "pressure", "E", required=True, minimum=0.0, strict=True),
+        Param("poisson_ratio", "number", "ν, in [0, 0.5)", required=True, minimum=0.0),
+        Param("density", "density", "ρ (a rod needs it)", minimum=0.0, strict=True),
+        Param("yield_strength", "pressure", "the stress contact pressures and rod stresses are reported against "
+              "(none: no check)", minimum=0.0, strict=True),
     ),
     "machine": (
         Param("name", "string", "non-empty; stored in result files", required=True),
@@ -98,7 +109,8 @@ TABLES: dict[str, tuple[Param, ...]] = {
     ),
     "mass": (
         Param("name", "string", "unique, non-empty, not `ground` or `cam`", required=True),
-        Param("mass", "mass", "> 0", required=True),
+        Param("mass", "mass", "> 0; `\"0 kg\"` for a node that only holds a rod end (the rod gives it m/(2N))",
+              required=True),
     ),
     "simulation": (
         Param("cycles", "integer", "≥ 1; recorded revolutions", default=1),
@@ -176,7 +188,7 @@ def key_unit(key: str) -> str:
 _SHOWN = {
     "stiffness": "force/length", "damping": "N·s/m", "number": "number", "bool": "boolean", "nodes": "[node, node]",
     "power_coefficient": "force/length^a", "angular_speed": "angular speed", "mass name": "mass name",
-    "slowness": "time/length (s/m)",
+    "slowness": "time/length (s/m)", "material": "material name", "materials": "[material, material]",
 }
 
 

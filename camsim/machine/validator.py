@@ -36,6 +36,7 @@ from camsim.machine.description import (
     Segment,
     Simulation,
 )
+from camsim.machine.materials import MaterialKeys
 from camsim.units import QuantityError, to_si, ureg
 
 # --------------------------------------------------------------------------------------
@@ -115,12 +116,13 @@ def _angle_to_si(value: Any) -> float:
     return to_si(value, "angle", bare_unit="deg")
 
 
-class _Validator:
+class _Validator(MaterialKeys):
     """Walk a parsed document and build the Machine, raising on the first problem."""
 
     def __init__(self, source: str, base_dir: Path):
         self.source = source
         self.base_dir = base_dir
+        self.materials: dict = {}  # the file's [[material]] tables (issue 39)
 
     # -- helpers ------------------------------------------------------------------
     def error(self, path: str, message: str) -> MachineFileError:
@@ -268,6 +270,7 @@ class _Validator:
             raise self.error("machine.name", "must not be empty")
         self.string(head, "description", "machine")
 
+        self.materials = self.material_tables(doc)  # issue 39: [[material]]
         masses = self.masses(doc)
         mass_names = [m.name for m in masses]
         cam_table = self.table(doc, "cam", "cam")
@@ -276,6 +279,7 @@ class _Validator:
         simulation = self.simulation(doc, cam)
         initial = self.initial(doc, mass_names, cam)
         self.connectivity(masses, elements, cam)
+        elements = self.distributed(elements, masses, cam, simulation, initial)  # issue 39: rods
         return Machine(
             name=name,
             cam=cam,
@@ -318,7 +322,7 @@ class _Validator:
         if "geometry" in table:  # issue 14: [cam.geometry]
             from camsim.cam.arrangement import parse_geometry
 
-            geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm)
+            geometry = parse_geometry(table["geometry"], self.source, cam_arm=arm, materials=self.materials)
         compensation = None
         if "compensation" in table:  # issue 27
             compensation = self.compensation(table["compensation"], speed, drives, mass_names)
@@ -617,8 +621,10 @@ class _Validator:
                 raise self.error(f"{path}.name", f'"{name}" is a reserved node name (ground, cam)')
             if any(m.name == name for m in result):
                 raise self.error(f"{path}.name", f'duplicate mass name "{name}"')
-            mass = self.quantity(row, "mass", path, "mass", required=True, minimum=0.0, strict=True,
-                                 example='"1.6388 lb"')
+            # 0 kg is allowed for a node that only holds a rod end (checked in distributed())
+            mass = self.quantity(row, "mass", path, "mass", required=True, example='"1.6388 lb"')
+            if not mass >= 0.0:
+                raise self.error(f"{path}.mass", f"must be greater than 0, got {_fmt(row['mass'])}")
             result.append(Mass(name=name, mass=mass))
         return result
 
@@ -683,6 +689,14 @@ class _Validator:
         if p.dimension == "choice":
             value = self.choice(row, p.key, path, p.choices, required=p.required)
             return p.default if value is None else value
+        if p.dimension == "integer":
+            if p.key not in row:
+                if p.required:
+                    raise self.error(f"{path}.{p.key}", "missing required key (a whole number)")
+                return p.default
+            return self.integer(row, p.key, path, p.default, int(p.minimum or 0))
+        if p.dimension in ("material", "materials"):  # issue 39
+            return self.material_value(row, p, path)
         dimension = f"power_coefficient:{values['exponent']!r}" if p.dimension == "power_coefficient" else p.dimension
         return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
                              strict=p.strict, example=p.example)

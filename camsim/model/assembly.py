@@ -91,6 +91,11 @@ class Model:
     """
 
     def __init__(self, machine: Machine, *, no_impact: bool = False):
+        from camsim.model.rods import expand
+
+        # issue 39: rods become lumped masses and springs here; the model (and the engine
+        # under it) works on the expanded machine, results are named after the machine
+        machine, self.compounds = expand(machine)
         self.machine = machine
         self.no_impact = no_impact
         self.driven = machine.cam.drives if machine.cam is not None else None
@@ -107,6 +112,8 @@ class Model:
         self.damping = [e.damping_coefficients(lambda e=e: self.reference_mass(e),
                                                lambda e=e: reduced_mass(machine, e)) for e in elements]  # issue 12
         self._configs: dict[tuple[Branch, ...], Configuration] = {}
+        #: compound element name → the indices of its parts in :attr:`elements` (issue 39)
+        self.parts = {name: [i for i, e in enumerate(elements) if e.parent() == name] for name in self.compounds}
 
     # ------------------------------------------------------------------ geometry
     def node_coefficients(self, node: str) -> tuple[np.ndarray, float]:

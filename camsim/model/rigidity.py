@@ -135,7 +135,7 @@ def check_not_rigid(model, f_max: float, samples_per_period: int) -> None:
         raise InputError(f"{source}: highest natural frequency {f_max:.3g} Hz is numerically rigid "
                          f"(above {limit:.3g} Hz): lower the stiffnesses or use rigid contacts")
     element = next(e for e in model.elements if e.name == culprit.element)
-    where = f"element.{culprit.element}.{culprit.key}"
+    where = "element.{}.{}".format(*element.reported_as(culprit.key))  # a rod's segment: its rod's `segments`
     if culprit.damped:
         why = (f"damping {culprit.damping:.3g} N*s/m on {culprit.mass:.3g} kg has a time constant of "
                f"{1.0 / (2 * math.pi * culprit.frequency):.3g} s")
@@ -147,6 +147,8 @@ def check_not_rigid(model, f_max: float, samples_per_period: int) -> None:
                if element.unilateral
                else "use a lower stiffness, or join the masses into one (a rigid link), or a rigid contact "
                     '(law = "restitution") if it is a contact')
+        if element.parent() is not None:  # issue 39: a rod's segment N·E·A/L on its m/N
+            fix = "use fewer segments (a rod of N segments has its highest mode at N*c/(pi*L))"
     raise InputError(
         f"{source}: {where}: {why}, faster than the engine can resolve (highest natural frequency "
         f"{f_max:.3g} Hz, limit {limit:.3g} Hz: steps of {RIGID_STEP:g} s against events located to "

@@ -16,7 +16,8 @@ from typing import Any
 
 from camsim.errors import ResultFileError
 from camsim.reports import optimize as _optimize  # noqa: F401  (registers the optimize builder)
-from camsim.reports import sections as _sections  # noqa: F401  (registers the run, compare, sweep, study, fit builders)
+from camsim.reports import sections as _sections  # noqa: F401  (registers the run and compare builders)
+from camsim.reports import studies as _studies  # noqa: F401  (registers the sweep, study and fit builders)
 from camsim.reports.page import BUILDERS, Section, Source, render_page, write_page
 
 __all__ = ["build_report", "build_report_from", "sections_for"]
@@ -40,8 +41,18 @@ def sections_for(source: Source) -> list[Section]:
     return BUILDERS[source.kind](source)
 
 
+def _units(units: Any, f) -> Any:
+    """The display units of one file's sections: as given (a DisplayUnits, si, us) or the file's own."""
+    from camsim.display import DisplayUnits
+    from camsim.io.results import file_display_units
+
+    if isinstance(units, DisplayUnits):
+        return units
+    return file_display_units(f, units or "file")
+
+
 def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathLike[str], *, command: str = "",
-                 pdf: str | os.PathLike[str] | None = None, title: str | None = None) -> Path:
+                 pdf: str | os.PathLike[str] | None = None, title: str | None = None, units: Any = None) -> Path:
     """Write the HTML page of one or more result files (and optionally its PDF).
 
     Parameters
@@ -58,6 +69,9 @@ def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathL
         (:func:`camsim.reports.browser.print_pdf`).
     title : str, optional
         Page title (default: the machine name or the file name).
+    units : DisplayUnits or str, optional
+        Units of the values shown: ``"file"`` (default: each result's machine file's own,
+        recorded in the file), ``"si"``, ``"us"``, or a :class:`~camsim.display.DisplayUnits`.
 
     Returns
     -------
@@ -97,7 +111,7 @@ def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathL
             names.append((p, kind, f))
         for i, (p, kind, f) in enumerate(names):
             prefix = f"f{i}-" if len(names) > 1 else ""
-            all_sections += sections_for(Source(p, kind, h5=f, command=command, prefix=prefix))
+            all_sections += sections_for(Source(p, kind, h5=f, command=command, prefix=prefix, units=_units(units, f)))
         if title is None:
             from camsim.io.results import attr_text
 
@@ -116,8 +130,8 @@ def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathL
 
 
 def build_report_from(obj: Any, kind: str, output: str | os.PathLike[str], *, command: str = "",
-                      pdf: str | os.PathLike[str] | None = None, title: str = "") -> Path:
-    """The page of an in-memory result that has no result file (a fit)."""
+                      pdf: str | os.PathLike[str] | None = None, title: str = "", units: Any = None) -> Path:
+    """The page of an in-memory result that has no result file (a fit), values in ``units``."""
     from camsim.io.atomic import check_writable
 
     check_writable(output)
@@ -126,7 +140,7 @@ def build_report_from(obj: Any, kind: str, output: str | os.PathLike[str], *, co
 
         check_writable(pdf)
         find_browser(required=True)
-    text = render_page(sections_for(Source(None, kind, obj=obj, command=command)), title or f"{kind} report")
+    text = render_page(sections_for(Source(None, kind, obj=obj, command=command, units=units)), title or f"{kind} report")
     out = write_page(text, output)
     if pdf is not None:
         from camsim.reports.browser import print_pdf

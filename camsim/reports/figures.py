@@ -61,7 +61,21 @@ def _base(name: str, title: str, x_label: str, y_label: str, x_range=None, heigh
     p.toolbar.active_scroll = tools[1]
     p.toolbar.active_drag = tools[2]
     p.title.text_font_size = "11pt"
+    # The legend sits above the plot, never over the traces: renderers added with a
+    # legend_label join this legend because it exists before they are added.
+    p.add_layout(models.Legend(location="top_left", orientation="horizontal", label_text_font_size="9pt",
+                               click_policy="hide", border_line_alpha=0.0, padding=2, margin=2, spacing=12), "above")
     return p
+
+
+def finish_legend(p) -> None:
+    """Drop the legend of a plot that has no labelled series; wrap a long one into rows."""
+    legends = [r for r in p.above if type(r).__name__ == "Legend"]
+    for legend in legends:
+        if not legend.items:
+            p.above.remove(legend)
+        elif len(legend.items) > 5:
+            legend.ncols = 5
 
 
 def trace_figure(name: str, title: str, y_label: str, series, *, x_range=None, x_label: str = "time [s]",
@@ -100,13 +114,8 @@ def trace_figure(name: str, title: str, y_label: str, series, *, x_range=None, x
             code="return (theta0 + omega * tick).toFixed(1);",
         )
         p.add_layout(models.LinearAxis(axis_label="cam angle [deg]", formatter=formatter), "above")
-    if p.legend:
-        p.legend.click_policy = "hide"
-        p.legend.location = "top_left"
-        p.legend.label_text_font_size = "9pt"
-        p.legend.background_fill_alpha = 0.7
-        if len(series) > 3:
-            p.legend.orientation = "horizontal"
+    if series:  # a plot its caller fills later finishes its legend itself
+        finish_legend(p)
     if note:
         p.add_layout(models.Title(text=note, text_font_size="8pt", text_font_style="italic", text_color="#444444"), "below")
     return p
@@ -129,10 +138,8 @@ def xy_figure(name: str, title: str, x_label: str, y_label: str, series, *, mark
             p.scatter(np.asarray(x, dtype=float), np.asarray(y, dtype=float), legend_label=label, size=6,
                       marker=("circle", "square", "triangle", "diamond", "inverted_triangle", "plus", "star")[i % 7],
                       fill_color=kw["line_color"], line_color=kw["line_color"])
-    if p.legend:
-        p.legend.click_policy = "hide"
-        p.legend.location = "top_left"
-        p.legend.label_text_font_size = "9pt"
+    if series:
+        finish_legend(p)
     return p
 
 

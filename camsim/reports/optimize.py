@@ -7,8 +7,8 @@ the rows of ``/optimize/candidates`` and ``/optimize/front`` and the attributes 
 optimum, the sense of each objective, the constraint limits and the machine file's values.
 A history without that payload still gets a page; the optimum is then picked from the rows
 (the best feasible objective, else the least violation) and the file values are left out.
-Values are shown in the units of the other pages (:func:`camsim.reports.sections.unit_label`),
-speeds in rpm.
+Values are shown in the page's display units (:meth:`camsim.reports.page.Source.unit`, the
+machine file's by default), speeds in rpm and angles in deg unless the file writes them otherwise.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from camsim.reports.figures import PALETTE, xy_figure
+from camsim.reports.figures import PALETTE, finish_legend, xy_figure
 from camsim.reports.page import (
     Plot,
     Section,
@@ -30,7 +30,6 @@ from camsim.reports.page import (
 )
 from camsim.reports.sections import (
     _machine,
-    _shown_param,
     header_section,
     machine_section,
 )
@@ -43,9 +42,10 @@ def _text(value) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
-def _unit(dset, column: str) -> tuple[str, float]:
-    """(unit shown, factor from SI) of a history column: speeds in rpm like the sweep page."""
-    return _shown_param(column, _text(dset.attrs.get(f"units:{column}", "")))
+def _unit(source: Source, dset, column: str) -> tuple[str, float]:
+    """(unit shown, factor from SI) of a history column in the page's display units (speeds in rpm,
+    durations in deg, like the sweep page)."""
+    return source.unit(_text(dset.attrs.get(f"units:{column}", "")))
 
 
 def _best_row(rows: dict, payload: dict, objectives: list[str]) -> int:
@@ -150,7 +150,7 @@ def _verdicts(source, status, rows, best, payload, objectives, dset) -> Section:
     file_values = {v["key"]: v.get("initial") for v in payload.get("variables") or []}
     ref_name = "the machine file's values" if all(start.get(k) == v for k, v in file_values.items()) else "the START values of --var"
     for c, o in zip(objectives, info):
-        unit, scale = _unit(dset, c)
+        unit, scale = _unit(source, dset, c)
         value = float(rows[c][best]) * scale
         detail = (f"{esc(o.get('sense', ''))} <code>{esc(o['expr'])}</code>: <span class=value data-key=objective>{fmt(value)}</span> {esc(unit)} {where}")
         if o.get("initial") is not None:
@@ -173,7 +173,7 @@ def _convergence(source, rows, feasible, best, payload, objectives, dset) -> Sec
     senses = [o.get("sense", "min") for o in payload.get("objectives") or []] + ["min"] * len(objectives)
     order = np.asarray(rows["candidate"], dtype=float)
     for j, c in enumerate(objectives):
-        unit, scale = _unit(dset, c)
+        unit, scale = _unit(source, dset, c)
         y = np.asarray(rows[c], dtype=float) * scale
         # Best so far among the feasible candidates only: an infeasible one is no answer yet.
         ranked = np.where(feasible & np.isfinite(y), y if senses[j] == "min" else -y, np.inf)
@@ -186,9 +186,7 @@ def _convergence(source, rows, feasible, best, payload, objectives, dset) -> Sec
         p.scatter(order[~feasible], y[~feasible], marker="x", size=8, line_color=PALETTE[2], line_width=2, legend_label="infeasible")
         p.step(order, best_so_far, mode="after", line_color=PALETTE[0], line_width=2, legend_label="best feasible so far")
         p.scatter([order[best]], [y[best]], marker="star", size=16, fill_color=PALETTE[5], line_color=PALETTE[0], legend_label="optimum")
-        p.legend.location = "top_right"
-        p.legend.click_policy = "hide"
-        p.legend.background_fill_alpha = 0.7
+        finish_legend(p)
         s.add(Plot(p, f"{c[10:]} [{unit}] of each candidate in evaluation order: feasible as blue circles, infeasible as "
                       "vermillion crosses, the best feasible value so far as a black step line, the optimum as a star."))
     if not objectives:
@@ -204,7 +202,7 @@ def _optimum(source, rows, best, payload, params, dset) -> Section:
         initial[absorb["key"]] = absorb.get("initial")
     body = []
     for c in params:
-        unit, scale = _unit(dset, c)
+        unit, scale = _unit(source, dset, c)
         key = c[6:]
         ref = initial.get(key)
         body.append([f"<span data-key='{esc(key)}'>{esc(key)}</span>" + (" (absorbing)" if key == absorb.get("key") else ""),
@@ -224,7 +222,7 @@ def _constraints(source, rows, best, payload, cons, dset) -> Section:
         label = c[11:]
         # Columns are constraint:<expr>@<speed>rpm (several speeds) or constraint:<expr>.
         expr, _, speed = label.rpartition("@") if label.endswith("rpm") and "@" in label else (label, "", "")
-        unit, scale = _unit(dset, c)
+        unit, scale = _unit(source, dset, c)
         lim = limits.get(expr, {})
         margin = _at(rows, f"g:{label}", best)
         row = [f"<code>{esc(expr)}</code>", esc(speed[:-3]) if speed else "–", _cell(rows[c][best], scale),
@@ -247,7 +245,7 @@ def _front(source, front, rows, feasible, objectives, dset) -> Section:
     objs = [c for c in front.dtype.names if c.startswith("objective:")]
     if len(objs) < 2 or not len(pts[objs[0]]):
         return s.add("<p>The front has fewer than two objectives or no point.</p>")
-    (xu, xs), (yu, ys) = _unit(front, objs[0]), _unit(front, objs[1])
+    (xu, xs), (yu, ys) = _unit(source, front, objs[0]), _unit(source, front, objs[1])
     x, y = np.asarray(pts[objs[0]], dtype=float) * xs, np.asarray(pts[objs[1]], dtype=float) * ys
     order = np.argsort(x)
     p = xy_figure(source.name("optimize-front"), "Pareto front", f"{objs[0][10:]} [{xu}]", f"{objs[1][10:]} [{yu}]",
@@ -259,7 +257,7 @@ def _front(source, front, rows, feasible, objectives, dset) -> Section:
     s.add(Plot(p, f"Pareto front: {objs[1][10:]} [{yu}] against {objs[0][10:]} [{xu}] (line with markers), "
                   "every feasible candidate as grey rings."))
     cols = list(front.dtype.names)
-    units = [_unit(front, c) for c in cols]
+    units = [_unit(source, front, c) for c in cols]
     body = [[_cell(pts[c][i], sc) for c, (_, sc) in zip(cols, units)] for i in order]
     return s.add(table([f"{c} [{u}]" for c, (u, _) in zip(cols, units)], body, id=source.name("front-table"),
                        numeric=[True] * len(cols), caption="Points of the front, by the first objective"))
@@ -267,7 +265,7 @@ def _front(source, front, rows, feasible, objectives, dset) -> Section:
 
 def _candidates(source, rows, names, best, dset) -> Section:
     s = Section(source.name("candidates"), "Candidates")
-    units = [_unit(dset, c) for c in names]
+    units = [_unit(source, dset, c) for c in names]
     n = len(rows[names[0]])
     body = [[_cell(rows[c][i], sc) for c, (_, sc) in zip(names, units)] for i in range(min(n, MAX_CANDIDATE_ROWS))]
     headers = [c if c in ("candidate", "feasible", "status") or u == "-" else f"{c} [{u}]" for c, (u, _) in zip(names, units)]

@@ -80,6 +80,9 @@ class Source:
         The command line that produced the result, when known.
     prefix : str
         Prefix of section ids and model names (several files on one page).
+    units : DisplayUnits
+        The units the page shows values in (issue 36: the result's machine file's own by
+        default, ``--units si|us``); SI when not given.
     """
 
     path: Path | None
@@ -88,9 +91,26 @@ class Source:
     obj: Any = None
     command: str = ""
     prefix: str = ""
+    units: Any = None
 
     def name(self, text: str) -> str:
         return f"{self.prefix}{text}"
+
+    def unit(self, si_unit: str) -> tuple[str, float]:
+        """(unit shown, factor from SI) of a value in ``si_unit``; ``-`` for a number without unit."""
+        from camsim.reports.display import as_display
+
+        unit, scale = as_display(self.units or "si").shown(si_unit)
+        return (unit or "-"), scale
+
+    def quantity(self, value: Any, si_unit: str, spec: str = ".4g") -> str:
+        """``"50.66 lbf"``: a value in the page's units (``–`` for None or NaN)."""
+        unit, scale = self.unit(si_unit)
+        try:
+            v = float(value) * scale
+        except (TypeError, ValueError):
+            return "–"
+        return f"{fmt(v, spec)} {unit}" if unit != "-" else fmt(v, spec)
 
 
 Builder = Callable[[Source], list[Section]]

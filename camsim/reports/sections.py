@@ -4,8 +4,9 @@ Every number shown comes from the result file as written by the run result hub
 (:class:`camsim.run.result.RunResult`): the ``/summary`` scalars, the event table with its
 Johnson bounds and peaks, the traces; the cam design summary comes from
 :meth:`RunResult.design_summary`. Nothing here recomputes a quantity the hub offers.
-Values are shown in the units of camsim's human output (:func:`camsim.reports.display.shown`,
-SI with mm for lengths); every header and axis label carries its unit.
+Values are shown in the page's display units (:meth:`camsim.reports.page.Source.unit`: the
+units of the result's machine file by default, ``--units si|us``); every header and axis label
+carries its unit. The sweep, study and fit pages are in :mod:`camsim.reports.studies`.
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from camsim.reports.display import shown
+from camsim.display import engineering
 from camsim.reports.envelope import DEFAULT_COLUMNS, envelope
-from camsim.reports.figures import PALETTE, bokeh, trace_figure, xy_figure
+from camsim.reports.figures import PALETTE, bokeh, finish_legend, trace_figure, xy_figure
 from camsim.reports.page import Plot, Section, Source, definition_list, esc, fmt, provenance, register, table, verdict
 
 #: Impacts offered at full resolution in the impact detail (largest approach speeds first).
@@ -27,10 +28,15 @@ MAX_DETAIL_IMPACTS = 200
 MAX_EVENT_ROWS = 2000
 
 
-def unit_label(si_unit: str) -> tuple[str, float]:
-    """(unit shown, factor from SI); ``-`` for a number without unit."""
-    unit, scale = shown(si_unit, "si")
-    return (unit or "-"), scale
+def _value(source: Source, value, si_unit: str, key: str = "", spec: str = ".4g") -> str:
+    """A value in the page's units, marked up as the verdict tiles show values."""
+    unit, scale = source.unit(si_unit)
+    try:
+        v = float(value) * scale
+    except (TypeError, ValueError):
+        v = float("nan")
+    data = f" data-key={key}" if key else ""
+    return f"<span class=value{data} data-unit='{esc(unit)}'>{fmt(v, spec)}</span> {esc(unit)}"
 
 
 def _attr(obj, name, default=float("nan")):
@@ -112,16 +118,17 @@ def header_section(source: Source, machine_name: str, extra: list[tuple[str, str
     return s.add(definition_list(provenance(source, machine_name) + list(extra)))
 
 
-def _speed_rpm(machine) -> float:
+def _speed(source: Source, machine) -> str:
+    """The cam speed in the page's units (rpm unless the file writes speeds otherwise)."""
     cam = getattr(machine, "cam", None)
-    return cam.speed * 60.0 / (2.0 * math.pi) if cam is not None else float("nan")
+    return esc(source.quantity(cam.speed, "rad/s", ".6g")) if cam is not None else "–"
 
 
 def verdict_section(source: Source, view: RunView, design: dict | None, title: str = "Verdicts", summary: bool = True) -> Section:
     """Jump, impacts against Johnson's bounds, stress/torque, periodicity: the run's answers."""
     s = Section(source.name("verdicts" + (f"-{view.label}" if view.label else "")), title)
     sm = view.summary
-    rpm = _speed_rpm(view.machine)
+    speed = getattr(getattr(view.machine, "cam", None), "speed", float("nan"))
     tiles = []
     # Jump: the hub's flag; the first jump/release at a cam contact says where.
     cam_contacts = {e.name for e in view.machine.elements if e.unilateral and "cam" in e.nodes}
@@ -130,36 +137,36 @@ def verdict_section(source: Source, view: RunView, design: dict | None, title: s
         for i in range(view.n_events):
             kind, element = view.event(i, "kind"), view.event(i, "element")
             if kind == "jump" or (kind == "release" and element in cam_contacts):
-                where = f" first at cam angle <span class=value data-key=jump_angle>{fmt(view.event(i, 'angle_deg'), '.2f')}</span> deg (t = {fmt(view.event(i, 'time'), '.5f')} s)"
+                where = f" first at cam angle {_value(source, view.event(i, 'angle_deg'), 'deg', 'jump_angle', '.2f')} (t = {fmt(view.event(i, 'time'), '.5f')} s)"
                 break
-        tiles.append(verdict("Follower jump", "fail", f"The follower leaves the cam at {fmt(rpm)} rpm;{where}.", "jump"))
+        tiles.append(verdict("Follower jump", "fail", f"The follower leaves the cam at {_speed(source, view.machine)};{where}.", "jump"))
     else:
         lo = sm.get("min_cam_contact_force", float("nan"))
-        tiles.append(verdict("Follower jump", "ok", f"None at <span class=value data-key=speed_rpm>{fmt(rpm)}</span> rpm; smallest cam contact force "
-                             f"<span class=value data-key=min_cam_contact_force data-unit=N>{fmt(lo)}</span> N.", "jump"))
+        tiles.append(verdict("Follower jump", "ok", f"None at {_value(source, speed, 'rad/s', 'speed_rpm', '.6g')}; smallest cam contact force "
+                             f"{_value(source, lo, 'N', 'min_cam_contact_force')}.", "jump"))
     impacts = view.impact_rows()
     n = int(sm.get("impacts", len(impacts)))
     if n:
         peaks = np.array([float(view.event(i, "peak_force")) for i in impacts]) if impacts else np.zeros(0)
         detail = (f"<span class=value data-key=impacts>{n}</span> impacts; largest approach speed "
-                  f"<span class=value data-key=max_impact_velocity data-unit=m/s>{fmt(sm.get('max_impact_velocity'))}</span> m/s.")
+                  f"{_value(source, sm.get('max_impact_velocity'), 'm/s', 'max_impact_velocity')}.")
         state = "warn"
         if peaks.size and np.any(np.isfinite(peaks)):
             k = impacts[int(np.nanargmax(peaks))]
             lo, hi = float(view.event(k, "johnson_lower")), float(view.event(k, "johnson_upper"))
-            detail += (f" Largest simulated peak <span class=value data-key=largest_peak_force data-unit=N>{fmt(peaks[np.nanargmax(peaks)])}</span> N "
-                       f"({esc(view.event(k, 'element'))}) against Johnson's bounds {fmt(lo)} to {fmt(hi)} N.")
+            f_unit, f_scale = source.unit("N")
+            detail += (f" Largest simulated peak {_value(source, peaks[np.nanargmax(peaks)], 'N', 'largest_peak_force')} "
+                       f"({esc(view.event(k, 'element'))}) against Johnson's bounds {fmt(lo * f_scale)} to {fmt(hi * f_scale)} {esc(f_unit)}.")
         tiles.append(verdict("Impacts", state, detail, "impacts"))
     else:
         tiles.append(verdict("Impacts", "ok", "<span class=value data-key=impacts>0</span> impacts.", "impacts"))
     if design is not None:
-        stress_unit, stress_scale = "MPa", 1e-6
         pa, limit = design.get("max_pressure_angle"), design.get("pressure_angle_limit")
         state = "fail" if (pa is not None and limit is not None and pa > limit) else "ok"
         tiles.append(verdict("Cam stress and torque", state,
-                             f"Peak Hertz stress <span class=value data-key=peak_hertz_stress data-unit={stress_unit}>{fmt((design.get('peak_hertz_stress') or float('nan')) * stress_scale)}</span> {stress_unit} "
+                             f"Peak Hertz stress {_value(source, design.get('peak_hertz_stress'), 'Pa', 'peak_hertz_stress')} "
                              "(no allowable stress in the machine file); peak torque "
-                             f"<span class=value data-key=peak_torque data-unit=N·m>{fmt(design.get('peak_torque'))}</span> N·m; "
+                             f"{_value(source, design.get('peak_torque'), 'N*m', 'peak_torque')}; "
                              f"pressure angle {fmt(pa)} deg against the limit {fmt(limit)} deg.", "design"))
     res = sm.get("periodicity_residual", float("nan"))
     state = "info" if not np.isfinite(res) else ("ok" if res < 1e-3 else "warn")
@@ -174,7 +181,7 @@ def verdict_section(source: Source, view: RunView, design: dict | None, title: s
     for name, value in sm.items():
         if name in ("recorded", "record_last"):
             continue
-        unit, scale = unit_label(str(view.summary_units.get(name, "")))
+        unit, scale = source.unit(str(view.summary_units.get(name, "")))
         shown_value = fmt(value) if isinstance(value, (bool, np.bool_)) or name == "impacts" else fmt(float(value) * scale)
         rows.append([f"<span data-key='{esc(name)}'>{esc(name)}</span>", shown_value, esc(unit)])
     s.add(table(["quantity", "value", "unit"], rows, cls="summary", id=source.name("summary-table" + (f"-{view.label}" if view.label else "")),
@@ -194,7 +201,7 @@ def event_section(source: Source, view: RunView, detail_names: dict[int, int] | 
     s = Section(source.name("events" + (f"-{view.label}" if view.label else "")), title)
     if not view.n_events:
         return s.add("<p>No events in the recorded window.</p>")
-    headers = [f"{h} [{u}]" if u else h for _, h, u, _ in EVENT_COLUMNS]
+    headers = [f"{h} [{source.unit(u)[0] if u != 'ms' else u}]" if u else h for _, h, u, _ in EVENT_COLUMNS]
     numeric = [u is not None for _, _, u, _ in EVENT_COLUMNS]
     rows = []
     detail_names = detail_names or {}
@@ -205,7 +212,7 @@ def event_section(source: Source, view: RunView, detail_names: dict[int, int] | 
             if unit is None:
                 row.append(esc(v))
             else:
-                v = float(v) * (1e3 if unit == "ms" else 1.0)
+                v = float(v) * (1e3 if unit == "ms" else source.unit(unit)[1])
                 row.append(fmt(abs(v) if col == "relative_velocity" else v, spec))
         if i in detail_names:
             sel = source.name("impact-select")
@@ -259,7 +266,7 @@ def trace_section(source: Source, views: list[RunView], x_range=None, title: str
              "shows any impact at full resolution." if n > 2 * DEFAULT_COLUMNS else ".") + "</p>")
     for title_, q, members in groups:
         unit_si = main.units(members[0])
-        unit, scale = unit_label(unit_si)
+        unit, scale = source.unit(unit_si)
         series = []
         reduced = False
         for view in views:
@@ -271,7 +278,8 @@ def trace_section(source: Source, views: list[RunView], x_range=None, title: str
                 reduced |= r
                 label = _series_label(path) + (f" ({view.label})" if len(views) > 1 else "")
                 series.append((label, x, yy))
-        note = (f"min/max envelope per screen column of {n} samples: peaks are never lost" if reduced else "")
+        note = (f"{n} samples per trace, drawn as their min/max envelope over {DEFAULT_COLUMNS} screen columns: "
+                "peaks are never lost" if reduced else "")
         name = source.name(f"trace-{q}")
         quantity = q if q in ("displacement", "velocity", "acceleration") else "force"
         p = trace_figure(name, title_, f"{quantity} [{unit}]", series, x_range=x_range, angle_axis=main.angle_axis(),
@@ -295,8 +303,8 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     chosen = sorted(rows[k] for k in order)
     dt = float(view.time[1] - view.time[0])
     cols = {"t": [], "force": [], "acc_a": [], "acc_b": []}
-    offsets, labels, names = [0], [], {}
-    a_unit, a_scale = unit_label("m/s^2")
+    offsets, labels, names, partners = [0], [], {}, []
+    a_unit, a_scale = source.unit("m/s^2")
     for j, i in enumerate(chosen):
         t_i, element = float(view.event(i, "time")), str(view.event(i, "element"))
         duration = float(view.event(i, "contact_duration"))
@@ -310,24 +318,22 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
         force_ds = view.traces.get(f"elements/{element}/force")
         cols["force"].append(force_ds[k0:k1] if force_ds is not None else np.full(t.size, np.nan))
         masses = [m for m in str(view.event(i, "masses")).split("/") if m and m != "ground"]
+        partners.append([m or "–" for m in (masses + [None, None])[:2]])
         for key, m in zip(("acc_a", "acc_b"), masses + [None, None]):
             ds = view.traces.get(f"masses/{m}/acceleration") if m else None
             cols[key].append(ds[k0:k1] * a_scale if ds is not None else np.full(t.size, np.nan))
         offsets.append(offsets[-1] + t.size)
-        labels.append((str(j), f"t = {t_i:.5f} s, {element} ({view.event(i, 'masses')}), approach {abs(float(view.event(i, 'relative_velocity'))):.4g} m/s"))
+        labels.append((str(j), f"t = {t_i:.5f} s, {element} ({view.event(i, 'masses')}), approach "
+                               f"{source.quantity(abs(float(view.event(i, 'relative_velocity'))), 'm/s')}"))
         names[i] = j
     every = {k: np.concatenate(v).astype(float) for k, v in cols.items()}
     everything = models.ColumnDataSource(every)
     first = {k: v[offsets[0]:offsets[1]] for k, v in every.items()}
     shown_src = models.ColumnDataSource(first)
     sel = models.Select(title="Impact shown at full resolution", value="0", options=labels, name=source.name("impact-select"))
-    sel.js_on_change("value", models.CustomJS(args={"all": everything, "shown": shown_src, "offsets": offsets}, code="""
-        const k = parseInt(cb_obj.value), a = offsets[k], b = offsets[k + 1], d = {};
-        for (const c of Object.keys(all.data)) d[c] = all.data[c].slice(a, b);
-        shown.data = d;
-    """))
+    legend_items = []
     plotting, _ = bokeh()
-    f_unit, _ = unit_label("N")
+    f_unit, _ = source.unit("N")
     figures, x_range = [], None
     if has_force:
         pf = trace_figure(source.name("impact-detail-force"), "Impacting element force (full resolution)", f"force [{f_unit}]", [])
@@ -337,11 +343,22 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     if has_acc:
         pa = trace_figure(source.name("impact-detail-acceleration"), "Accelerations of the impacting masses (full resolution)",
                           f"acceleration [{a_unit}]", [], x_range=x_range)
-        pa.line("t", "acc_a", source=shown_src, legend_label="first mass", line_width=1.6, line_color=PALETTE[1])
-        pa.line("t", "acc_b", source=shown_src, legend_label="second mass", line_width=1.6, line_color=PALETTE[2], line_dash="dashed")
+        # The legend names the masses of the impact shown (M2, M3), updated with the choice.
+        pa.line("t", "acc_a", source=shown_src, legend_label=partners[0][0], line_width=1.6, line_color=PALETTE[1])
+        pa.line("t", "acc_b", source=shown_src, legend_label=partners[0][1], line_width=1.6, line_color=PALETTE[2],
+                line_dash="dashed")
+        legend_items = list(pa.legend[0].items)
         figures.append(pa)
     for p in figures:
-        p.legend.location = "top_right"
+        finish_legend(p)
+    sel.js_on_change("value", models.CustomJS(
+        args={"all": everything, "shown": shown_src, "offsets": offsets, "items": legend_items, "partners": partners},
+        code="""
+        const k = parseInt(cb_obj.value), a = offsets[k], b = offsets[k + 1], d = {};
+        for (const c of Object.keys(all.data)) d[c] = all.data[c].slice(a, b);
+        shown.data = d;
+        for (let j = 0; j < items.length; j++) items[j].label = {value: partners[k][j]};
+    """))
     from bokeh.layouts import column
 
     s = Section(source.name("detail"), "Impact detail (full resolution)")
@@ -349,9 +366,13 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     s.add(f"<p class=note>Every sample around the chosen impact, {dt * 1e6:.3g} µs apart (no envelope).{note} "
           "Choose an impact in the list or with the detail button of the event table.</p>")
     box = column(sel, *figures, sizing_mode="stretch_width", name=source.name("impact-detail"))
-    s.add(Plot(box, "The force of the impacting element [N] and the accelerations of the masses it joins [m/s²] "
+    s.add(Plot(box, f"The force of the impacting element [{f_unit}] and the accelerations of the masses it joins [{a_unit}] "
                     "against time [s], every sample around the chosen impact."))
     return s, names
+
+
+#: The short axis labels of the SVAJ panels.
+SVAJ_SYMBOL = {"displacement": "s", "velocity": "v", "acceleration": "a", "jerk": "j"}
 
 
 def cam_section(source: Source, view: RunView) -> Section | None:
@@ -366,24 +387,27 @@ def cam_section(source: Source, view: RunView) -> Section | None:
         y = view.data(f"cam/{q}")
         if y is None:
             continue
-        unit, scale = unit_label(unit_si)
+        unit, scale = source.unit(unit_si)
         x, yy, _ = envelope(angle[one], y[one] * scale)
-        p = xy_figure(source.name(f"svaj-{q}"), f"Cam {q} (model axis)", "cam angle [deg]", f"{q} [{unit}]", [(q, x, yy)],
+        # A short label (s, v, a, j; the title names the quantity): a low plot, lower still on
+        # paper, never cuts it ("displacem").
+        p = xy_figure(source.name(f"svaj-{q}"), f"Cam {q} (model axis)", "cam angle [deg]", f"{SVAJ_SYMBOL[q]} [{unit}]", [(q, x, yy)],
                       height=190, x_range=x_range)
         x_range = p.x_range
         p.legend.visible = False
         s.add(Plot(p, f"Cam {q} [{unit}] against cam angle [deg] over one revolution."))
     surface, pitch = view.traces.get("cam/surface"), view.traces.get("cam/pitch_curve")
+    length, length_scale = source.unit("m")
     if surface is not None:
         curves = []
         for label, ds in (("cam surface", surface), ("pitch curve", pitch)):
             if ds is None:
                 continue
-            xy = ds[()][one] * 1e3
+            xy = ds[()][one] * length_scale
             idx = np.unique(np.concatenate([np.linspace(0, xy.shape[0] - 1, 1500).astype(int)]))
             curves.append((label, xy[idx, 0], xy[idx, 1]))
-        p = xy_figure(source.name("cam-profile"), "Cam drawn to scale (cam frame)", "x [mm]", "y [mm]", curves, equal=True)
-        s.add(Plot(p, "The cam surface and the pitch curve in the cam frame, x and y in mm, equal scales."))
+        p = xy_figure(source.name("cam-profile"), "Cam drawn to scale (cam frame)", f"x [{length}]", f"y [{length}]", curves, equal=True)
+        s.add(Plot(p, f"The cam surface and the pitch curve in the cam frame, x and y in {length}, equal scales."))
     return s
 
 
@@ -413,7 +437,7 @@ def run_sections(source: Source) -> list[Section]:
     machine = _machine(f, source.path)
     view = RunView(source, f, machine)
     recorded = json.loads(_attr(f["summary"], "recorded", "[]")) if "summary" in f else []
-    extra = [("sample rate", f"{fmt(_attr(f, 'sample_rate'))} Hz"), ("speed", f"{fmt(_speed_rpm(machine))} rpm"),
+    extra = [("sample rate", esc(engineering(float(_attr(f, 'sample_rate')), "Hz"))), ("speed", _speed(source, machine)),
              ("variant", "no-impact" if _attr(f, "no_impact", False) else "with impact"),
              ("traces stored", f"{len(view.traces) - 1} of {len(recorded) - 1 if recorded else len(view.traces) - 1}")]
     out = [header_section(source, machine.name, extra), verdict_section(source, view, _design(source, view))]
@@ -439,7 +463,7 @@ def compare_sections(source: Source) -> list[Section]:
     machine = _machine(f, source.path)
     imp = RunView(source, f["impact"], machine, "impact")
     non = RunView(source, f["no_impact"], machine, "no impact")
-    out = [header_section(source, machine.name, [("speed", f"{fmt(_speed_rpm(machine))} rpm")])]
+    out = [header_section(source, machine.name, [("speed", _speed(source, machine))])]
     # The difference table: each summary scalar of both runs and the change.
     s = Section(source.name("difference"), "Impact against no impact")
     rows = []
@@ -447,7 +471,7 @@ def compare_sections(source: Source) -> list[Section]:
         if name in ("recorded", "record_last") or name not in non.summary:
             continue
         b = non.summary[name]
-        unit, scale = unit_label(str(imp.summary_units.get(name, "")))
+        unit, scale = source.unit(str(imp.summary_units.get(name, "")))
         if isinstance(a, (bool, np.bool_)) or name in ("impacts", "jump"):
             rows.append([esc(name), fmt(a), fmt(b), "–", esc(unit)])
             continue
@@ -479,263 +503,3 @@ def compare_sections(source: Source) -> list[Section]:
         out.append(ds)
     out.append(machine_section(source, attr_text(f, "machine_toml")))
     return out
-
-
-# ---------------------------------------------------------------------- sweep
-def _column_unit(dset, name: str) -> str:
-    from camsim.io.results import attr_text
-
-    return attr_text(dset, f"units:{name}")
-
-
-def _shown_param(name: str, si_unit: str) -> tuple[str, float]:
-    """A varied key as shown: speeds in rpm (as the sweep is written on the command line)."""
-    if si_unit == "rad/s":
-        return "rpm", 60.0 / (2.0 * math.pi)
-    return unit_label(si_unit)
-
-
-def _quantity_groups(columns: list[str]) -> dict[str, list[str]]:
-    """Output columns grouped by quantity: ``peak_acceleration:M1``.. under ``peak_acceleration``."""
-    groups: dict[str, list[str]] = {}
-    for c in columns:
-        groups.setdefault(c.split(":")[0], []).append(c)
-    return groups
-
-
-@register("sweep")
-def sweep_sections(source: Source) -> list[Section]:
-    from camsim.io.hdf5 import read_table
-    from camsim.io.results import attr_text
-
-    _, models = bokeh()
-    f = source.h5
-    machine = _machine(f, source.path)
-    g = f["sweep"]
-    dset = g["summary"]
-    rows = read_table(dset)
-    names = list(dset.dtype.names)
-    varied = [str(k.decode() if isinstance(k, bytes) else k) for k in g.attrs.get("varied_keys", [])]
-    params = [f"param:{k}" for k in varied if f"param:{k}" in names]
-    outputs = [c for c in names if not c.startswith("param:") and c != "status" and np.asarray(rows[c]).dtype.kind in "fiub"]
-    onset, first = float(dset.attrs.get("jump_onset_rpm", np.nan)), float(dset.attrs.get("first_jump_rpm", np.nan))
-    extra = [("varied", esc(", ".join(varied))), ("points", str(len(rows[names[0]]) if names else 0)),
-             ("interrupted", "yes" if bool(g.attrs.get("interrupted", False)) else "no")]
-    out = [header_section(source, machine.name, extra)]
-    s = Section(source.name("verdicts"), "Verdicts")
-    if np.isfinite(first):
-        detail = (f"The follower first leaves the cam at <span class=value data-key=first_jump_rpm>{fmt(first)}</span> rpm"
-                  + (f"; jump onset (bracketed) <span class=value data-key=jump_onset_rpm>{fmt(onset)}</span> rpm." if np.isfinite(onset) else "."))
-        tile = verdict("Follower jump", "fail", detail, "jump")
-    else:
-        tile = verdict("Follower jump", "ok", "No point of the sweep jumps.", "jump")
-    s.add('<div class="verdicts">' + tile + "</div>")
-    out.append(s)
-    # Plots: every output column against the first varied key (series: the other keys' values).
-    p_sec = Section(source.name("columns"), "Every column against the varied key")
-    if params:
-        x_name = params[0]
-        x_unit, x_scale = _shown_param(x_name, _column_unit(dset, x_name))
-        x = np.asarray(rows[x_name], dtype=float) * x_scale
-        others = params[1:]
-        combos = sorted({tuple(float(rows[o][i]) for o in others) for i in range(x.size)}) if others else [()]
-        x_range = None
-        for base, cols in _quantity_groups(outputs).items():
-            unit, scale = unit_label(_column_unit(dset, cols[0]))
-            series = []
-            for c in cols:
-                y = np.asarray(rows[c], dtype=float) * scale
-                for combo in combos[: len(PALETTE)]:
-                    mask = np.ones(x.size, bool)
-                    for o, v in zip(others, combo):
-                        mask &= np.asarray(rows[o], dtype=float) == v
-                    order = np.argsort(x[mask])
-                    label = (c.split(":")[1] if ":" in c else base) + ("".join(f", {o[6:]}={v:.4g}" for o, v in zip(others, combo)))
-                    series.append((label, x[mask][order], y[mask][order]))
-            p = xy_figure(source.name(f"sweep-{base}"), base.replace("_", " "), f"{x_name[6:]} [{x_unit}]", f"{base} [{unit}]",
-                          series, markers=True, height=260, x_range=x_range)
-            x_range = p.x_range
-            if x_name == "param:cam.speed":
-                for value, label in ((onset, "jump onset"), (first, "first jump")):
-                    if np.isfinite(value):
-                        p.add_layout(models.Span(location=value, dimension="height", line_color=PALETTE[2], line_dash="dashed", line_width=2))
-                        p.add_layout(models.Label(x=value, y=5, y_units="screen", text=label, text_font_size="9pt", x_offset=3))
-            p_sec.add(Plot(p, f"{base} [{unit}] against {x_name[6:]} [{x_unit}]" + (", jump onset marked" if np.isfinite(first) else "") + "."))
-    out.append(p_sec)
-    t_sec = Section(source.name("table"), "Sweep table")
-    headers, units = [], []
-    for c in names:
-        u, sc = _shown_param(c, _column_unit(dset, c)) if c.startswith("param:") else unit_label(_column_unit(dset, c))
-        headers.append(f"{c} [{u}]" if c != "status" else c)
-        units.append(sc)
-    body = []
-    for i in range(len(rows[names[0]])):
-        row = []
-        for c, sc in zip(names, units):
-            v = rows[c][i]
-            if isinstance(v, (bytes, str)):
-                row.append(esc(v.decode() if isinstance(v, bytes) else v))
-            elif np.asarray(v).dtype.kind == "b" or c in ("impacts", "jump"):
-                row.append(fmt(bool(v)) if np.asarray(v).dtype.kind == "b" else fmt(v))
-            else:
-                row.append(fmt(float(v) * sc))
-        body.append(row)
-    t_sec.add(table(headers, body, cls="sweep", id=source.name("sweep-table"), numeric=[c != "status" for c in names],
-                    caption="One row per point of the sweep"))
-    out.append(t_sec)
-    out.append(machine_section(source, attr_text(f, "machine_toml")))
-    return out
-
-
-# ---------------------------------------------------------------------- study
-@register("study")
-def study_sections(source: Source) -> list[Section]:
-    from camsim.io.hdf5 import read_table
-    from camsim.io.results import attr_text
-    from camsim.analyses.study.statistics import parse_limit
-
-    f = source.h5
-    machine = _machine(f, source.path)
-    g = f["study"]
-    payload = json.loads(attr_text(g, "summary_json", "{}"))
-    dset = g["rows"]
-    rows = read_table(dset)
-    units = {c: _column_unit(dset, c) for c in dset.dtype.names}
-    texts = lambda key: [str(v.decode() if isinstance(v, bytes) else v) for v in g.attrs.get(key, []) if str(v.decode() if isinstance(v, bytes) else v)]  # noqa: E731
-    extra = [("distributions", "<br>".join(esc(d) for d in texts("dist"))), ("method", esc(attr_text(g, "method"))),
-             ("samples / runs", f"{payload.get('n_samples')} / {payload.get('n_runs')}"), ("seed", esc(payload.get("seed"))),
-             ("failed runs", esc(payload.get("failed", 0)))]
-    out = [header_section(source, machine.name, extra)]
-    # Probabilities of crossing the limits, with their Clopper–Pearson intervals.
-    s = Section(source.name("limits"), "Limits: probability of crossing")
-    lim_rows = []
-    for lim in payload.get("limits", []):
-        lo, hi = lim["ci95"]
-        lim_rows.append([esc(lim["expr"]), fmt(lim["crossed"]), fmt(lim["n"]), fmt(100 * lim["probability"]),
-                         f"{fmt(100 * lo)} to {fmt(100 * hi)}", fmt(lim["per_million"])])
-    s.add(table(["limit", "runs crossing [-]", "runs [-]", "probability [%]", "95 % interval [%]", "per million machines [-]"],
-                lim_rows, id=source.name("limits-table"), numeric=[False, True, True, True, False, True],
-                caption="Probability of crossing each limit (Clopper–Pearson 95 % interval)") if lim_rows else "<p>No --limit given.</p>")
-    out.append(s)
-    # Statistics of every output.
-    st = Section(source.name("statistics"), "Statistics of the outputs")
-    stat_rows = []
-    for name, o in payload.get("outputs", {}).items():
-        unit, scale = unit_label(units.get(name, ""))
-        ci = o.get("ci95", {}).get("mean", [None, None])
-        p = o.get("percentiles", {})
-        sc = lambda v: None if v is None else float(v) * scale  # noqa: E731
-        stat_rows.append([esc(name), esc(unit), fmt(sc(o.get("mean"))), f"{fmt(sc(ci[0]))} to {fmt(sc(ci[1]))}", fmt(sc(o.get("std"))),
-                          fmt(sc(p.get("5"))), fmt(sc(p.get("50"))), fmt(sc(p.get("95"))), fmt(sc(o.get("min"))), fmt(sc(o.get("max")))])
-    st.add(table(["output", "unit", "mean", "mean 95 % interval", "std", "p5", "p50", "p95", "min", "max"], stat_rows,
-                 id=source.name("statistics-table"), numeric=[False, False] + [True] * 8,
-                 caption="Each value in the output's unit (column 2); intervals by bootstrap"))
-    out.append(st)
-    # Histograms with the limits drawn.
-    from camsim.reports.figures import bar_figure, histogram_figure
-
-    h = Section(source.name("histograms"), "Histograms with limits")
-    limits = []
-    for text in texts("limit"):
-        try:
-            limits.append(parse_limit(text, units))
-        except Exception:  # noqa: BLE001 - a limit the page cannot draw is still in the table
-            continue
-    for name, o in payload.get("outputs", {}).items():
-        if not o.get("std"):
-            continue
-        unit, scale = unit_label(units.get(name, ""))
-        values = np.asarray(rows[name], dtype=float) * scale
-        lims = [(lim.expr, lim.threshold * scale) for lim in limits if lim.quantity == name]
-        p = histogram_figure(source.name(f"hist-{name.replace(':', '-')}"), name, values, f"{name} [{unit}]", lims)
-        h.add(Plot(p, f"Histogram of {name} [{unit}] over the runs" + (f", limits {', '.join(e for e, _ in lims)} drawn" if lims else "") + "."))
-    out.append(h)
-    sens = {k: v for k, v in (payload.get("sensitivity") or {}).items() if v}
-    if sens:
-        b = Section(source.name("sobol"), "Sobol' indices: which tolerance to tighten")
-        keys = sorted({k for v in sens.values() for k in v})
-        groups = {k: [sens[o].get(k, {}).get("total", np.nan) for o in sens] for k in keys}
-        errs = {k: ([sens[o].get(k, {}).get("total_ci95", [np.nan, np.nan])[0] for o in sens],
-                    [sens[o].get(k, {}).get("total_ci95", [np.nan, np.nan])[1] for o in sens]) for k in keys}
-        p = bar_figure(source.name("sobol-total"), "Total Sobol' index of each tolerance per output", list(sens), groups,
-                       "total Sobol' index [-]", errs)
-        b.add(Plot(p, "Bars: total Sobol' index [-] of each toleranced key for each output, with 95 % intervals."))
-        rank = payload.get("ranking") or []
-        if rank:
-            b.add(table(["key", "total index [-]"], [[esc(r["key"]), fmt(r["total"])] for r in rank], id=source.name("ranking-table"),
-                        numeric=[False, True], caption="Ranking (largest total index first)"))
-        out.append(b)
-    out.append(machine_section(source, attr_text(f, "machine_toml")))
-    return out
-
-
-# ---------------------------------------------------------------------- fit
-@register("fit")
-def fit_sections(source: Source) -> list[Section]:
-    """A fit has no result file: ``source.obj`` is ``(FitResult, machine path, machine text)``."""
-    from camsim.reports.figures import image_figure
-
-    _, models = bokeh()
-    result, machine_path, machine_text = source.obj
-    extra = [("machine file", f"<code>{esc(machine_path)}</code>"), ("simulations", fmt(result.n_evaluations)),
-             ("cost", fmt(result.cost, ".6g")), ("solver", esc(result.message))]
-    out = [header_section(source, str(machine_path), extra)]
-    v = Section(source.name("verdicts"), "Verdicts")
-    tiles = [verdict("Convergence", "ok" if result.converged else "fail",
-                     f"{'Converged' if result.converged else 'Not converged'}; residual variance {fmt(result.residual_variance)} "
-                     f"({result.dof} degrees of freedom); Jacobian condition {fmt(result.condition, '.3g')}.", "converged")]
-    for w in result.warnings:
-        tiles.append(verdict("Warning", "warn", esc(w), "warning"))
-    v.add('<div class="verdicts">' + "".join(tiles) + "</div>")
-    out.append(v)
-    p = Section(source.name("parameters"), "Fitted parameters")
-    rows = []
-    for i, key in enumerate(result.keys):
-        lo, hi = result.ci95[i]
-        rows.append([esc(key), esc(result.units[i] or "-"), fmt(result.file_values[i], ".6g"), fmt(result.initial[i], ".6g"),
-                     fmt(result.values[i], ".6g"), fmt(result.stderr[i], ".3g"),
-                     f"{fmt(lo, '.6g')} to {fmt(hi, '.6g')}" if np.isfinite(lo) and np.isfinite(hi) else "not determined"])
-    p.add(table(["parameter", "unit", "file value", "start", "fitted", "std. error", "95 % interval"], rows,
-                id=source.name("parameter-table"), numeric=[False, False, True, True, True, True, False],
-                caption="Values in the parameter's SI unit (column 2)"))
-    if len(result.keys) > 1:
-        fig = image_figure(source.name("correlation"), "Correlation of the fitted parameters", list(result.keys), np.asarray(result.correlation))
-        p.add(Plot(fig, "Correlation matrix of the fitted parameters [-], values written in the cells."))
-    out.append(p)
-    c = Section(source.name("channels"), "Measured against fitted")
-    x_range = None
-    for k, (path, t, measured, fitted) in enumerate(result.channels):
-        unit, scale = unit_label(_trace_unit(path))
-        fig = trace_figure(source.name(f"fit-{k}"), f"{path}: measured and fitted", f"{path.split('/')[-1]} [{unit}]",
-                           [], x_range=x_range)
-        x_range = fig.x_range
-        # Measured first, the fitted line over it (drawn in the order added).
-        fig.scatter(np.asarray(t, dtype=float), np.asarray(measured, dtype=float) * scale, size=3, marker="circle",
-                    fill_alpha=0.0, line_color=PALETTE[5], line_alpha=0.7, legend_label="measured")
-        fig.line(np.asarray(t, dtype=float), np.asarray(fitted, dtype=float) * scale, line_color=PALETTE[0], line_width=1.6,
-                 legend_label="fitted")
-        fig.legend.location = "top_right"
-        res = trace_figure(source.name(f"fit-{k}-residual"), f"{path}: residual (fitted − measured)", f"residual [{unit}]",
-                           [("residual", t, (np.asarray(fitted) - np.asarray(measured)) * scale)], x_range=x_range)
-        res.height = 160
-        rms = result.rms_residual.get(path, float("nan")) * scale
-        c.add(Plot(fig, f"{path} [{unit}] against time [s]: measured (circles) and fitted (line)."),
-              Plot(res, f"Residual of {path} [{unit}] against time [s]; RMS {fmt(rms)} {unit}."))
-    if not result.channels:
-        c.add("<p>No measured trace (targets only).</p>")
-    if result.rms_residual:
-        c.add(table(["channel or target", "RMS residual [SI]", "noise level used [SI]"],
-                    [[esc(k), fmt(r), fmt(result.sigma.get(k, float("nan")))] for k, r in result.rms_residual.items()],
-                    id=source.name("residual-table"), numeric=[False, True, True]))
-    out.append(c)
-    out.append(machine_section(source, machine_text))
-    return out
-
-
-def _trace_unit(path: str) -> str:
-    from camsim.analyses.study.outputs import trace_unit
-
-    try:
-        return trace_unit(path)
-    except Exception:  # noqa: BLE001 - an unknown path is shown in SI without a unit
-        return ""

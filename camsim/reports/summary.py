@@ -1,4 +1,8 @@
-"""Human-readable summaries of runs (rich tables on stderr)."""
+"""Human-readable summaries of runs (rich tables on stderr), in display units.
+
+Every value is shown through :class:`camsim.display.DisplayUnits` (``--units``: the machine
+file's units by default), every header carries its unit.
+"""
 
 from __future__ import annotations
 
@@ -8,17 +12,11 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.reports.display import shown
-from camsim.units import LBF
+from camsim.display import DisplayUnits, in_units
+from camsim.reports.display import as_display
 
-#: SI unit of each mass quantity (printed as camsim.reports.display.shown gives it).
+#: SI unit of each mass quantity (shown in the display units).
 _SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
-
-
-def _lbf(newton: float, system: str = "si") -> str:
-    if system == "us":
-        return f"{newton / LBF:.4g} lbf ({newton:.4g} N)"
-    return f"{newton:.4g} N ({newton / LBF:.4g} lbf)"
 
 
 def _fmt(value, fmt: str = ".4g") -> str:
@@ -33,41 +31,48 @@ def _fmt(value, fmt: str = ".4g") -> str:
 MAX_IMPACT_ROWS = 40
 
 
-def render_run_summary(result, console: Console, system: str = "si", cs: float | None = None) -> None:
+def render_run_summary(result, console: Console, units: DisplayUnits | str | None = None, cs: float | None = None) -> None:
     """Print the summary of a :class:`~camsim.run.result.RunResult` (or a streamed run's summary).
 
     Every column header carries the unit its values are printed in (escaped, so rich
-    does not take ``[mm]`` for markup); ``system`` is ``"si"`` (mm, m/s, N) or ``"us"``
-    (in, in/s, lbf), see :mod:`camsim.reports.display`. ``cs`` is the coefficient of speed
-    fluctuation for the flywheel inertia (machines with ``[cam.geometry]`` only).
+    does not take ``[mm]`` for markup); ``units`` are the display units (default: the
+    machine file's, :attr:`Machine.display_units`; ``"si"``/``"us"`` name the fixed ones).
+    ``cs`` is the coefficient of speed fluctuation for the flywheel inertia (machines with
+    ``[cam.geometry]`` only).
     """
+    system = as_display(units, result.machine)
     summary = result.summary()
     title = f"{result.machine.name}" + (" — no-impact variant" if result.no_impact else "")
     table = Table(title=escape(title), title_justify="left")
     table.add_column("mass")
-    units = {q: shown(u, system) for q, u in _SI_UNITS.items()}
+    units = {q: system.shown(u) for q, u in _SI_UNITS.items()}
     for quantity, (unit, _) in units.items():
         table.add_column(escape(f"peak |{quantity[:5]}.| [{unit}]"), justify="right")
         table.add_column(escape("at t [s]"), justify="right")
+    interior = {n for e in result.machine.elements for n in e.interior_nodes()}  # issue 39: rods
     for name, entry in summary["masses"].items():
+        if name in interior:
+            continue
         row = [escape(name)]
         for quantity, (_, scale) in units.items():
             row += [_fmt(entry[quantity]["peak"] * scale), _fmt(entry[quantity]["time"], ".5f")]
         table.add_row(*row)
     console.print(table)
+    render_rods(summary, console, system)
     if summary["peak_transducer_force"]:
         p = summary["peak_transducer_force"]
-        console.print(f"peak transducer force: {_lbf(p['value'], system)} at t = {p['time']:.5f} s", markup=False)
+        console.print(f"peak transducer force: {system.quantity(p['value'], 'N')} at t = {p['time']:.5f} s", markup=False)
     if summary["max_cam_contact_force"]:
         hi, lo = summary["max_cam_contact_force"], summary["min_cam_contact_force"]
-        console.print(f"cam contact force: max {_lbf(hi['value'], system)} at t = {hi['time']:.5f} s, min {_lbf(lo['value'], system)} at t = {lo['time']:.5f} s", markup=False)
+        console.print(f"cam contact force: max {system.quantity(hi['value'], 'N')} at t = {hi['time']:.5f} s, "
+                      f"min {system.quantity(lo['value'], 'N')} at t = {lo['time']:.5f} s", markup=False)
     impacts = result.impacts()
     if impacts:
         shown_rows = impacts[:MAX_IMPACT_ROWS]
         title = "impacts" if len(impacts) == len(shown_rows) else f"impacts (the first {len(shown_rows)} of {len(impacts)})"
         t = Table(title=escape(title), title_justify="left")
-        v_unit, v_scale = shown("m/s", system)
-        f_unit, f_scale = shown("N", system)
+        v_unit, v_scale = system.shown("m/s")
+        f_unit, f_scale = system.shown("N")
         for col in ("t [s]", "angle [deg]", "element", "masses", f"approach [{v_unit}]", f"Johnson lower [{f_unit}]",
                     f"Johnson upper [{f_unit}]", f"simulated peak [{f_unit}]", "duration [ms]"):
             t.add_column(escape(col), justify="right")
@@ -90,82 +95,113 @@ def render_run_summary(result, console: Console, system: str = "si", cs: float |
         console.print("other events: " + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())))
     if "design" in summary:  # issue 14: cam design checks and dynamic quantities
         design = summary["design"] if cs is None else result.design_summary(cs)
-        render_geometry_checks(design, console)
-        render_design_dynamics(design, console)
+        render_geometry_checks(design, console, units=system)
+        render_design_dynamics(design, console, units=system)
     residual = result.periodicity_residual
     console.print(
         "periodicity residual (state one revolution apart, relative to peak): "
         + ("not computed" if math.isnan(residual) else f"{residual:.3g}")
     )
-    from camsim.reports.display import in_system
-
     for warning in result.warnings:
-        console.print(f"warning: {in_system(warning, system)}", style="yellow", markup=False)
+        console.print(f"warning: {in_units(warning, system)}", style="yellow", markup=False)
 
 
-def _at(value, fmt=".4g", unit="deg") -> str:
-    return "–" if value is None else f"{format(value, fmt)} {unit}"
+def render_rods(summary: dict, console: Console, system: DisplayUnits) -> None:
+    """Rods (discretisation, largest stress and end force) and Hertz contacts against yield (issue 39),
+    in the display units ``system``."""
+    f_unit, f_scale = system.shown("N")
+    s_unit, s_scale = system.shown("Pa")
+    for name, row in summary.get("rods", {}).items():
+        stress, force = row.get("max_stress"), row.get("max_end_force")
+        inner = row["interior_nodes"]
+        text = (f"rod {name}: {row['segments_reason']}; interior nodes {inner[0]} … {inner[-1]} in the file"
+                if inner else f"rod {name}: {row['segments_reason']}")
+        console.print(text, markup=False)
+        if stress is not None:
+            limit = row.get("yield_strength")
+            versus = f" ({100 * stress['value'] / limit:.3g} % of the yield strength)" if limit else ""
+            console.print(f"  largest |axial stress| {stress['value'] * s_scale:.4g} {s_unit} at t = {stress['time']:.6f} s{versus}; "
+                          f"largest end force {force['value'] * f_scale:.4g} {f_unit} at t = {force['time']:.6f} s",
+                          markup=False)
+    rows = summary.get("contact_stress", [])
+    if rows:
+        t = Table(title="contact stress at the largest impact (Hertz)", title_justify="left")
+        for col in ("element", "materials", f"peak force [{f_unit}]", f"peak pressure [{s_unit}]",
+                    f"first yield [{s_unit}]", "ratio"):
+            t.add_column(escape(col), justify="right")
+        for r in rows:
+            t.add_row(escape(r["element"]), escape(" / ".join(r["materials"])), _fmt(r["peak_force"] * f_scale),
+                      _fmt(r["peak_pressure"] * s_scale),
+                      "no yield strength given for these materials" if r["yield_pressure"] is None
+                      else f"{r['yield_pressure'] * s_scale:.4g} ({escape(r['yields_first'])})",
+                      _fmt(r["ratio"], ".3g"))
+        console.print(t)
 
 
-def render_geometry_checks(summary: dict, console: Console, title: str = "cam geometry checks") -> None:
-    """Print the static cam design checks (:func:`camsim.cam.geometry.geometry_summary`)."""
-    table = Table(title=title, title_justify="left")
+def render_geometry_checks(summary: dict, console: Console, title: str = "cam geometry checks",
+                           units: DisplayUnits | str | None = None) -> None:
+    """Print the static cam design checks (:func:`camsim.cam.geometry.geometry_summary`), lengths in ``units``."""
+    system = as_display(units)
+    length, k = system.shown("m")
+    table = Table(title=escape(title), title_justify="left")
     for column in ("check", "value", "unit", "at cam angle [deg]", "limit"):
         table.add_column(escape(column), justify="left" if column == "check" else "right")
     roller = summary["follower"] != "translating-flat"
     if roller:
         table.add_row("max |pressure angle|", _fmt(summary["max_pressure_angle"]), "deg",
                       _fmt(summary["max_pressure_angle_at"], ".5g"), f"{summary['pressure_angle_limit']:.4g}")
-    mm = lambda v: None if v is None else 1e3 * v  # noqa: E731
+    ln = lambda v: None if v is None else k * v  # noqa: E731
     if roller:
-        table.add_row("min convex pitch radius", _fmt(mm(summary["min_pitch_radius"])), "mm",
-                      _fmt(summary["min_pitch_radius_at"], ".5g"), f"> Rr = {1e3 * summary['roller_radius']:.4g}")
+        table.add_row("min convex pitch radius", _fmt(ln(summary["min_pitch_radius"])), length,
+                      _fmt(summary["min_pitch_radius_at"], ".5g"), f"> Rr = {k * summary['roller_radius']:.4g}")
     table.add_row("min convex surface radius" if roller else "min surface radius Rb+s+s''",
-                  _fmt(mm(summary["min_surface_radius"])), "mm",
+                  _fmt(ln(summary["min_surface_radius"])), length,
                   _fmt(summary["min_surface_radius_at"], ".5g"), "> 0")
-    table.add_row("min concave surface radius", _fmt(mm(summary["min_concave_radius"])), "mm",
+    table.add_row("min concave surface radius", _fmt(ln(summary["min_concave_radius"])), length,
                   _fmt(summary["min_concave_radius_at"], ".5g"), "")
     if not roller:
-        table.add_row("face width needed", _fmt(mm(summary["face_width"])), "mm", "", "")
-        table.add_row("contact from axis", f"{1e3 * summary['face_min_contact']:.4g} to {1e3 * summary['face_max_contact']:.4g}",
-                      "mm", "", "")
+        table.add_row("face width needed", _fmt(ln(summary["face_width"])), length, "", "")
+        table.add_row("contact from axis", f"{k * summary['face_min_contact']:.4g} to {k * summary['face_max_contact']:.4g}",
+                      length, "", "")
     console.print(table)
     for warning in summary.get("warnings", ()):
-        console.print(f"warning: {warning}", style="yellow")
+        console.print(f"warning: {in_units(warning, system)}", style="yellow", markup=False)
 
 
-def render_design_dynamics(summary: dict, console: Console) -> None:
-    """Print stress, torque and flywheel figures of :func:`camsim.cam.design.design_summary`."""
+def render_design_dynamics(summary: dict, console: Console, units: DisplayUnits | str | None = None) -> None:
+    """Print stress, torque and flywheel figures of :func:`camsim.cam.design.design_summary` in ``units``."""
+    system = as_display(units)
     table = Table(title="cam design, from the simulated contact force", title_justify="left")
     for column in ("quantity", "value", "unit", "at t [s]"):
         table.add_column(escape(column), justify="left" if column == "quantity" else "right")
-    mpa = None if summary["peak_hertz_stress"] is None else summary["peak_hertz_stress"] / 1e6
     rows = (
         ("peak normal force", summary["peak_normal_force"], "N", None),
-        ("peak Hertz stress", mpa, "MPa", summary["peak_hertz_stress_time"]),
-        ("peak |camshaft torque|", summary["peak_torque"], "N·m", summary["peak_torque_time"]),
-        ("RMS camshaft torque", summary["rms_torque"], "N·m", None),
+        ("peak Hertz stress", summary["peak_hertz_stress"], "Pa", summary["peak_hertz_stress_time"]),
+        ("peak |camshaft torque|", summary["peak_torque"], "N*m", summary["peak_torque_time"]),
+        ("RMS camshaft torque", summary["rms_torque"], "N*m", None),
         ("work per revolution", summary["cycle_work"], "J", None),
         ("energy fluctuation ΔE", summary["energy_fluctuation"], "J", None),
     )
     keys = ("peak_normal_force", "peak_hertz_stress", "peak_torque", "rms_torque", "cycle_work", "energy_fluctuation")
     reasons = summary.get("reasons", {})
     notes = []
-    for key, (name, value, unit, when) in zip(keys, rows):
+    for key, (name, value, si_unit, when) in zip(keys, rows):
+        unit, k = system.shown(si_unit)
         why = reasons.get(key)
         if value is None and why:
             notes.append(f"{name}: {why}")
             table.add_row(name, f"n/a ({len(notes)})", unit, "")
         else:
-            table.add_row(name, _fmt(value), unit, _fmt(when, ".5f") if when is not None else "")
+            table.add_row(name, _fmt(None if value is None else value * k), unit, _fmt(when, ".5f") if when is not None else "")
     if summary.get("cs") is not None:
         value = summary["flywheel_inertia"]
         name = f"flywheel inertia (Cs = {summary['cs']:g})"
+        unit, k = system.shown("kg*m^2")
         if value is None and reasons.get("flywheel_inertia"):
             notes.append(f"{name}: {reasons['flywheel_inertia']}")
-            table.add_row(name, f"n/a ({len(notes)})", "kg·m²", "")
+            table.add_row(name, f"n/a ({len(notes)})", unit, "")
         else:
-            table.add_row(name, _fmt(value), "kg·m²", "")
+            table.add_row(name, _fmt(None if value is None else value * k), unit, "")
     console.print(table)
     for k, note in enumerate(notes, 1):
-        console.print(f"  ({k}) {note}", markup=False)
+        console.print(f"  ({k}) {in_units(note, system)}", markup=False)

@@ -19,6 +19,13 @@ from camsim.run.result import RunResult
 from camsim.run.samples import RunSetup, sample_traces, stretch_samples  # noqa: F401 - also this module's names
 
 
+def after_run_warnings(machine, events) -> list[str]:
+    """Rods that saw impacts too fast for their segments; Hertz contacts past yield (camsim.run.checks)."""
+    from camsim.run.checks import contact_stress_rows, rod_warnings, stress_warnings
+
+    return rod_warnings(machine, events) + stress_warnings(contact_stress_rows(machine, events))
+
+
 def period_end(run: RunSetup, state: State) -> dict | None:
     """The cam force and camshaft torque at the exact state ``state`` (the end of the first
     recorded revolution): ``{"time": t [s, recorded clock], "cam_force": Fc [N], "torque": T
@@ -85,6 +92,7 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     machine, model, warnings = run.machine, run.model, run.warnings
     cam_force = traces["cam_contact_force"]
     events, located = fold_events_and_extremes(run, stretches)
+    warnings += after_run_warnings(machine, events)  # issue 39: rods vs impacts, contacts vs yield
     if cam_force is not None:
         # jump rows are events of the integrator (camsim.engine.watch), located on the
         # exact solution like every other; here only the warning of the located minimum

@@ -117,8 +117,8 @@ def count_traces(machine) -> int:
     n += 5  # cam angle, displacement, velocity, acceleration, jerk
     if machine.cam is not None and machine.cam.drives:
         n += 1  # cam contact force
-    n += 3 * len(machine.masses)
-    n += len(machine.elements)
+    n += 3 * len(machine.node_names)  # a rod's interior nodes too (issue 39)
+    n += sum(len(e.result_quantities) or 1 for e in machine.elements)  # a rod: its ends' forces and stress
     if any(getattr(e, "transducer", False) for e in machine.elements):
         n += 1
     return n

@@ -37,8 +37,13 @@ class Observables:
     def __init__(self, run: RunSetup):
         self.run = run
         model, machine = run.model, run.machine
-        paths = [f"masses/{m.name}/{q}" for m in machine.masses for q in MASS_QUANTITIES]
-        paths += [f"elements/{e.name}/force" for e in model.elements]
+        paths = [f"masses/{name}/{q}" for name in machine.node_names for q in MASS_QUANTITIES]
+        #: the elements of the machine (a rod's segments are parts of it: its traces instead)
+        self.elements = [i for i, e in enumerate(model.elements) if e.parent() is None]
+        paths += [f"elements/{model.elements[i].name}/force" for i in self.elements]
+        self.compound_traces = [(name, q) for name, compound in model.compounds.items()
+                                for q in compound.result_quantities]
+        paths += [f"elements/{name}/{q}" for name, q in self.compound_traces]
         self.has_cam_contact = bool(model.driven)
         if self.has_cam_contact:
             paths.append("cam_contact/force")
@@ -64,8 +69,9 @@ class Observables:
         lam = config.lam(Z, U, fn)
         forces = model.element_forces(branches, x, v, U[:, 0], U[:, 1], lam, config, v_impacts)
         traces = derived_traces(run, x, v, a, U, forces)
-        cols = [traces["masses"][m.name][q] for m in run.machine.masses for q in MASS_QUANTITIES]
-        cols += [forces[:, i] for i in range(len(model.elements))]
+        cols = [traces["masses"][name][q] for name in run.machine.node_names for q in MASS_QUANTITIES]
+        cols += [forces[:, i] for i in self.elements]
+        cols += [traces["element_traces"][name][q] for name, q in self.compound_traces]
         if self.has_cam_contact:
             cols.append(traces["cam_contact_force"])
         if self.transducer:
@@ -85,6 +91,8 @@ def observable_units(path: str) -> str:
         return QUANTITY_UNITS[path.rsplit("/", 1)[1]]
     if path == "camshaft/torque":
         return "N*m"
+    if path.endswith("/max_stress"):
+        return "Pa"
     return "N"
 
 
@@ -122,6 +130,11 @@ class _Window:
         self.event.peak_time = float((top, bottom)[k][1] - t_rec)
 
 
+#: Records held before they are folded into the run's extremes (bounded memory in long
+#: streamed runs; a revolution of the CDTM is about a dozen).
+BUFFER = 256
+
+
 class ExtremesFolder:
     """Folds the stretches' records into the run's located extremes and impact peaks.
 
@@ -137,6 +150,7 @@ class ExtremesFolder:
         n = len(observables.paths)
         self.best: dict[int, list[tuple[float, float] | None]] = {1: [None] * n, -1: [None] * n}
         self.windows: list[_Window] = []
+        self._waiting: list[StretchExtremes] = []
 
     def open_impact(self, event, element, t_close: float) -> None:
         """An impact at ``t_close`` [s, simulation clock] on ``element`` (its row ``event``)."""
@@ -154,17 +168,13 @@ class ExtremesFolder:
                 w.event.contact_duration = t_open - w.t_close
 
     def add(self, record: StretchExtremes | None) -> None:
-        """Fold one stretch's record."""
+        """Fold one stretch's record (the run's extremes once :data:`BUFFER` records are
+        waiting, or at :meth:`finish`; the impact windows at once)."""
         if record is None:
             return
-        for sense in (1, -1):
-            best = self.best[sense]
-            for j in range(len(best)):
-                if best[j] is not None and sense * record.bound(j, sense) <= sense * best[j][0]:
-                    continue
-                value, t = record.extreme(j, sense)
-                if best[j] is None or sense * value > sense * best[j][0]:
-                    best[j] = (value, t)
+        self._waiting.append(record)
+        if len(self._waiting) >= BUFFER:
+            self._fold_waiting()
         still = []
         for w in self.windows:
             w.add(record)
@@ -174,9 +184,28 @@ class ExtremesFolder:
                 still.append(w)
         self.windows = still
 
+    def _fold_waiting(self) -> None:
+        """The waiting records into the run's extremes, per observable the record with the best
+        node value first: its located value then prunes most others by their bounds (in time
+        order, every record would be refined until the best so far is high)."""
+        records, self._waiting = self._waiting, []
+        for sense in (1, -1):
+            best = self.best[sense]
+            for j in range(len(best)):
+                nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
+                for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
+                    r = records[k]
+                    if best[j] is not None and sense * r.bound(j, sense) <= sense * best[j][0]:
+                        continue
+                    value, t = r.extreme(j, sense)
+                    if (best[j] is None or sense * value > sense * best[j][0]
+                            or (value == best[j][0] and t < best[j][1])):
+                        best[j] = (value, t)
+
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);
         windows still open (the contact outlasts the record) are closed at its end."""
+        self._fold_waiting()
         for w in self.windows:
             w.finish(self.t_rec)
         self.windows = []

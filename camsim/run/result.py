@@ -26,6 +26,7 @@ import numpy as np
 from camsim.errors import ResultFileError
 from camsim.elements.events import Event, EventKind, EventTable
 from camsim.machine.description import CAM, Machine
+from camsim.run.checks import contact_stress_rows, rod_rows
 
 #: SI units of the per-mass kinematic quantities.
 QUANTITY_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
@@ -189,6 +190,9 @@ class RunResult:
     #: {"max": Extreme, "min": Extreme}, values SI, times on the recorded clock; None for a
     #: result without them (the extremes then come from the samples).
     located: dict | None = None
+    #: Traces of compound elements, which have no single force: name → {quantity: samples};
+    #: a rod's ``force_lower``, ``force_upper`` [N] and ``max_stress`` [Pa] (issue 39).
+    element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -215,6 +219,10 @@ class RunResult:
             out[f"elements/{element.name}/force"] = Trace(
                 self.elements[element.name], "N", f"force of {element.name} ({sense})"
             )
+        for element in self.machine.elements:  # issue 39: a rod's end forces and largest stress
+            for quantity, data in self.element_traces.get(element.name, {}).items():
+                unit, long_name = element.result_quantities[quantity]
+                out[f"elements/{element.name}/{quantity}"] = Trace(data, unit, f"{long_name} {element.name}")
         if self.cam_contact_force is not None:
             out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
         if self.transducer_force is not None:
@@ -450,7 +458,26 @@ class RunResult:
         design = self.design_summary()  # issue 14: with [cam.geometry]
         if design is not None:
             out["design"] = design
+        rods, stress = self.rod_summary(), contact_stress_rows(self.machine, self.events)  # issue 39
+        if rods:
+            out["rods"] = rods
+        if stress:
+            out["contact_stress"] = stress
         return out
+
+    def rod_summary(self) -> dict[str, dict]:
+        """Each rod's discretisation (:func:`camsim.run.checks.rod_rows`) with its largest
+        stress and end force (``{"value", "time"}``, SI; located, spec §4) (issue 39)."""
+        rows = rod_rows(self.machine)
+        for name, row in rows.items():
+            traces = self.element_traces.get(name, {})
+            stress = self.extreme(f"elements/{name}/max_stress", "max") if "max_stress" in traces else None
+            row["max_stress"] = {"value": stress[0], "time": stress[1]} if stress is not None else None
+            ends = [self.extreme(f"elements/{name}/{k}", "abs") for k in ("force_lower", "force_upper") if k in traces]
+            ends = [e for e in ends if e is not None]
+            top = max(ends, key=lambda e: e[0]) if ends else None
+            row["max_end_force"] = {"value": top[0], "time": top[1]} if top is not None else None
+        return rows
 
     # ------------------------------------------------------------------ views
     def to_pandas(self):
@@ -547,7 +574,10 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                 f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
                 "--summary-only), a RunResult needs them all: read them with h5py, the summary from /summary"
             ) from None
-        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})}
+        elements = {name: g[f"elements/{name}/force"][()] for name in g.get("elements", {})
+                    if "force" in g[f"elements/{name}"]}
+        extra = {name: {q: g[f"elements/{name}/{q}"][()] for q in g[f"elements/{name}"] if q != "force"}
+                 for name in g.get("elements", {})}  # issue 39: a rod's end forces and max_stress
         cam_force = g["cam_contact/force"][()] if "cam_contact/force" in g else None
         transducer = g["transducer/force"][()] if "transducer/force" in g else None
         table = read_events(g) or {}
@@ -565,6 +595,7 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
             boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
+            element_traces={name: q for name, q in extra.items() if q},
         )
 
 

@@ -91,7 +91,7 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
     from camsim.run.result import scalar_columns
 
     scalars = result.scalars()
-    units = dict(scalar_columns([m.name for m in result.machine.masses]))
+    units = dict(scalar_columns(list(result.machine.node_names)))
     g = group.create_group("summary", track_order=True)
     for name, value in scalars.items():
         g.attrs[name] = value

@@ -85,27 +85,31 @@ def stretch_samples(run: RunSetup, st: Stretch):
 def derived_traces(run: RunSetup, x, v, a, u, forces) -> dict:
     """The per-mass, per-element, cam-contact and transducer traces of samples (the part of
     :func:`sample_traces` that the located extremes evaluate too, :mod:`camsim.run.extremes`):
-    ``masses``, ``elements``, ``cam_contact_force``, ``transducer_force``."""
+    ``masses``, ``elements``, ``cam_contact_force``, ``transducer_force``, ``element_traces``."""
     machine, model = run.machine, run.model
     masses: dict[str, dict[str, np.ndarray]] = {}
-    for m in machine.masses:
-        if m.name == model.driven:
-            masses[m.name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
+    for name in machine.node_names:  # the masses, then the rods' interior nodes (issue 39)
+        if name == model.driven:
+            masses[name] = {"displacement": u[:, 0], "velocity": u[:, 1], "acceleration": u[:, 2]}
         else:
-            k = model.index[m.name]
-            masses[m.name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
-    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements)}
+            k = model.index[name]
+            masses[name] = {"displacement": x[:, k], "velocity": v[:, k], "acceleration": a[:, k]}
+    elements = {e.name: forces[:, i] for i, e in enumerate(model.elements) if e.parent() is None}
+    element_traces: dict[str, dict[str, np.ndarray]] = {}
+    for name, compound in model.compounds.items():  # a rod: its end forces and largest stress (1-D each)
+        element_traces[name] = compound.result_traces(forces[:, model.parts[name]])
     cam_force = model.cam_contact_force(forces, u[:, 2])
     transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
-    return {"masses": masses, "elements": elements, "cam_contact_force": cam_force, "transducer_force": transducer}
+    return {"masses": masses, "elements": elements, "cam_contact_force": cam_force, "transducer_force": transducer,
+            "element_traces": element_traces}
 
 
 def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     """The traces of a run (or of a stretch of it) from its samples (element by element,
     so any split of the samples gives the same bits): keyword arguments of
     :class:`RunResult` ``time``, ``cam``, ``masses``, ``elements``,
-    ``cam_contact_force``, ``transducer_force``."""
+    ``cam_contact_force``, ``transducer_force``, ``element_traces``."""
     machine, cam = run.machine, run.cam
     # Cam angle on the recorded time base: θ0 + ω·t, t = 0 at the first recorded cycle.
     angle = np.degrees(cam.angle(time)) if machine.cam is not None else np.zeros_like(time)

@@ -25,6 +25,7 @@ from camsim.model.rigidity import check_cam_resolvable, check_not_rigid
 from camsim.run.assemble import (  # noqa: F401 - also this module's names (tests, camsim.run.stream)
     RunSetup,
     _assemble,
+    after_run_warnings,
     boundaries_deg,
     johnson_annotate,
     negative_cam_force_warning,
@@ -33,6 +34,7 @@ from camsim.run.assemble import (  # noqa: F401 - also this module's names (test
     sample_traces,
     stretch_samples,
 )
+from camsim.run.bounds import physical_bounds
 from camsim.run.extremes import Observables
 from camsim.run.initial import _one_contact_static, initial_state, static_equilibrium  # noqa: F401 - tests
 from camsim.run.result import RunResult
@@ -162,6 +164,7 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     run = replace(run, observables=Observables(run))  # the located extremes' quantities (spec §4)
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)
+    bounds = physical_bounds(model, cam, state, t_end)  # a state beyond them is a divergence (issue 34)
     saved: dict[float, State] = {}
     # The state one revolution apart gives the periodicity residual: the last warm-up cycle
     # against the first recorded one (or the first two recorded cycles without warm-up).
@@ -198,18 +201,19 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     with numerical_failure(machine):
         if t_rec > 0 and h_warm > 1.5 * integrator.h:
             warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
-            state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report)
+            state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report,
+                                           check=bounds.check)
             # the cam contact force's sign where the warm-up ends: the recorded window starts
             # with no jump row the continuous run does not have (issue 25)
             integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
-                                          observe=run.observables, record_to=t_end)
+                                          observe=run.observables, record_to=t_end, check=bounds.check)
             result = _assemble(run, stretches)
             peak = lambda name, quantity: result.extreme(f"masses/{name}/{quantity}", "abs")[0]  # noqa: E731 - located (spec §4)
         else:
             integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
-                           on_stretch=consumer.on_stretch, observe=run.observables, record_to=t_end)
+                           on_stretch=consumer.on_stretch, observe=run.observables, record_to=t_end, check=bounds.check)
             result = consumer.finish()
             peak = result.peak
     if t_period_end is not None and round(t_period_end, 9) in saved:

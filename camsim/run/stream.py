@@ -37,7 +37,7 @@ from threadpoolctl import threadpool_limits
 from camsim.errors import InputError, SimulationError
 from camsim.elements.events import EventTable
 from camsim.run.result import MASS_QUANTITIES, RunResult, scalar_columns
-from camsim.run.assemble import boundaries_deg, negative_cam_force_warning, recorded_event
+from camsim.run.assemble import after_run_warnings, boundaries_deg, negative_cam_force_warning, recorded_event
 from camsim.run.extremes import ExtremesFolder, ingest_event
 from camsim.run.samples import RunSetup, sample_traces, stretch_samples
 from camsim.run.simulation import _simulate
@@ -154,6 +154,7 @@ class StreamedRun:
         self._design = design  # camsim.cam.design.DesignAccumulator with [cam.geometry]
         #: The located extremes (camsim.run.extremes), as RunResult.located.
         self.located = located
+        self.rods: dict[str, dict] = {}  # issue 39: each rod's discretisation and extremes
 
     def design_summary(self, cs: float | None = None) -> dict | None:
         """Cam design checks and dynamic quantities over every revolution (as
@@ -208,6 +209,13 @@ class StreamedRun:
         design = self.design_summary()
         if design is not None:
             out["design"] = design
+        from camsim.run.checks import contact_stress_rows  # issue 39
+
+        stress = contact_stress_rows(self.machine, self.events)
+        if self.rods:
+            out["rods"] = self.rods
+        if stress:
+            out["contact_stress"] = stress
         return out
 
     def open(self) -> RunResult:
@@ -252,6 +260,7 @@ class StreamAssembler:
         self._scalars: dict[str, Any] = {}
         self._jump_samples = False
         self._cam_min: tuple[float, float] | None = None
+        self._rods: dict[str, dict] = {}
 
     # ------------------------------------------------------------------ events
     def _ingest_events(self) -> None:
@@ -353,6 +362,11 @@ class StreamAssembler:
                 old = self._scalars.get(key)
                 self._scalars[key] = value if old is None or math.isnan(old) or value < old else old
         self._jump_samples = self._jump_samples or bool(scalars["jump"])
+        for name, row in summary.get("rods", {}).items():  # issue 39: a rod's extremes
+            mine = self._rods.setdefault(name, row)
+            for key in ("max_stress", "max_end_force"):
+                if row[key] is not None and (mine[key] is None or row[key]["value"] > mine[key]["value"]):
+                    mine[key] = row[key]
 
     # ------------------------------------------------------------------ the end
     def finish(self) -> StreamedRun:
@@ -378,10 +392,11 @@ class StreamAssembler:
                 run.warnings.append(negative_cam_force_warning(run.model.driven, low["value"], low["time"]))
             elif low is None and self._cam_min is not None and self._cam_min[0] < 0:
                 run.warnings.append(negative_cam_force_warning(run.model.driven, *self._cam_min))
+        run.warnings.extend(after_run_warnings(run.machine, events))  # issue 39
         scalars: dict[str, Any] = {}
-        for name, _ in scalar_columns([m.name for m in run.machine.masses]):
+        for name, _ in scalar_columns(list(run.machine.node_names)):
             scalars[name] = self._scalars.get(name, from_events[name])
-        masses = {m.name: {q: self._masses[m.name][q] for q in MASS_QUANTITIES} for m in run.machine.masses}
+        masses = {name: {q: self._masses[name][q] for q in MASS_QUANTITIES} for name in run.machine.node_names}
         extremes = dict(self._extremes)
         if located is not None:
             for name in scalars:
@@ -394,8 +409,10 @@ class StreamAssembler:
         scalars["max_impact_velocity"] = from_events["max_impact_velocity"]
         # the span off the cam runs between events, to the end of the record when still open
         scalars["cam_separation_angle"] = probe.separation_span(run.t_end - run.t_rec)
-        return StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
-                           extremes, self._samples, design=self._design, located=located)
+        streamed = StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
+                               extremes, self._samples, design=self._design, located=located)
+        streamed.rods = probe_summary.get("rods", self._rods) if located is not None else self._rods
+        return streamed
 
     def close(self, result: StreamedRun) -> None:
         """Write the event table, attributes and summary once the result is complete."""

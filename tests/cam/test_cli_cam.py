@@ -73,7 +73,7 @@ def test_table_on_stderr(machine_file):
     result = run(machine_file)
     assert result.exit_code == 0
     assert result.stdout == ""
-    assert "rise harmonic" in result.stderr and "|a| [m/s^2]" in result.stderr
+    assert "rise harmonic" in result.stderr and "|a| [m/s²]" in result.stderr
     assert "0.3948" in result.stderr  # harmonic peak |a|, see the hand computation
 
 

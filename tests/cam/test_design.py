@@ -114,7 +114,11 @@ def test_torque_is_the_moment_of_the_normal_force(roller_run):
     # the run result (the hub) carries them, with their units
     np.testing.assert_array_equal(result.trace("camshaft/torque"), torque)
     assert result.units("camshaft/torque") == "N*m" and result.units("peak_hertz_stress") == "Pa"
-    assert result.scalars()["peak_torque"] == pytest.approx(np.max(np.abs(torque)), rel=1e-15)
+    # the peak is located on the solution (spec §4): the samples' largest |T| is not above it
+    # and within the sampling's reach of it
+    peak = result.scalars()["peak_torque"]
+    assert peak == result.extreme("camshaft/torque", "abs")[0]
+    assert np.max(np.abs(torque)) <= peak == pytest.approx(np.max(np.abs(torque)), rel=1e-6)
 
 
 def test_zero_net_work_and_energy_fluctuation_of_a_conservative_machine(roller_run):
@@ -131,7 +135,8 @@ def test_zero_net_work_and_energy_fluctuation_of_a_conservative_machine(roller_r
     assert flywheel_inertia(10.0, 0.02, 100.0) == pytest.approx(10.0 / (0.02 * 1e4))
     torque = design_traces(result)["camshaft/torque"][0]
     assert summary["rms_torque"] == pytest.approx(math.sqrt(np.mean(torque**2)), rel=1e-12)
-    assert summary["peak_torque"] == pytest.approx(np.max(np.abs(torque)), rel=1e-15)
+    assert summary["peak_torque"] == result.extreme("camshaft/torque", "abs")[0]  # located (spec §4)
+    assert np.max(np.abs(torque)) <= summary["peak_torque"] == pytest.approx(np.max(np.abs(torque)), rel=1e-6)
 
 
 def _norton_hertz(force, r1, r2):

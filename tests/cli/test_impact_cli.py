@@ -176,13 +176,17 @@ def test_fit_recovers_power_law_in_file_units(tmp_path):
 
 
 def test_fit_column_order_and_human_output(tmp_path):
-    """Columns in any order; F = 2e6 N/m * d (a = 1) in mm and N: C = 2000 N/mm."""
+    """Columns in any order; F = 2e6 N/m * d (a = 1) in mm and N: C = 2000 N/mm in the file's
+    units (the default, issue 36), 2e6 N/m with --units si."""
     rows = "\n".join(f"{2000.0 * d!r},{d!r}" for d in (0.1, 0.2, 0.5, 1.0))
     path = _write(tmp_path, "force [N],deflection [mm]\n" + rows + "\n")
     result = runner.invoke(app, ["impact", "fit", str(path)])
     assert result.exit_code == 0, result.stderr
     assert result.stdout == ""
-    assert "2e+06" in result.stderr and "2000" in result.stderr
+    assert "2000" in result.stderr and "N/mm^1" in result.stderr and "2e+06" not in result.stderr
+    result = runner.invoke(app, ["impact", "fit", str(path), "--units", "si"])
+    assert result.exit_code == 0, result.stderr
+    assert "2e+06" in result.stderr and "N/m^1" in result.stderr
 
 
 @pytest.mark.parametrize(

@@ -272,16 +272,20 @@ def test_absurd_stiffness_is_bad_input_not_a_traceback(machine):
 
 def test_warnings_follow_units_us(tmp_path):
     """Issue 26: warnings ignored --units us. The negative-cam-force warning of the DYNACAM
-    model at 400 rpm now shows lbf with the SI value beside it; reference: 1 lbf = 4.4482216152605 N
-    (exact by definition), to the 4 printed digits."""
+    model at 400 rpm shows lbf under --units us and N under --units si (issue 36: no SI value
+    beside it); reference: 1 lbf = 4.4482216152605 N (exact by definition), to the 4 printed digits."""
     import re
 
     dyn = tmp_path / "dyn.toml"
     shutil.copy(MACHINES / "dynacam-2mass.toml", dyn)
-    result = runner.invoke(app, ["run", str(dyn), "--set", "cam.speed=400 rpm", "-o", str(tmp_path / "w.h5"), "-q",
-                                 "--units", "us"])
-    assert result.exit_code == 0, result.stderr
-    line = next(l for l in result.stderr.splitlines() if l.startswith("warning: cam contact force"))
-    m = re.search(r"minimum (\S+) lbf \((\S+) N\)", line)
-    assert m, line
-    assert float(m.group(1)) == pytest.approx(float(m.group(2)) / 4.4482216152605, rel=1e-3)
+    minimum = {}
+    for system, unit in (("us", "lbf"), ("si", "N")):
+        result = runner.invoke(app, ["run", str(dyn), "--set", "cam.speed=400 rpm", "-o", str(tmp_path / f"w{system}.h5"),
+                                     "-q", "--units", system])
+        assert result.exit_code == 0, result.stderr
+        line = next(l for l in result.stderr.splitlines() if l.startswith("warning: cam contact force"))
+        m = re.search(rf"minimum (\S+) {unit}\b", line)
+        assert m, line
+        assert " N" not in line if system == "us" else "lbf" not in line
+        minimum[system] = float(m.group(1))
+    assert minimum["us"] == pytest.approx(minimum["si"] / 4.4482216152605, rel=1e-3)

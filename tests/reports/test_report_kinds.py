@@ -65,6 +65,16 @@ def parse(html_path) -> Tables:
     return p
 
 
+def si(value: float, unit: str, si_unit: str) -> float:
+    """``value`` shown in ``unit`` back in ``si_unit``, by pint (the reference conversion)."""
+    if unit in ("", "-") or not si_unit or math.isnan(value):
+        return value
+    from camsim.units import registry
+
+    unit = unit.replace("²", "**2").replace("³", "**3").replace("·", "*")
+    return float(registry().Quantity(value, unit).to(si_unit.replace("^", "**")).magnitude)
+
+
 def num(text: str) -> float:
     text = text.replace("−", "-").strip()
     return math.nan if text in ("–", "") else float(text)
@@ -72,8 +82,9 @@ def num(text: str) -> float:
 
 @pytest.mark.slow  # a 3-point sweep: about 10 s on a shared machine
 def test_sweep_page_sections_and_table(cdtm_sweep):
-    """Sections of a sweep page; every cell of its table equals /sweep/summary (speed in
-    rpm = rad/s · 60/2π, lengths in mm = m · 1000, the rest SI), the jump marked."""
+    """Sections of a sweep page; every cell of its table equals /sweep/summary, converted by
+    pint from the unit its header names (the machine file's units: speed in rpm, lengths in
+    in, forces in lbf; issue 36), the jump marked."""
     h5, html = cdtm_sweep
     page = parse(html)
     assert {"header", "verdicts", "columns", "table", "machine"} <= set(page.sections)
@@ -83,9 +94,10 @@ def test_sweep_page_sections_and_table(cdtm_sweep):
         first = float(f["sweep/summary"].attrs["first_jump_rpm"])
         units = {n: f["sweep/summary"].attrs[f"units:{n}"] for n in rows.dtype.names}
     assert len(t["rows"]) == len(rows) == 3
-    factor = {"rad/s": 60 / (2 * math.pi), "m": 1000.0}
+    shown = {}
     for j, name in enumerate(rows.dtype.names):
         assert t["head"][j].startswith(name)
+        shown[name] = t["head"][j][len(name):].strip(" []")
         for i, cells in enumerate(t["rows"]):
             v = rows[name][i]
             if name == "status":
@@ -93,8 +105,10 @@ def test_sweep_page_sections_and_table(cdtm_sweep):
             elif rows.dtype[name].kind == "b":
                 assert cells[j] == ("yes" if v else "no")
             else:
-                true = float(v) * factor.get(units[name], 1.0)
-                assert math.isclose(num(cells[j]), true, rel_tol=RTOL) or (math.isnan(true) and math.isnan(num(cells[j])))
+                true = float(v)
+                value = si(num(cells[j]), shown[name], units[name])
+                assert math.isclose(value, true, rel_tol=RTOL) or (math.isnan(true) and math.isnan(value))
+    assert shown["param:cam.speed"] == "rpm" and shown["peak_transducer_force"] == "lbf"
     assert 300 <= first <= 500, "the CDTM jumps between 300 and 500 rpm (README: about 400 rpm)"
     assert f"data-key=first_jump_rpm>{first:.4g}<" in html.read_text()
 
@@ -118,11 +132,11 @@ def test_study_page_sections_and_numbers(cdtm_study):
     stats = {r[0]: r for r in page.tables["statistics-table"]["rows"]}
     o = payload["outputs"]["peak_transducer_force"]
     r = stats["peak_transducer_force"]
-    assert r[1] == "N"
+    assert r[1] == "lbf"  # issue 36: the unit written first for a force (--dist ...:3lbf before the limit in N)
     for col, true in ((2, o["mean"]), (4, o["std"]), (5, o["percentiles"]["5"]), (7, o["percentiles"]["95"]), (8, o["min"]), (9, o["max"])):
-        assert math.isclose(num(r[col]), true, rel_tol=RTOL)
+        assert math.isclose(si(num(r[col]), "lbf", "N"), true, rel_tol=RTOL)
     r = stats["peak_displacement:M3"]
-    assert r[1] == "mm" and math.isclose(num(r[2]), 1e3 * payload["outputs"]["peak_displacement:M3"]["mean"], rel_tol=RTOL)
+    assert r[1] == "in" and math.isclose(si(num(r[2]), "in", "m"), payload["outputs"]["peak_displacement:M3"]["mean"], rel_tol=RTOL)
     text = html.read_text()
     varying = [k for k, v in payload["outputs"].items() if v["std"]]
     for k in varying:
@@ -156,18 +170,26 @@ def test_fit_page_sections_and_numbers(tmp_path):
 
     from camsim.reports.build import build_report_from
 
+    from camsim.units import registry
+
+    ureg = registry()
     result = _fit_result()
     out = build_report_from((result, CDTM, CDTM.read_text()), "fit", tmp_path / "fit.html")
     page = parse(out)
     assert {"header", "verdicts", "parameters", "channels", "machine"} <= set(page.sections)
     rows = page.tables["parameter-table"]["rows"]
+    # issue 36: in the machine file's units (cdtm.toml: lbf/in), converted back here by pint
+    assert [row[1] for row in rows] == ["lbf/in", "-"]
     for i, row in enumerate(rows):
+        si = (lambda v: ureg.Quantity(v, row[1]).to(result.units[i]).magnitude) if row[1] != "-" else (lambda v: v)
         assert row[0] == result.keys[i]
-        assert math.isclose(num(row[4]), result.values[i], rel_tol=1e-6)
-        assert math.isclose(num(row[5]), result.stderr[i], rel_tol=5e-3)
-        lo, hi = (num(x) for x in row[6].split(" to "))
+        assert math.isclose(si(num(row[4])), result.values[i], rel_tol=1e-6)
+        assert math.isclose(si(num(row[5])), result.stderr[i], rel_tol=5e-3)
+        lo, hi = (si(num(x)) for x in row[6].split(" to "))
         assert math.isclose(lo, result.ci95[i, 0], rel_tol=1e-6) and math.isclose(hi, result.ci95[i, 1], rel_tol=1e-6)
     text = out.read_text()
+    # the page is titled and headed with the machine's name, not the machine file's path
+    assert "<dd>CDTM with impact and over-travel</dd>" in text and f"<dd>{CDTM}</dd>" not in text
     assert 'data-plot="correlation"' in text and 'data-plot="fit-0-residual"' in text and "a warning line" in text
 
 

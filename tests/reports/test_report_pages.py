@@ -126,7 +126,7 @@ def test_run_page_summary_and_verdicts_equal_file(cdtm_run, open_page):
             assert close(to_si(number(text), unit or "-", si_unit), float(attrs[key]), rtol=2e-3), (key, text)
         if key == "largest_peak_force":
             with h5py.File(h5, "r") as f:
-                assert close(number(text), float(np.nanmax(f["events"]["peak_force"]))), text
+                assert close(to_si(number(text), unit, "N"), float(np.nanmax(f["events"]["peak_force"]))), text
     # The verdict names the run's speed: 120 rpm in the CDTM machine file.
     assert page.eval_on_selector("[data-key=speed_rpm]", "e => e.textContent") == "120"
 

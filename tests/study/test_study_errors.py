@@ -42,7 +42,7 @@ GOOD = "element.closure.preload=tol:20:3N"
         (["--dist", GOOD, "--plot", "x.bmp"], "--plot: unknown figure format '.bmp'"),
         (["--dist", GOOD, "--sample-rate", "3 m"], "--sample-rate"),
         ([], "give at least one --dist KEY=SPEC"),
-        (["--dist", GOOD, "--units", "metric"], "--units metric: expected one of si, us"),
+        (["--dist", GOOD, "--units", "metric"], "--units metric: expected one of file, si, us"),
     ],
 )
 def test_bad_input_exit_2_one_line_nothing_written(tmp_path, args, words):

@@ -41,7 +41,7 @@ def load_parts(path: str | Path, *, units: str = "us") -> LumpResult:
     ----------
     path : path
         The parts file (TOML).
-    units : {"us", "si"}
+    units : {"us", "si", "file"}
         Units of the computed values in the machine: lb, lbf/in, lbf (the thesis's) or
         kg, N/m, N.
 
@@ -83,19 +83,32 @@ def lump_text(
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise MachineFileError(file, "", f"not valid TOML: {exc}") from None
+    if units == "file":
+        units = written_unit_table(text)
     return lump(document, file=file, units=units, base_dir=base_dir)
 
 
+def written_unit_table(text: str) -> dict[str, str]:
+    """The units the parts file is written in, per kind of lumped value (``units="file"``, issue 36):
+    the most frequent unit written for each dimension (docs/units.md)."""
+    from camsim.display import written_units
+    from camsim.display.units import pint_text
+
+    shown = written_units(text)
+    table = {kind: pint_text(shown.unit(kind).text) for kind in ("mass", "stiffness", "force", "length")}
+    return {**table, "dimensionless": ""}
+
+
 def lump(
-    document: dict[str, Any], *, file: str = "<string>", units: str = "us", base_dir: str | Path = "."
+    document: dict[str, Any], *, file: str = "<string>", units: str | dict[str, str] = "us", base_dir: str | Path = "."
 ) -> LumpResult:
     """Reduce a parsed parts file to a machine (see :func:`load_parts`).
 
     The machine is then validated with :func:`camsim.machine.loader.load_machine_text` when that
     loader exists (errors name the parts file and the same key path).
     """
-    if units not in UNIT_SYSTEMS:
-        raise InputError(f"units must be one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
+    if isinstance(units, str) and units not in UNIT_SYSTEMS:
+        raise InputError(f"units must be one of {', '.join((*UNIT_SYSTEMS, 'file'))}, got {units!r}")
 
     result = Lumper(document, file, units).run()
     result.base_dir = Path(base_dir)

@@ -85,12 +85,12 @@ class Lumper:
 
     def show(self, value: float, kind: str) -> str:
         """A value in the display units, 6 significant digits: ``16.3514 lb``."""
-        unit = UNIT_SYSTEMS[self.units][kind]
+        unit = unit_table(self.units)[kind]
         return f"{_num(_convert(value, kind, unit))} {unit}".strip()
 
     def written(self, value: float, kind: str) -> str | float:
         """A value as written in the machine file: 7 significant digits with its unit."""
-        unit = UNIT_SYSTEMS[self.units][kind]
+        unit = unit_table(self.units)[kind]
         if not unit:
             return float(f"{value:.7g}")
         return f"{_convert(value, kind, unit):.7g} {unit}"
@@ -497,6 +497,11 @@ def _given(value: Any, si_unit: str) -> str:
     if isinstance(value, str):
         return value.strip()
     return f"{value:g} {si_unit}".strip()
+
+
+def unit_table(units: str | dict[str, str]) -> dict[str, str]:
+    """Quantity kind → unit of the lumped values: a named system of :data:`UNIT_SYSTEMS`, or a table."""
+    return units if isinstance(units, dict) else UNIT_SYSTEMS[units]
 
 
 def _convert(value: float, kind: str, unit: str) -> float:

@@ -504,7 +504,7 @@ def run_sweep(
     settings = SweepSettings(cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate, keep_traces=keep_traces)
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
-    columns = sweep_columns(keys, [m.name for m in base.masses])
+    columns = sweep_columns(keys, list(base.node_names))
     from camsim.cam.design import (
         design_columns,  # issue 14: design columns with [cam.geometry]
     )

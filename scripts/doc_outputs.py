@@ -1,0 +1,262 @@
+"""Every command output shown in README.md and docs/: made by running the command, checked by a test.
+
+Usage::
+
+    python scripts/doc_outputs.py                 # print every block as it would be written
+    python scripts/doc_outputs.py --write         # rewrite the blocks in README.md and docs/*.md
+    python scripts/doc_outputs.py --check         # exit 1, naming the stale blocks, if a page differs
+    python scripts/doc_outputs.py --write readme-run cam-cdtm   # only the blocks named
+    python scripts/doc_outputs.py --list          # the blocks, their pages, and which are slow
+
+A block sits in its page between ``<!-- BEGIN doc_outputs.py:NAME -->`` and
+``<!-- END doc_outputs.py:NAME -->`` and holds one fenced code block: each command as it is
+shown (``$ camsim run machines/cdtm.toml``), then exactly what it printed (stderr and
+stdout, in order). The commands run from a scratch copy of ``machines/``, ``examples/``,
+``scripts/`` and the goldens, with this checkout's camsim (``python -m camsim``), so the
+paths they print are the ones shown and nothing is written into the repository.
+
+``tests/test_docs_snippets.py`` regenerates the blocks and compares them with the pages
+(whitespace runs and table rules normalised, every other character exact): a change of
+results (issue 34's located peaks) or of a table's layout fails it until
+``python scripts/doc_outputs.py --write`` is run. Blocks marked slow (a 55-speed sweep, a
+fit, the CI goldens check: tens of seconds each) are checked when ``CI=true`` or
+``CAMSIM_SLOW=1``.
+
+Not generated here: the tables of docs/validation.md (``scripts/validation.py``, checked by
+tests/test_validation.py), the machine-file reference of docs/machine-file.md
+(``python -m camsim.machine.schema``), and timing records of ``bench/`` scripts
+(docs/performance.md, docs/tolerance.md, docs/optimize.md): measurements of one machine on
+one day, not reproducible output.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One command of a block: how it is shown and what is run (None: shown only, e.g. a long run)."""
+
+    shown: str
+    argv: tuple[str, ...] | None = None
+    #: Keep only the output from the first line matching this (a block showing an excerpt).
+    excerpt_from: str = ""
+
+    @property
+    def run(self) -> tuple[str, ...] | None:
+        return self.argv if self.argv is not None else None
+
+
+def camsim(shown: str, excerpt_from: str = "", run: bool = True) -> Step:
+    """A camsim command as shown; run with this checkout's camsim."""
+    argv = tuple(shlex.split(shown.replace("\\\n", " ")))
+    return Step(shown, argv if run else None, excerpt_from)
+
+
+def shell(shown: str) -> Step:
+    return Step(shown, tuple(shlex.split(shown.replace("\\\n", " "))))
+
+
+@dataclass(frozen=True)
+class Block:
+    page: str
+    steps: tuple[Step, ...]
+    fence: str = ""
+    slow: bool = False
+    #: Blocks that must run first in the same scratch directory (their files are inputs).
+    after: tuple[str, ...] = field(default_factory=tuple)
+
+
+TABLE6 = ('camsim impact --mass "2.029e-5 lbf*s**2/in" --drop-height "1 in" \\\n'
+          '    --sphere-diameter "0.375 in" --modulus "2.9e7 psi" --stiffness "60800 lbf/in"')
+
+BLOCKS: dict[str, Block] = {
+    "readme-run": Block("README.md", (camsim("camsim run machines/cdtm.toml"),)),
+    "readme-sweep": Block("README.md", (
+        camsim('camsim sweep machines/cdtm.toml --vary cam.speed=60:600:10rpm --sample-rate "10 kHz" --workers 2 '
+               "-o cdtm_sweep.h5"),
+        camsim("camsim plot cdtm_sweep.h5"),
+    ), slow=True),
+    "readme-ci-check": Block("README.md", (shell("sh scripts/ci-check.sh ci-results"),), slow=True),
+    "cam-cdtm": Block("docs/cam.md", (camsim("camsim cam machines/cdtm.toml"),), fence="text"),
+    "cam-design-geometry": Block("docs/cam-design.md", (
+        camsim("camsim cam machines/cdtm-geometry.toml", excerpt_from=r"^cam geometry:"),), fence="text"),
+    "impact-table6-json": Block("docs/impact.md", (camsim(TABLE6 + " --json"),), fence="console"),
+    "impact-table6": Block("docs/impact.md", (camsim(TABLE6),)),
+    "impact-pin": Block("docs/impact.md", (camsim(
+        'camsim impact --mass "50 g" --velocity "1 m/s" --sphere-diameter "23 mm" --modulus "200 GPa" \\\n'
+        '    --stiffness "8e7 N/m" --bar-area "20 mm**2" --bar-length "50 mm" --density "7850 kg/m**3"'),)),
+    "results-max-output": Block("docs/results.md", (
+        camsim("camsim run machines/cdtm.toml --set simulation.cycles=100000"),
+        camsim("camsim run machines/cdtm.toml --set simulation.cycles=100000 --record-last 10   # 42 MB: runs",
+               run=False),
+    ), fence="console"),
+    "results-extreme": Block("docs/results.md", (
+        camsim('camsim run machines/dynacam-2mass.toml --set element.k12.stiffness="1e18 N/m"'),
+        camsim('camsim run machines/dynacam-2mass.toml --set element.k12.stiffness="1e14 N/m" --cycles 40'),
+    ), fence="console"),
+    "fitting-rig-trace": Block("docs/fitting.md", (
+        shell("python examples/make_rig_trace.py"),
+        shell("head -3 examples/rig_trace.csv"),
+    ), fence="sh", slow=True),
+    "fitting-fit": Block("docs/fitting.md", (camsim(
+        "camsim fit machines/cdtm.toml examples/rig_trace.csv \\\n"
+        "    --param element.K23.push_stiffness=6000:10000lbf/in \\\n"
+        "    --param element.seat.damping_ratio=0.01:0.3 \\\n"
+        "    --workers 2 -o cdtm_fitted.toml --report fit.png"),), fence="sh", slow=True, after=("fitting-rig-trace",)),
+}
+
+
+def scratch() -> Path:
+    """A scratch directory laid out like the repository (machines, examples, scripts, goldens)."""
+    d = Path(tempfile.mkdtemp(prefix="camsim-docs-"))
+    for sub in ("machines", "examples", "scripts"):
+        shutil.copytree(ROOT / sub, d / sub, ignore=shutil.ignore_patterns("*.h5", "*.csv.journal", "__pycache__"))
+    (d / "tests" / "data").mkdir(parents=True)
+    shutil.copytree(ROOT / "tests" / "data" / "golden", d / "tests" / "data" / "golden")
+    # `camsim` on the PATH of a shell script is this checkout's
+    bin_dir = d / ".bin"
+    bin_dir.mkdir()
+    launcher = bin_dir / "camsim"
+    launcher.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m camsim "$@"\n', encoding="utf-8")
+    launcher.chmod(0o755)
+    return d
+
+
+def run_step(step: Step, cwd: Path) -> str:
+    """What the command printed (stderr and stdout in order), without trailing blanks."""
+    argv = list(step.argv or ())
+    if "#" in argv:
+        argv = argv[: argv.index("#")]
+    if argv and argv[0] == "camsim":
+        argv = [sys.executable, "-m", "camsim", *argv[1:]]
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    env["PATH"] = str(cwd / ".bin") + os.pathsep + env.get("PATH", "")
+    env.pop("CAMSIM_TRACEBACK", None)
+    env["COLUMNS"] = "140"
+    done = subprocess.run(argv, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          timeout=1800)
+    lines = [line.rstrip() for line in done.stdout.splitlines()]
+    if step.excerpt_from:
+        start = next((i for i, line in enumerate(lines) if re.search(step.excerpt_from, line)), None)
+        if start is None:
+            raise RuntimeError(f"{step.shown}: no line matches {step.excerpt_from!r}")
+        lines = ["...", *lines[start:]]
+    while lines and not lines[-1]:
+        lines.pop()
+    return "\n".join(lines)
+
+
+def render(name: str, cwd: Path) -> str:
+    """The fenced block of ``name``, as it belongs between its markers."""
+    block = BLOCKS[name]
+    parts = []
+    for step in block.steps:
+        parts.append("$ " + step.shown)
+        if step.argv is not None:
+            out = run_step(step, cwd)
+            if out:
+                parts.append(out)
+    return f"```{block.fence}\n" + "\n".join(parts) + "\n```"
+
+
+def markers(name: str) -> tuple[str, str]:
+    return f"<!-- BEGIN doc_outputs.py:{name} -->", f"<!-- END doc_outputs.py:{name} -->"
+
+
+def current(name: str) -> str:
+    """The block as the page holds it now (between its markers)."""
+    begin, end = markers(name)
+    text = (ROOT / BLOCKS[name].page).read_text(encoding="utf-8")
+    if begin not in text or end not in text:
+        raise KeyError(f"{BLOCKS[name].page}: no {begin} … {end} markers")
+    return text.split(begin, 1)[1].split(end, 1)[0].strip("\n")
+
+
+def replace(name: str, block: str) -> bool:
+    """Put ``block`` between the markers of ``name``; True if the page changed."""
+    page = ROOT / BLOCKS[name].page
+    begin, end = markers(name)
+    text = page.read_text(encoding="utf-8")
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    new = f"{head}{begin}\n{block}\n{end}{tail}"
+    if new != text:
+        page.write_text(new, encoding="utf-8")
+        return True
+    return False
+
+
+def normalised(text: str) -> str:
+    """For comparing: whitespace runs as one space, runs of table-rule characters as one, and
+    numbers printed to the last bit (a CSV's ``repr``) to 10 significant digits, the rest exact."""
+    text = re.sub(r"([━─═┄╌]{1})[━─═┄╌]+", r"\1", text)
+    text = re.sub(r"-?\d+\.\d{11,}(?:[eE][-+]?\d+)?", lambda m: f"{float(m.group(0)):.10g}", text)
+    return re.sub(r"\s+", " ", text).strip()
+
+
+def generate(names: list[str]) -> dict[str, str]:
+    """Every named block, each with the blocks it needs run first in the same scratch copy."""
+    out: dict[str, str] = {}
+    d = scratch()
+    try:
+        for name in names:
+            for before in BLOCKS[name].after:
+                if before not in out:
+                    out[before] = render(before, d)
+            if name not in out:
+                out[name] = render(name, d)
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+    return {n: out[n] for n in names}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("names", nargs="*", help="blocks (default: all)")
+    parser.add_argument("--write", action="store_true", help="rewrite the blocks in their pages")
+    parser.add_argument("--check", action="store_true", help="exit 1 when a page's block differs")
+    parser.add_argument("--list", action="store_true", help="list the blocks")
+    parser.add_argument("--skip-slow", action="store_true", help="leave out the slow blocks")
+    args = parser.parse_args(argv)
+    if args.list:
+        for name, b in BLOCKS.items():
+            print(f"{name:22} {b.page:22} {'slow' if b.slow else ''}")
+        return 0
+    unknown = [n for n in args.names if n not in BLOCKS]
+    if unknown:
+        parser.error(f"unknown block(s): {', '.join(unknown)} (see --list)")
+    names = args.names or [n for n, b in BLOCKS.items() if not (args.skip_slow and b.slow)]
+    blocks = generate(names)
+    stale = []
+    for name, block in blocks.items():
+        if args.write:
+            if replace(name, block):
+                print(f"updated {BLOCKS[name].page}: {name}")
+        elif args.check:
+            if normalised(current(name)) != normalised(block):
+                stale.append(name)
+        else:
+            print(f"{markers(name)[0]}  ({BLOCKS[name].page})\n{block}\n")
+    if stale:
+        print("stale: " + ", ".join(f"{n} ({BLOCKS[n].page})" for n in stale) + "; run: python scripts/doc_outputs.py --write",
+              file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
