@@ -11,7 +11,8 @@ Each test names its reference and tolerance. Classification (docs/validation.md)
   result or a one-line error, never a traceback);
 * found by the issue-34 extension (several contacts on one mass), open, strict xfails: a
   power-law seat's event times across sample rates (issue 34 item 3) and the modal
-  recurrence's drift on a fine grid (traces of a linear/rigid machine, 7.2e-9 of peak).
+  recurrence's drift on a fine grid (traces of a linear/rigid machine, 7.2e-9 of peak); and
+  (located extremes) a driven follower's cam force, fixed since.
 """
 
 from __future__ import annotations
@@ -282,13 +283,13 @@ def test_a_mass_between_a_rigid_seat_and_an_undamped_stop_keeps_its_traces():
     assert check_sample_rate((MACHINES / "modal-drift-between-stops.toml").read_text(), (5e3, 5e5)) == []
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue 34 item 1: at 5 kHz the located maximum of a driven follower's cam "
-                   "contact force is 4.9e-6 relative off its closed form (1.2e-9 at 20 kHz)")
-def test_located_cam_force_extremes_of_a_driven_follower_at_5_khz():
+@pytest.mark.parametrize("rate", (5e3, 2e4, 2e5))
+def test_located_cam_force_extremes_of_a_driven_follower(rate):
     """Found by invariant (g) (driven-cam-force-extremes.toml): a driven mass on an undamped
     preloaded spring, Fc = m·s̈ + P + k·s. Reference: that closed form on the cam law,
     maximised by a 2,000,001-point grid and Brent's method: 179.835440389 N, minimum
-    −58.910958774 N. Tolerance 1e-9 relative (spec §4), at 5 kHz."""
+    −58.910958774 N. Tolerance 1e-9 relative (spec §4). It was 4.9e-6 off at 5 kHz (the
+    lead's later located-extremes commit brought it to 3e-16)."""
     from scipy.optimize import minimize_scalar
 
     from camsim.cam.program import CamProgram
@@ -304,7 +305,7 @@ def test_located_cam_force_extremes_of_a_driven_follower_at_5_khz():
 
     t = np.linspace(0.0, cam.period, 2_000_001)
     F = force(t)
-    located = simulate(machine, sample_rate=5e3).located["cam_contact/force"]
+    located = simulate(machine, sample_rate=rate).located["cam_contact/force"]
     for sign, which in ((1.0, "max"), (-1.0, "min")):
         i = int(np.argmax(sign * F))
         best = minimize_scalar(lambda x: -sign * force(x)[0], bracket=(t[i - 2], t[i], t[i + 2]), tol=1e-14)
