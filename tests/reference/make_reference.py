@@ -140,7 +140,8 @@ def make_extremes(name: str) -> Path:
 def main(argv: list[str]) -> None:
     for name in argv or MACHINES:
         make(name)
-        make_extremes(name)
+        if name not in TEST_MACHINES:  # the issue-34 test machines check events and traces only
+            make_extremes(name)
 
 
 if __name__ == "__main__":
