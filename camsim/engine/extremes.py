@@ -177,9 +177,7 @@ class StretchExtremes:
         kmax, kmin = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
         self.node_max, self.node_min = Q[kmax, cols], Q[kmin, cols]
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
-        cands_max, self.upper = _screen(nodes, Q)
-        cands_min, lower = _screen(nodes, -Q)
-        self.lower = -lower
+        cands_max, self.upper, cands_min, self.lower = _screen(nodes, Q)
         self._candidates = {1: cands_max, -1: cands_min}
         self._dense = dense
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
@@ -316,48 +314,61 @@ def stretch_extremes(ctx, config, branches, v_impacts, exact: bool, nodes: np.nd
 
 
 def _screen(nodes: np.ndarray, Q: np.ndarray):
-
-    """Per observable, the steps that may hold a value above its largest node value, and the
-    bound of the values between nodes.
+    """Per observable, the steps that may hold a value beyond its largest (and its smallest)
+    node value, and the bounds of the values between nodes.
 
     Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
     estimated at each node by the divided second difference of its neighbours (exact to
     about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
     :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
     node value, or when it ends at that node (the maximum may sit just beside it). With two
-    nodes (a stretch between two events and no grid point) the one step is a candidate.
+    nodes (a stretch between two events and no grid point) the one step is a candidate. The
+    minimum is screened alike (the same excess below the smaller node value).
 
     Returns
     -------
-    (dict, ndarray)
-        observable → candidate step indices; the bound of each observable (n_obs,).
+    (dict, ndarray, dict, ndarray)
+        For the maxima: observable → candidate step indices, the upper bound of each
+        observable (n_obs,); the same for the minima with the lower bound.
     """
     N, n_obs = Q.shape
-    h = np.diff(nodes)
-    top = np.max(Q, axis=0)
-    kbest = np.argmax(Q, axis=0)
+    kbest, kworst = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
+    cols = np.arange(n_obs)
+    top, bottom = Q[kbest, cols], Q[kworst, cols]
     if N == 2:
         span = np.abs(Q[1] - Q[0])
-        return {j: (0,) for j in range(n_obs)}, top + span + 1e-12 * np.abs(top)
-    slopes = np.diff(Q, axis=0) / h[:, None]  # (N − 1, n_obs)
+        every = {j: (0,) for j in range(n_obs)}
+        return every, top + span + 1e-12 * np.abs(top), dict(every), bottom - span - 1e-12 * np.abs(bottom)
+    h = np.diff(nodes)
+    dQ = np.diff(Q, axis=0)
+    slopes = dQ / h[:, None]  # (N − 1, n_obs)
     curv = np.empty((N, n_obs))
-    curv[1:-1] = 2.0 * np.abs(np.diff(slopes, axis=0)) / (h[:-1] + h[1:])[:, None]
+    curv[1:-1] = np.abs(np.diff(slopes, axis=0)) * (2.0 / (h[:-1] + h[1:]))[:, None]
     curv[0], curv[-1] = curv[1], curv[-2]
-    excess = SCREEN_SAFETY * (h * h / 8.0)[:, None] * np.maximum(curv[:-1], curv[1:])
+    excess = (SCREEN_SAFETY / 8.0 * h * h)[:, None] * np.maximum(curv[:-1], curv[1:])
     # a stretch's first and last steps: their end node has no neighbour beyond it, so the
     # curvature there is the next node's: their bound also takes the slope across the step
-    excess[0] += 0.5 * np.abs(Q[1] - Q[0])
-    excess[-1] += 0.5 * np.abs(Q[-1] - Q[-2])
-    bound = np.maximum(Q[:-1], Q[1:]) + excess  # (N − 1, n_obs)
-    tiny = 1e-13 * np.maximum(np.abs(top), np.max(np.abs(Q), axis=0))
-    above = bound > (top + tiny)[None, :]
-    out: dict[int, tuple[int, ...]] = {}
-    for j in range(n_obs):
-        steps = set(np.flatnonzero(above[:, j]).tolist())
-        k = int(kbest[j])
-        steps.update(s for s in (k - 1, k) if 0 <= s < N - 1)
-        out[j] = tuple(sorted(steps))
-    return out, np.maximum(top, np.max(bound, axis=0))
+    excess[0] += 0.5 * np.abs(dQ[0])
+    excess[-1] += 0.5 * np.abs(dQ[-1])
+    upper = np.maximum(Q[:-1], Q[1:]) + excess  # (N − 1, n_obs)
+    lower = np.minimum(Q[:-1], Q[1:]) - excess
+    scale = np.maximum(np.abs(top), np.abs(bottom))
+    above = upper > (top + 1e-13 * scale)[None, :]
+    below = lower < (bottom - 1e-13 * scale)[None, :]
+    out = []
+    for flags, best in ((above, kbest), (below, kworst)):
+        cands: dict[int, tuple[int, ...]] = {}
+        rows, js = np.nonzero(flags)
+        per = {j: [] for j in range(n_obs)}
+        for r, j in zip(rows.tolist(), js.tolist()):
+            per[j].append(r)
+        for j in range(n_obs):
+            steps = set(per[j])
+            k = int(best[j])
+            steps.update(s for s in (k - 1, k) if 0 <= s < N - 1)
+            cands[j] = tuple(sorted(steps))
+        out.append(cands)
+    return out[0], np.maximum(top, np.max(upper, axis=0)), out[1], np.minimum(bottom, np.min(lower, axis=0))
 
 
 def _clip(dense: _DenseStretch, lo: float, hi: float):
