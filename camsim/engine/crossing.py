@@ -278,8 +278,8 @@ def grazes(cam, config, guard, t: float, step_end: float, z: np.ndarray) -> bool
     g = float(guard.value(z[None, :], u[None, :])[0, 0])
     g_rate = float(guard.rate(z[None, :], u[None, :])[0, 0])
     zdot = config.A @ z + config.B @ u + config.b
-    # ü = [ṡ, s̈, s⃛, s⁗]: s⁗ is not an input; the jerk term of ġ (a guard reading s̈) is left out
-    curvature = float((guard.rate.Cz @ zdot + guard.rate.Du[:, :3] @ u[1:])[0])
+    # ü = [ṡ, s̈, s⃛, s⁗] per cam: s⁗ is not an input; the jerk term of ġ (a guard reading s̈) is left out
+    curvature = float((guard.rate.Cz @ zdot + times_rate(guard.rate.Du, u))[0])
     return curvature > 0.0 and g - g_rate * g_rate / (2.0 * curvature) >= -guard.tol
 
 

@@ -439,6 +439,8 @@ def check_rigid_contacts_hold(result) -> list[str]:
     x = {name: np.asarray(traces["displacement"]) for name, traces in result.masses.items()}
     x["ground"] = np.zeros_like(result.time)
     x["cam"] = np.asarray(result.cam["displacement"])
+    for name, traces in (getattr(result, "cams", None) or {}).items():  # several cams (issue 38)
+        x[name] = np.asarray(traces["displacement"])
     for element in result.machine.elements:
         if _law(element) != "restitution":
             continue
