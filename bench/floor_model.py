@@ -8,7 +8,8 @@ camsim's per-revolution cost is measured against (issue 37).
 
 The equations are the independent reference solver's (``tests/reference/
 reference_solver.py``: incidence arrays, the branch coefficients a, k, c of the tension
-law f = a + k·d + c·ḋ, damping from the spec's c = 2ζ√(k·m_ref)); nothing is taken from
+law f = a + k·d + c·ḋ, damping from the spec's c = 2ζ√(k·m_ref)), assembled into
+ẏ = A·y + e_s·s + e_v·ṡ + f0 as for the peers (``peer_models.linear_system``); nothing is taken from
 ``camsim.model`` or ``camsim.engine``. camsim is used for the input only: the machine
 (``camsim.machine``) and the cam law, :meth:`camsim.cam.program.CamProgram.svaj`
 (vectorised over all samples).
@@ -45,7 +46,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-for _p in (ROOT, ROOT / "tests" / "reference"):
+for _p in (ROOT, ROOT / "bench", ROOT / "tests" / "reference"):
     if str(_p) not in sys.path:
         sys.path.insert(0, str(_p))
 
@@ -54,6 +55,7 @@ from scipy.linalg import expm  # noqa: E402
 from scipy.signal import lfilter  # noqa: E402
 
 from camsim.machine.description import Contact  # noqa: E402
+from peer_models import linear_system  # noqa: E402
 from reference_solver import ReferenceSolver  # noqa: E402
 
 #: Hermite order carried over a step: s and its derivatives 0..3 at both ends (degree 7).
@@ -131,27 +133,16 @@ def step_maps(A, es, ev, f0, h):
 def floor_system(machine, sample_rate: float) -> FloorSystem:
     """The no-impact system of ``machine`` (SI) and its exact step at ``sample_rate`` [Hz]."""
     ref = ReferenceSolver(no_impact_machine(machine))
-    n = ref.n
     branches = (False,) * len(ref.elements)  # every preloaded link joined
-    a, k, c = ref.branch_coefficients(branches)
-    Df, d1 = ref.Dfree, ref.Dfix[:, 1]
-    minv = (1.0 / ref.mass)[:, None]
-    A = np.zeros((2 * n, 2 * n))
-    A[:n, n:] = np.eye(n)
-    A[n:, :n] = -minv * (Df.T @ (k[:, None] * Df))
-    A[n:, n:] = -minv * (Df.T @ (c[:, None] * Df))
-    es, ev, f0 = np.zeros(2 * n), np.zeros(2 * n), np.zeros(2 * n)
-    es[n:] = -minv[:, 0] * (Df.T @ (k * d1))
-    ev[n:] = -minv[:, 0] * (Df.T @ (c * d1))
-    f0[n:] = -minv[:, 0] * (Df.T @ a) - ref.g
+    A, es, ev, f0 = linear_system(ref, branches)
     h = 1.0 / sample_rate
     phi, P, Q, c0 = step_maps(A, es, ev, f0, h)
     lam_all, V_all = np.linalg.eig(phi)
     Vinv_all = np.linalg.inv(V_all)
     keep = lam_all.imag >= 0.0
     weight = np.where(lam_all.imag > 0.0, 2.0, 1.0)[keep]
-    return FloorSystem(ref, h, A, es, ev, f0, (a, k, c), lam_all[keep], weight, V_all[:, keep],
-                       Vinv_all[keep], P, Q, c0)
+    return FloorSystem(ref, h, A, es, ev, f0, ref.branch_coefficients(branches), lam_all[keep], weight,
+                       V_all[:, keep], Vinv_all[keep], P, Q, c0)
 
 
 def _split_steps(sys_: FloorSystem, t: np.ndarray, U: np.ndarray, w: np.ndarray) -> None:
