@@ -165,12 +165,12 @@ def summarise(samples: dict[str, list[tuple[float, float]]], events: int) -> dic
 ROWS = [
     ("floor-1", "floor, 1 revolution (set-up included)"),
     ("floor-marginal", "floor, a further revolution"),
-    ("impact-1", "camsim with impact, 1 revolution"),
-    ("free-1", "camsim without impact, 1 revolution"),
-    ("impact-marginal", "camsim with impact, a further revolution"),
-    ("free-marginal", "camsim without impact, a further revolution"),
-    ("impact-2Hz", "camsim with impact, 1 revolution at 2 Hz"),
-    ("free-2Hz", "camsim without impact, 1 revolution at 2 Hz"),
+    ("impact-1", "camsim, with impact, 1 revolution"),
+    ("free-1", "camsim, without impact, 1 revolution"),
+    ("impact-marginal", "camsim, with impact, a further revolution"),
+    ("free-marginal", "camsim, without impact, a further revolution"),
+    ("impact-2Hz", "camsim, with impact, 1 revolution at 2 Hz"),
+    ("free-2Hz", "camsim, without impact, 1 revolution at 2 Hz"),
     ("event", "per event (1 revolution)"),
     ("event-marginal", "per event (a further revolution)"),
     ("event-2Hz", "per event (2 Hz output)"),
@@ -224,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
     from floor_model import floor_run, floor_system, trace_errors
     from peer_models import load_average, print_machine
 
-    print_machine("camsim against the numpy/scipy floor: one CDTM revolution at 50 kHz (issue 37)")
+    print_machine("Floor benchmark (issue 37): camsim against the numpy/scipy floor, one CDTM revolution at 50 kHz")
     import camsim
 
     machine = camsim.load_machine(CDTM)
