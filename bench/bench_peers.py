@@ -224,7 +224,7 @@ def main(argv=None) -> int:
                f"{'wall min':>9s} {'median':>9s} {'CPU min':>9s} {'ratio':>15s}")
         print(hdr)
         print("  " + "-" * (len(hdr) - 2))
-        print(f"  {'camsim':18s} {'exact':>7s} {fmt_e(cam_x):>10s} {fmt_e(cam_t):>10s} "
+        print(f"  {'camsim (engine)':18s} {'exact':>7s} {fmt_e(cam_x):>10s} {fmt_e(cam_t):>10s} "
               f"{fmt_t(cam_wmin):>9s} {fmt_t(cam_wmed):>9s} {fmt_t(cam_cmin):>9s} {'1':>15s}")
         missed = False
         for drv_name, method in peers:

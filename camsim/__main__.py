@@ -1,5 +1,79 @@
-"""``python -m camsim`` does what the ``camsim`` command does."""
+"""``python -m camsim`` and the ``camsim`` command.
 
-from camsim.cli import main
+The command line is imported inside :func:`main`, so that Ctrl-C during start-up (the
+imports take a few tenths of a second) ends with exit 130 and one line, not a traceback.
+"""
 
-main()
+import sys
+
+
+def main() -> None:
+    """Console entry point: run the command line; Ctrl-C before it is up exits 130 quietly."""
+    try:
+        from camsim.cli import main as cli_main
+    except KeyboardInterrupt:
+        _exit_interrupted("camsim: interrupted; nothing was written\n")
+    _keep_interrupts()
+    code: object = 0
+    try:
+        cli_main()
+    except SystemExit as exc:
+        code = exc.code
+    except KeyboardInterrupt:  # before a command took over (typer building the command line)
+        _exit_interrupted("camsim: interrupted; nothing was written\n")
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the command is over: a late Ctrl-C changes nothing
+    if code == 130:
+        _exit_interrupted()
+    sys.exit(code)
+
+
+def _keep_interrupts() -> None:
+    """A Ctrl-C that lands where Python cannot raise it (a deallocator, a callback of a C
+    library: "Exception ignored in ... KeyboardInterrupt") is delivered again to the main
+    thread instead of being printed as a traceback and lost."""
+    default = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            import _thread
+            import threading
+
+            # a moment later, from another thread: the main thread raises it at a step of its
+            # own, not inside this hook (where it would be ignored again)
+            timer = threading.Timer(0.05, _thread.interrupt_main)
+            timer.daemon = True
+            timer.start()
+            return
+        default(unraisable)
+
+    sys.unraisablehook = hook
+
+
+def _exit_interrupted(message: str = "") -> None:
+    """Exit 130, the documented code of an interrupted command.
+
+    CPython ends a process whose main code saw a KeyboardInterrupt -- even one handled, when
+    it arrived inside an import evaluated by ``PyRun_String`` -- by killing itself with
+    SIGINT at exit; camsim's Ctrl-C is a handled, orderly exit 130 (docs/results.md).
+    """
+    import atexit
+
+    if message:
+        sys.stderr.write(message)
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        import os
+
+        os._exit(130)
+
+
+if __name__ == "__main__":
+    main()

@@ -159,3 +159,63 @@ def test_no_import_cycle_anywhere_in_camsim():
     ``if TYPE_CHECKING`` imports do not run and do not count)."""
     cycles = _cycles(_module_graph())
     assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)
+
+
+# --------------------------------------------------------------------------------------
+# One way to write a file (issue 35): the output policy.
+
+#: Modules that may touch the file system's write primitives: the policy and its mechanics.
+_WRITERS = {"io/atomic.py", "io/outputs.py", "io/locks.py", "io/hdf5.py"}
+#: Calls that write a file (or put one in place) by themselves.
+_WRITE_CALLS = {"write_text", "write_bytes", "savefig", "saveas", "savetxt", "to_csv", "to_hdf", "create_file",
+                "atomic_path", "temp_path_for", "pwrite", "ftruncate", "mkstemp", "NamedTemporaryFile", "move", "copy",
+                "copyfile", "copy2"}
+
+
+def _writes_a_file(node: ast.Call) -> str | None:
+    """The write primitive ``node`` calls, or None."""
+    func = node.func
+    name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+    if name in ("savefig", "savetxt", "saveas"):
+        # to an opened file of the policy (a Target's binary()/text()) only: the first
+        # argument is then a name bound by `with ... as fh`, never a path expression
+        first = node.args[0] if node.args else None
+        return None if isinstance(first, ast.Name) and first.id in ("fh", "out", "buffer") else name
+    if name in ("replace", "rename") and isinstance(func, ast.Attribute):
+        owner = getattr(func.value, "id", "")
+        if owner == "os" or (len(node.args) == 1 and not node.keywords):  # os.replace(a, b), path.replace(target)
+            return f"{owner or '<path>'}.{name}"
+        return None  # str.replace(old, new), dataclasses.replace(obj, **changes)
+    if name in ("move", "copy", "copyfile", "copy2"):
+        return f"shutil.{name}" if isinstance(func, ast.Attribute) and getattr(func.value, "id", "") == "shutil" else None
+    if name in _WRITE_CALLS - {"savefig", "savetxt", "saveas"}:
+        return name
+    if name == "open" and isinstance(func, ast.Name):
+        mode = node.args[1] if len(node.args) > 1 else next((k.value for k in node.keywords if k.arg == "mode"), None)
+        if isinstance(mode, ast.Constant) and isinstance(mode.value, str) and set(mode.value) & set("wax+"):
+            return f"open(..., {mode.value!r})"
+    if name == "open" and isinstance(func, ast.Attribute) and getattr(func.value, "id", "") == "os":
+        flags = ast.unparse(node.args[1]) if len(node.args) > 1 else ""
+        if any(f in flags for f in ("O_WRONLY", "O_RDWR", "O_CREAT", "O_APPEND")):
+            return "os.open(..., write flags)"
+    if name == "File" and any(isinstance(a, ast.Constant) and a.value in ("w", "a", "r+", "x", "w-") for a in node.args[1:2]):
+        if not any(k.arg == "backing_store" and isinstance(k.value, ast.Constant) and k.value.value is False for k in node.keywords):
+            return "h5py.File(..., write mode)"
+    return None
+
+
+def test_every_file_is_written_through_the_output_policy():
+    """No module writes a file except through camsim.io.outputs.writing (issue 35): a writer
+    is handed an opened temporary file (its lock, rename and file-system errors owned by the
+    policy), never a path to write itself. Allowed: the policy's modules; the row store's
+    journal (opened and appended through camsim.io.atomic); an in-memory HDF5 image."""
+    hits = []
+    for rel, text in _sources(outside_elements=False):
+        if rel in _WRITERS:
+            continue
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.Call):
+                what = _writes_a_file(node)
+                if what is not None and not (rel == "io/rowstore.py" and what == "ftruncate"):
+                    hits.append(f"camsim/{rel}:{node.lineno}: {what}")
+    assert not hits, "files written outside the output policy (camsim.io.outputs.writing):\n" + "\n".join(hits)

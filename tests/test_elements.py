@@ -160,8 +160,10 @@ def _nonlinear_elements():
                                                            hysteresis_damping=1.5), V_P, _power_law(1.5)),
         ("power undamped", elements.PowerContact("p", "ground", "M", coefficient=C_P, exponent=A_P), V_P,
          _power_law(0.0)),
+        # a contact's law is unclamped: its clamp is a branch of its own (issue 34; the force it
+        # reports is clamped, test_adams_contact_reports_its_clamped_force)
         ("adams clamp", elements.AdamsImpactContact("a", "ground", "M", stiffness=K_A, exponent=N_A,
-                                                    max_damping=CMAX_A, penetration_depth=D_A), V_P, _adams_law(True)),
+                                                    max_damping=CMAX_A, penetration_depth=D_A), V_P, _adams_law(False)),
         ("adams no clamp", elements.AdamsImpactContact("a", "ground", "M", stiffness=K_A, exponent=N_A,
                                                        max_damping=CMAX_A, penetration_depth=D_A, clamp=False), V_P,
          _adams_law(False)),
@@ -191,10 +193,10 @@ def test_scalar_force_is_the_scalar_and_vector_law(case):
         assert abs(value - ref) <= 1e-14 * scale, (label, GRID_DELTA[i], GRID_RATE[j], value, ref)
     # the grid reaches every branch of the law: zero, positive, and (unclamped) negative
     assert (bound == 0.0).any() and (bound > 0.0).any(), label
-    if label == "adams no clamp":
+    if label in ("adams no clamp", "adams clamp"):
         assert (bound < 0.0).any()
     # damped and clamped: the damping term cancels the force at some δ > 0, δ̇ < 0
-    clamps = label in ("power restitution", "power hysteresis_damping", "adams clamp", "power lash", "adams lash")
+    clamps = label in ("power restitution", "power hysteresis_damping", "power lash", "adams lash")
     assert ((bound == 0.0) & (deltas > 0.0)).any() == clamps, label
 
 
@@ -207,3 +209,22 @@ def test_power_scalar_force_by_hand():
     expected = 4.0e9 * (2.5e-5) ** 1.425 * (1.0 + chi * -0.4)
     assert expected > 0.0
     assert contact.scalar_force(0.3)(2.5e-5, -0.4) == pytest.approx(expected, rel=1e-14)
+
+
+def test_adams_contact_reports_its_clamped_force():
+    """An Adams IMPACT contact with ``clamp`` reports max(0, law) on its closed branches, 0 on
+    its clamped branch (the law there is watched, not acting); without ``clamp`` the law."""
+    from camsim.elements.base import Branch
+
+    clamped = elements.AdamsImpactContact("a", "ground", "M", stiffness=K_A, exponent=N_A, max_damping=CMAX_A,
+                                          penetration_depth=D_A)
+    free = elements.AdamsImpactContact("a", "ground", "M", stiffness=K_A, exponent=N_A, max_damping=CMAX_A,
+                                       penetration_depth=D_A, clamp=False)
+    deltas, rates = np.meshgrid(GRID_DELTA, GRID_RATE, indexing="ij")
+    d, d_rate = clamped.gap - deltas.ravel(), -rates.ravel()  # d = gap − δ, ḋ = −δ̇
+    law = np.array([_adams_law(False)(a, b)[0] for a, b in zip(deltas.ravel(), rates.ravel())])
+    for branch in (Branch.CLOSED, Branch.CLOSED_DEEP):
+        np.testing.assert_allclose(clamped.force(branch, d, d_rate, {}, None), np.maximum(law, 0.0), rtol=1e-14, atol=1e-300)
+        np.testing.assert_allclose(free.force(branch, d, d_rate, {}, None), law, rtol=1e-14, atol=1e-300)
+    assert not np.any(clamped.force(Branch.CLAMPED, d, d_rate, {}, None))
+    assert clamped.acts(Branch.CLOSED) and not clamped.acts(Branch.CLAMPED)

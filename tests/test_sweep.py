@@ -335,7 +335,8 @@ def test_hdf5_and_csv_agree_and_keep_traces(tmp_path):
         assert ds.attrs["first_jump_rpm"] == pytest.approx(460.0)
         # traces of variant 1 in the run layout, equal to an individual run
         v = expected_row(BARKAN, ["cam.speed=460 rpm"], **FAST)
-        assert np.max(np.abs(f["sweep/variants/1/masses/F/velocity"][()])) == v["peak_velocity:F"]
+        # the row's peak is located on the solution (spec §4): never below the stored samples'
+        assert np.max(np.abs(f["sweep/variants/1/masses/F/velocity"][()])) <= v["peak_velocity:F"]
         assert list(f["sweep/variants/1"].attrs["overrides"]) == ["cam.speed=460 rpm"]
     with open(csvp, newline="") as fh:
         lines = list(csv.reader(fh))

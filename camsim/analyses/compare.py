@@ -199,11 +199,11 @@ def _rate(t: np.ndarray) -> str:
 
 def write_file_comparison(comparison: Comparison, path_a, path_b, target) -> None:
     """Write a comparison of two run files: /impact ← A, /no_impact ← B, /difference."""
-    from camsim.io.atomic import atomic_path
-    from camsim.io.hdf5 import create_file, write_time, write_trace
+    from camsim.io.hdf5 import write_time, write_trace
+    from camsim.io.outputs import writing
     from camsim.io.results import open_h5
 
-    with atomic_path(target) as tmp, create_file(tmp) as out, open_h5(path_a) as fa, open_h5(path_b) as fb:
+    with writing(target, "hdf5", owner="compare") as w, w.h5() as out, open_h5(path_a) as fa, open_h5(path_b) as fb:
         for key in ("camsim_version", "schema", "machine_name", "machine_toml", "machine_sha256", "units_system"):
             if key in fa.attrs:
                 out.attrs[key] = fa.attrs[key]

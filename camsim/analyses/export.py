@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from camsim.errors import InputError, ResultFileError
-from camsim.io.atomic import atomic_path, check_writable
+from camsim.io.atomic import check_writable
+from camsim.io.outputs import writing
 from camsim.io.results import file_kind, list_traces, open_h5, read_events, table_units, units_of
 
 #: Groups of a comparison file that hold a time base.
@@ -90,11 +91,10 @@ def write_csv(target: str | os.PathLike[str], columns: dict[str, np.ndarray], un
             cells.append([str(v) for v in values])
         else:
             cells.append(values.astype(np.float64).tolist())  # Python floats: csv writes repr()
-    with atomic_path(target) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh, lineterminator="\r\n")  # RFC 4180; quotes text holding \r or \n
-            writer.writerow([header_cell(n, units.get(n)) for n in names])
-            writer.writerows(zip(*cells))
+    with writing(target, "csv", owner="csv") as out, out.text() as fh:
+        writer = csv.writer(fh, lineterminator="\r\n")  # RFC 4180; quotes text holding \r or \n
+        writer.writerow([header_cell(n, units.get(n)) for n in names])
+        writer.writerows(zip(*cells))
     return Path(target)
 
 

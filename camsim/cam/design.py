@@ -503,5 +503,9 @@ def design_comparison(impact, no_impact) -> list[dict]:
         change = None
         if va is not None and vb is not None and vb != 0:
             change = 100.0 * (va - vb) / abs(vb)
-        rows.append({"quantity": key, "units": units, "impact": va, "no_impact": vb, "change_percent": change})
+        row = {"quantity": key, "units": units, "impact": va, "no_impact": vb, "change_percent": change}
+        why = (a.get("reasons") or {}).get(key) or (b.get("reasons") or {}).get(key)
+        if why and (va is None or vb is None):
+            row["reason"] = why  # issue 35: a missing value says why
+        rows.append(row)
     return rows

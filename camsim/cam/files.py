@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from camsim.cam import CamProgram, sample_revolution
-from camsim.io.atomic import atomic_path
-from camsim.io.hdf5 import create_file, write_time, write_trace
+from camsim.io.outputs import writing
+from camsim.io.hdf5 import write_time, write_trace
 from camsim.io.hdf5 import write_root_attributes
 
 TRACES = (
@@ -32,37 +32,36 @@ def write_cam_hdf5(path: str | os.PathLike[str], machine, program: CamProgram, p
     (N, 2) [m]; with ``[cam.compensation]`` (issue 27) ``/cam/...`` is the compensated cam and
     ``/cam/output_program/{displacement,velocity,acceleration}`` the wanted output motion;
     root attributes as in a run file.
-    Written through :func:`camsim.io.atomic.atomic_path`.
+    Written through the output policy (:func:`camsim.io.outputs.writing`).
     """
     data = sample_revolution(program, points)
-    with atomic_path(path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, machine, "cam")
-            time = write_time(f, data["time"])
-            write_trace(f, "cam/angle", data["angle"], "deg", "cam angle", time)
-            for name, units, long_name in TRACES:
-                write_trace(f, f"cam/{name}", data[name], units, long_name, time)
-            geometry = getattr(machine.cam, "geometry", None)
-            if geometry is not None:  # issue 14: the spec's /cam/... design datasets
-                from camsim.cam.geometry import geometry_datasets
+    with writing(path, "hdf5", owner="cam") as target, target.h5() as f:
+        write_root_attributes(f, machine, "cam")
+        time = write_time(f, data["time"])
+        write_trace(f, "cam/angle", data["angle"], "deg", "cam angle", time)
+        for name, units, long_name in TRACES:
+            write_trace(f, f"cam/{name}", data[name], units, long_name, time)
+        geometry = getattr(machine.cam, "geometry", None)
+        if geometry is not None:  # issue 14: the spec's /cam/... design datasets
+            from camsim.cam.geometry import geometry_datasets
 
-                for path_, (values, units, long_name) in geometry_datasets(
-                    geometry, program, np.radians(data["angle"])
-                ).items():
-                    write_trace(f, path_, values, units, long_name, time)
-            compensated = getattr(machine.cam, "compensated", None)
-            if compensated is not None:  # issue 27: the wanted output motion, same time base
-                from camsim.cam import CamProgram
+            for path_, (values, units, long_name) in geometry_datasets(
+                geometry, program, np.radians(data["angle"])
+            ).items():
+                write_trace(f, path_, values, units, long_name, time)
+        compensated = getattr(machine.cam, "compensated", None)
+        if compensated is not None:  # issue 27: the wanted output motion, same time base
+            from camsim.cam import CamProgram
 
-                out = CamProgram(machine.cam.output_program).svaj(data["time"])
-                for (name, units, _), values in zip(TRACES[:3], out[:3]):
-                    write_trace(f, f"cam/output_program/{name}", values, units,
-                                f"wanted {name} of {compensated.output} (the written program) on the model axis",
-                                time)
-            if program.kind == "segments":
-                write_trace(
-                    f, "cam/boundaries_deg", np.degrees(program.boundary_angles()), "deg", "cam angles of segment joins"
-                )
+            out = CamProgram(machine.cam.output_program).svaj(data["time"])
+            for (name, units, _), values in zip(TRACES[:3], out[:3]):
+                write_trace(f, f"cam/output_program/{name}", values, units,
+                            f"wanted {name} of {compensated.output} (the written program) on the model axis",
+                            time)
+        if program.kind == "segments":
+            write_trace(
+                f, "cam/boundaries_deg", np.degrees(program.boundary_angles()), "deg", "cam angles of segment joins"
+            )
     return Path(path)
 
 
@@ -75,6 +74,6 @@ def write_cam_csv(path: str | os.PathLike[str], program: CamProgram, points: int
     data = sample_revolution(program, points)
     header = ",".join(["time [s]", "angle [deg]"] + [f"{name} [{units}]" for name, units, _ in TRACES])
     columns = np.column_stack([data["time"], data["angle"]] + [data[name] for name, _, _ in TRACES]) + 0.0  # no "-0"
-    with atomic_path(path) as tmp:
-        np.savetxt(tmp, columns, fmt="%.12g", delimiter=",", header=header, comments="")
+    with writing(path, "csv", owner="csv") as target, target.text() as fh:
+        np.savetxt(fh, columns, fmt="%.12g", delimiter=",", header=header, comments="")
     return Path(path)

@@ -23,7 +23,7 @@ import numpy as np
 
 from camsim.cam.geometry import CamGeometry, pitch_curve, roller_side_motion, surface_points
 from camsim.errors import InputError
-from camsim.io.atomic import atomic_path
+from camsim.io.outputs import writing
 
 __all__ = ["UNITS", "profile_points", "write_profile_csv", "write_profile_dxf"]
 
@@ -120,8 +120,8 @@ def write_profile_csv(path: str | os.PathLike[str], points: dict[str, np.ndarray
     pitch = np.vstack([points["pitch"], points["pitch"][:1]]) * scale
     header = ",".join(["angle [deg]"] + [f"{c} [{unit}]" for c in ("surface_x", "surface_y", "pitch_x", "pitch_y")])
     data = np.column_stack([np.degrees(theta), surf, pitch]) + 0.0
-    with atomic_path(path) as tmp:
-        np.savetxt(tmp, data, fmt="%.12g", delimiter=",", header=header, comments="")
+    with writing(path, "csv", owner="csv", option="--profile") as target, target.text() as fh:
+        np.savetxt(fh, data, fmt="%.12g", delimiter=",", header=header, comments="")
     return Path(path)
 
 
@@ -165,6 +165,6 @@ def _write_dxf(ezdxf, path, points, geometry, scale, insunits, measurement) -> P
     arm = rb / 10.0
     msp.add_line((-arm, 0.0), (arm, 0.0), dxfattribs={"layer": LAYERS["centre"]})
     msp.add_line((0.0, -arm), (0.0, arm), dxfattribs={"layer": LAYERS["centre"]})
-    with atomic_path(path) as tmp:
-        doc.saveas(tmp)
+    with writing(path, "dxf", owner="dxf", option="--dxf") as target, target.text() as fh:
+        doc.write(fh)
     return Path(path)

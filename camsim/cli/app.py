@@ -6,7 +6,12 @@ Each command lives in its own module (``cmd_<name>.py``) that registers itself o
 * human output (tables, warnings, progress) goes to stderr; ``--json`` prints only JSON
   on stdout;
 * exit codes: 0 success, 1 a run that failed or a check that found a difference,
-  2 bad input or usage — one line on stderr, no traceback.
+  2 bad input or usage — one line on stderr, no traceback;
+* the file system's refusals (no space, a quota, a permission, a read-only file system,
+  an I/O error) are the user's to fix: one line naming the file and the cause, exit 1,
+  never "internal error"; that stays for real bugs;
+* every command runs in an output session (:func:`camsim.io.outputs.output_session`):
+  the outputs it checks stay locked until it ends.
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ import typer
 import typer.core
 from rich.console import Console
 
-from camsim.errors import InputError, SimulationError
+from camsim.errors import FileSystemError, InputError, SimulationError
 from camsim.units import QuantityError, to_si
 
 #: Human output: stderr, colours only on a terminal; wide enough for the tables in logs.
@@ -47,10 +52,12 @@ class _OneLineErrors(typer.core.TyperGroup):
             from click import exceptions as click_exceptions
 
         from camsim.cli.units_option import reset_error_units
+        from camsim.io.outputs import output_session
 
         reset_error_units()
         try:
-            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            with output_session():
+                rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except getattr(click_exceptions, "NoArgsIsHelpError", ()) as exc:
             exc.show()  # a bare ``camsim``: the help, as before
             rv = 2
@@ -65,17 +72,38 @@ class _OneLineErrors(typer.core.TyperGroup):
         except typer.Abort:
             err_console.print("camsim: aborted", markup=False)
             rv = 1
+        except FileSystemError as exc:
+            err_console.print(f"camsim: error: {exc}", markup=False, highlight=False)
+            rv = 1
         except Exception as exc:  # noqa: BLE001 - the last guard: no traceback reaches the user
             if os.environ.get("CAMSIM_TRACEBACK"):
                 raise
+            if FileSystemError.applies(exc):  # the environment's, wherever it surfaced
+                err_console.print(f"camsim: error: {_environment(exc)}", markup=False, highlight=False)
+                rv = 1
+                if not standalone_mode:
+                    return rv
+                sys.exit(rv)
             text = " ".join(str(exc).split()) or type(exc).__name__
             err_console.print(f"camsim: error: internal error ({type(exc).__name__}: {text}); this is a bug in camsim, "
                               "please report it with the command line (CAMSIM_TRACEBACK=1 shows the traceback)",
                               markup=False, highlight=False)
             rv = 1
+        if rv == 130 and not _INTERRUPT_REPORTED[0]:  # Ctrl-C outside a command's user_errors: typer's silent 130
+            err_console.print("camsim: interrupted; nothing was written", markup=False)
+        _INTERRUPT_REPORTED[0] = False
         if not standalone_mode:
             return rv
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+#: Set when a command said why it stops after Ctrl-C (the group says it otherwise).
+_INTERRUPT_REPORTED = [False]
+
+
+def _environment(exc: OSError) -> str:
+    """One line for an OSError of the environment: the file and the cause."""
+    return str(FileSystemError(exc.filename or "camsim", exc, "read or write" if not exc.filename else "use it"))
 
 
 def _given(exc, args: list[str]) -> str:
@@ -126,6 +154,8 @@ def _main(
 def fail(message: str, code: int = 2) -> typer.Exit:
     """Print ``camsim: error: message`` on stderr and return the Exit to raise."""
     err_console.print(f"camsim: error: {message}", markup=False, highlight=False)
+    if code == 130:
+        _INTERRUPT_REPORTED[0] = True
     return typer.Exit(code=code)
 
 
@@ -140,8 +170,15 @@ def user_errors() -> Iterator[None]:
         raise fail(error_text(str(exc)), 2) from None
     except SimulationError as exc:
         raise fail(error_text(str(exc)), 1) from None
+    except FileSystemError as exc:
+        raise fail(str(exc), 1) from None
+    except OSError as exc:
+        if not FileSystemError.applies(exc):
+            raise
+        raise fail(_environment(exc), 1) from None
     except KeyboardInterrupt:
         err_console.print("camsim: interrupted; nothing was written under the output name")
+        _INTERRUPT_REPORTED[0] = True
         raise typer.Exit(code=130) from None
 
 

@@ -155,7 +155,6 @@ def cam_command(
     from camsim.cam import CamProgram
     from camsim.cam.files import write_cam_csv, write_cam_hdf5
     from camsim.display import in_units
-    from camsim.io.atomic import check_writable
 
     with user_errors():
         from camsim.io.outputs import CSV, FIGURES, HDF5, check_output, output_format, same_file
@@ -266,10 +265,9 @@ def cam_command(
                 written.append(f"{dxf} ({pts['theta'].size} points, chordal tolerance {_tolerance(tol, unit)}, {unit})")
         if plot is not None:
             from camsim.figures.cam import plot_cam_design
-            from camsim.io.atomic import atomic_path
+            from camsim.figures.style import save_figure
 
             fmt = plot.suffix.lower().lstrip(".")
-            metadata = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}[fmt]
             figures = []
             if geometry is not None and output_program is None:
                 figures.append((plot, plot_cam_design(geometry, program, title=f"{machine.name}: cam design", units=shown)))
@@ -284,16 +282,27 @@ def cam_command(
                 figures.append((plot, plot_svaj(curves, title=f"{machine.name}: SVAJ on the model axis", units=shown)))
                 if geometry is not None:
                     design = plot.with_name(f"{plot.stem}-design{plot.suffix}")
-                    check_writable(design)
+                    check_output(design, fmt, owner="figure", inputs=inputs, option="--plot (its design figure)")
                     figures.append((design, plot_cam_design(geometry, program, title=f"{machine.name}: "
                                                                                       "compensated cam design", units=shown)))
             for path_, fig in figures:
-                with atomic_path(path_) as tmp:
-                    fig.savefig(tmp, format=fmt, dpi=150, metadata=metadata)
+                save_figure(fig, path_, fmt, dpi=150)
                 written.append(str(path_))
         if not as_json:
             for line in written:
                 err_console.print(f"wrote {line}", markup=False)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, FIGURES, DXF
+declare("cam", reads=[Reads("machine_file", "machine", fixture="geometry")], force=True,
+        writes=[Writes("output", "-o", {**HDF5, **CSV}, "cam", optional=True),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True),
+                Writes("profile", "--profile", CSV, "csv", optional=True),
+                Writes("dxf", "--dxf", DXF, "dxf", optional=True)],
+        example=("cam", "{in:machine_file}", "--points", "60", "-o", "{out:-o}", "--plot", "{out:--plot}",
+                 "--profile", "{out:--profile}", "--tolerance", "10um", "--dxf", "{out:--dxf}"))
 
 
 __all__ = ["cam_command", "write_cam_csv", "write_cam_hdf5"]

@@ -47,3 +47,9 @@ def check_command(
         if json_:
             err_console.print(summary_line(report, shown), markup=False, highlight=False)
         raise typer.Exit(code=1)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, declare
+declare("check", reads=[Reads("result", "result", ("run", "compare", "sweep")), Reads("against", "result", ("run", "compare", "sweep"))],
+        example=("check", "{in:result}", "--against", "{in:against}"))

@@ -53,6 +53,11 @@ def render_design_comparison(rows, console, units=None) -> None:
         table.add_row(row["quantity"], fmt(row["impact"]), fmt(row["no_impact"]), unit,
                       "–" if change is None else f"{change:+.3g}")
     console.print(table)
+    for row in rows:  # issue 35: every "–" says why
+        if row["impact"] is None or row["no_impact"] is None:
+            console.print(f"– in {row['quantity']}: {row.get('reason') or 'not computed for that run'}", markup=False)
+        elif row["change_percent"] is None:
+            console.print(f"– change of {row['quantity']}: the no-impact value is 0 (no relative change)", markup=False)
 
 
 @app.command("compare")
@@ -148,3 +153,12 @@ def compare_command(
             if output is not None:
                 err_console.print(f"wrote {output}")
         write_report_page([output] if output is not None else list(inputs), report, quiet=json_, units=units)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, HTML
+declare("compare", reads=[Reads("inputs", "machine"),
+                          Reads("inputs", "result", ("run",), fixture="run", example=("compare", "{in:inputs}", "{run}"))],
+        writes=[Writes("output", "-o", HDF5, "compare"), Writes("report", "--report", HTML, "report", optional=True)],
+        force=True, example=("compare", "{in:inputs}", "-o", "{out:-o}", "-q", "--report", "{out:--report}"))

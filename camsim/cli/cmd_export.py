@@ -58,3 +58,11 @@ def export_command(
         typer.echo(str(result.csv))
         if result.events_csv is not None:
             typer.echo(str(result.events_csv))
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import CSV
+declare("export", reads=[Reads("file", "result", ("run", "compare"), fixture="run")],
+        writes=[Writes("out", "-o", CSV, "csv"), Writes("events_csv", "--events-csv", CSV, "csv")],
+        example=("export", "{in:file}", "-o", "{out:-o}", "--events-csv", "{out:--events-csv}"))

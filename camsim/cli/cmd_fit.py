@@ -221,9 +221,9 @@ def fit_command(
         inputs = [("machine file", machine), ("measured file", measured)]
         check_output(target_path, output_format(target_path, TOML), owner="fit", force=force, inputs=inputs)
         store = evaluation_store_for(target_path)
-        # the store has no file_kind (a row-store view); only its kind and the inputs are checked
+        # the store is a row-store view with file_kind "fit": another file there needs --force
         check_output(store, output_format(store, HDF5), owner="fit", inputs=inputs, option="-o (its evaluation store)",
-                     force=True)
+                     force=force)
         check_journal(target_path, journal_path_for(store), resume=resume, fresh=fresh, what="fit")
         if report is not None and report.suffix.lower() in (".html", ".htm"):
             from camsim.cli.report_option import check_report_target
@@ -290,3 +290,16 @@ def fit_command(
         written = write_fitted(target_path, text, result, source=str(machine))
         if not json_:
             err_console.print(f"wrote {written}" + (f" and {report}" if report is not None else ""), markup=False)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, TOML, FIGURES
+declare("fit", reads=[Reads("machine", "machine"),
+                      Reads("measured", "csv", fixture="measured",
+                            example=("fit", "{machine}", "{in:measured}", "--param", "element.K.preload=0:100", "-o", "{out:-o}"))],
+        writes=[Writes("output", "-o", TOML, "fit"), Writes(None, "-o", HDF5, "fit", beside="-o:+.evaluations.h5", journal=True,
+                                                           transient=True),
+                Writes("report", "--report", FIGURES, "figure", optional=True)],
+        force=True, example=("fit", "{in:machine}", "--target", "max_cam_contact_force=100N", "--param", "element.K.preload=0:100",
+                             "-o", "{out:-o}", "--report", "{out:--report}"))

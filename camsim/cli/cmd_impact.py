@@ -493,3 +493,10 @@ def fit_command(
     table.add_row("a", f"{fit.exponent:.6g}", "-")
     table.add_row("R² (log-log)", f"{fit.r_squared:.6f}", "-")
     err_console.print(table)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, declare
+declare("impact", reads=[Reads("machine", "machine", example=("impact", "--materials", "--machine", "{in:machine}"))],
+        example=("impact", "--mass", "1 kg", "--velocity", "1 m/s", "--stiffness", "1e6 N/m"))
+declare("impact fit", reads=[Reads("data", "csv", fixture="deflection")], example=("impact", "fit", "{in:data}"))

@@ -66,3 +66,10 @@ def lump_command(
         err_console.print(f"wrote {output}", markup=False)
     if json_out:
         print_json(result.to_json())
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import TOML
+declare("lump", reads=[Reads("parts", "parts")], force=True, writes=[Writes("output", "-o", TOML, "lump")],
+        example=("lump", "{in:parts}", "-o", "{out:-o}"))

@@ -55,6 +55,8 @@ def modes_command(
             f"{m.stiffness_ratio:.3g}" if m.stiffness_ratio else "–",
         )
     err_console.print(table)
+    for note in _dash_notes(modes):  # issue 35: every "–" says why
+        err_console.print(note, markup=False)
     for rod in rods:  # issue 39: each rod's own axial modes, free at both ends
         t = Table(title=escape(f"rod {rod['rod']}: {rod['segments_reason']}"), title_justify="left")
         for col in ("mode", "lumped [Hz]", "continuum j*c/2L [Hz]", "error", "damping ratio"):
@@ -64,3 +66,19 @@ def modes_command(
         err_console.print(t)
         err_console.print(f"highest mode of the discretisation: {rod['highest_hz']:.5g} Hz (the machine's configurations "
                           "above include the rod, coupled to its nodes)", markup=False)
+
+
+def _dash_notes(modes) -> list[str]:
+    notes = []
+    if any(not m.frequencies for m in modes):
+        notes.append("natural frequencies –: no mass is free to move in that configuration")
+    if any(math.isnan(z) for m in modes for z in m.damping_ratios) or any(not m.damping_ratios for m in modes):
+        notes.append("damping ratios –: a rigid-body mode (0 Hz) has no damping ratio")
+    if any(not m.stiffness_ratio for m in modes):
+        notes.append("stiffness ratio –: needs two non-zero natural frequencies")
+    return notes
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, declare
+declare("modes", reads=[Reads("machine", "machine")], example=("modes", "{in:machine}"))

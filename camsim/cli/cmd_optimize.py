@@ -86,6 +86,9 @@ def _render(result, display=None) -> None:
             err.print("  " + "  ".join(f"{g.text} = {q(c.objectives[k], g.unit)}" for k, g in enumerate(p.goals)), markup=False)
     for n in result.notes:
         err.print(f"note: {in_units(n, display)}", markup=False)
+    if result.best is not None and (any(not math.isfinite(o) for o in result.best.objectives if isinstance(o, float))
+                                    or result.best.status != "ok"):  # issue 35: every "—" says why
+        err.print(f"—: no value: {result.best.status if result.best.status != 'ok' else 'the run gave none'}", markup=False)
 
 
 @app.command("optimize")
@@ -123,6 +126,8 @@ def optimize_command(
     dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers."),
     json_: bool = typer.Option(False, "--json", help="Print the result as JSON on stdout (schema in docs/optimize.md)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    max_runs: int = typer.Option(100_000, "--max-runs", min=1, help="Refuse (exit 2, before anything runs) a job that could make more simulation runs: --budget x speeds x robust samples."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run a job above --max-runs (or whose runs exceed the 2 GB output estimate)."),
     units: str = units_option(),
 ) -> None:
     """Optimise MACHINE: the --var/--choice values that minimise or maximise the objective
@@ -157,13 +162,19 @@ def optimize_command(
                 tol_sigma=tol_sigma, method=method, budget=budget, points=points, seed=seed, fixed=set_, cycles=cycles,
                 warmup_cycles=warmup, sample_rate=rate, workers=workers, scheduler=scheduler, dask_local=dask_local,
                 output=out, history=history, resume=resume, fresh=fresh, force=force, progress=bar, on_start=bar.start,
+                max_runs=math.inf if yes else max_runs, max_output=math.inf if yes else None,
             )
         except OptimizeInterrupted as exc:
             bar.close()
-            where = f" in {exc.history} (and its .journal)" if exc.history is not None else " nowhere (no -r HISTORY.h5)"
-            why = f"{exc.lost} run(s) lost with a worker process; " if exc.lost else ""
-            raise fail(f"interrupted: {why}{exc.runs} runs of {exc.evaluations} evaluations are kept{where}; "
-                       "run the same command with --resume to continue", 130) from None
+            done = f"interrupted after {exc.evaluations} complete candidate evaluation{'s' if exc.evaluations != 1 else ''}"
+            why = f" ({exc.lost} run(s) lost with a worker process)" if exc.lost else ""
+            if exc.history is None:
+                raise fail(f"{done}{why}; nothing was kept (no -r HISTORY.h5 to keep the runs in)", 130) from None
+            if not exc.runs:
+                raise fail(f"{done}{why}; no simulation run had finished: nothing was kept", 130) from None
+            raise fail(f"{done}{why}; the {exc.runs} finished simulation runs are kept in {exc.history} (and its "
+                       ".journal): run the same command with --resume to continue without running them again",
+                       130) from None
         finally:
             bar.close()
         shown = machine_units(units, getattr(result.problem, "base", None),
@@ -180,4 +191,15 @@ def optimize_command(
             if wrote:
                 err_console.print("wrote " + ", ".join(wrote), markup=False)
         if not result.feasible:
-            raise fail("no candidate meets the constraints (the least-violating one is reported); OPTIMISED.toml not written", 1)
+            unwritten = f"{out} was not written" if out is not None else "no machine file is written"
+            raise fail(f"no candidate meets the constraints (the least-violating one is reported); {unwritten}", 1)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, TOML, FIGURES
+declare("optimize", reads=[Reads("machine", "machine")], force=True,
+        writes=[Writes("out", "-o", TOML, "optimize", optional=True), Writes("history", "-r", HDF5, "optimize", journal=True, optional=True),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True)],
+        example=("optimize", "{in:machine}", "--var", "element.K.preload=20:60N", "--minimize", "max_cam_contact_force",
+                 "--method", "local", "--budget", "3", "--workers", "1", "-q", "-o", "{out:-o}", "-r", "{out:-r}", "--plot", "{out:--plot}"))

@@ -64,3 +64,11 @@ def plot_command(
     else:
         for p in written:
             typer.echo(str(p))
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import FIGURES
+declare("plot", reads=[Reads("file", "result", ("run", "compare", "sweep"), fixture="run")],
+        writes=[Writes("out", "-o", FIGURES, "figure", directory="{stem}_masses_M_velocity.{fmt}")],
+        example=("plot", "{in:file}", "--what", "masses", "--quantity", "velocity", "-o", "{out:-o}"))

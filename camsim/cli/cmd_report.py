@@ -8,6 +8,7 @@ import typer
 
 from camsim.cli.app import app, err_console, user_errors
 from camsim.cli.units_option import check_units, units_option
+from camsim.errors import InputError
 
 
 @app.command("report")
@@ -17,6 +18,7 @@ def report_command(
     pdf: Path = typer.Option(None, "--pdf", help="Also print the page to this PDF through the local Chromium (see docs/report.md)."),
     units: str = units_option("Units of the page: file (each result's machine file's own units, recorded in the result; "
                               "the default), si (mm, N, kg, m/s) or us (in, lbf, lb, in/s)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing HTML page that camsim did not write (a file of another kind or an input is never replaced)."),
 ) -> None:
     """Write one self-contained, interactive HTML page of RESULT.h5: verdicts, tables, zoomable traces.
 
@@ -26,8 +28,24 @@ def report_command(
     """
     with user_errors():
         check_units(units)
+        from camsim.io.outputs import HTML, PDF, check_output, output_format, same_file
+
         target = output if output is not None else results[0].with_suffix(".html")
+        inputs = [(f"result file {p}" if len(results) > 1 else "result file", p) for p in results]
+        check_output(target, output_format(target, HTML), owner="report", inputs=inputs, force=force)
+        if pdf is not None:
+            if same_file(pdf, target):
+                raise InputError(f"{pdf}: --pdf and -o name the same file; give each output its own name")
+            check_output(pdf, output_format(pdf, PDF, "--pdf"), owner="report", inputs=inputs, option="--pdf")
         from camsim.reports.build import build_report
 
         build_report(results, target, pdf=pdf, units=units)
     err_console.print(f"wrote {target}" + (f" and {pdf}" if pdf is not None else ""), markup=False)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HTML, PDF
+declare("report", reads=[Reads("results", "result", ("run", "compare", "sweep", "study", "optimize"), fixture="run")], force=True,
+        writes=[Writes("output", "-o", HTML, "report"), Writes("pdf", "--pdf", PDF, "report", optional=True)],
+        example=("report", "{in:results}", "-o", "{out:-o}", "--pdf", "{out:--pdf}"), slow=True)

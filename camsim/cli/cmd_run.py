@@ -128,3 +128,13 @@ def run_command(
             render_report(report, err_console, units=shown)
             if not report.passed:
                 raise typer.Exit(code=1)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, HTML
+declare("run", reads=[Reads("machine", "machine"),
+                      Reads("check_against", "result", ("run",), fixture="run",
+                            example=("run", "{machine}", "-o", "{out:-o}", "-q", "--check-against", "{in:check_against}"))],
+        writes=[Writes("output", "-o", HDF5, "run"), Writes("report", "--report", HTML, "report", optional=True)],
+        force=True, example=("run", "{in:machine}", "-o", "{out:-o}", "-q", "--report", "{out:--report}"))

@@ -60,6 +60,10 @@ def _render(result, err, system=None) -> None:
             Text(v(s["percentiles"]["99"])), Text(v(s["min"])), Text(v(s["max"])),
         )
     err.print(table)
+    shown_values = [x for s in result.stats.values() for x in (s["mean"], *s["ci95"]["mean"], s["std"], s["min"], s["max"])]
+    if any(_fmt(x) == "—" for x in shown_values):  # issue 35: every "—" says why
+        err.print("—: not defined for these runs (one run has no spread and no bootstrap interval; a statistic of "
+                  "runs that all failed has no value)", markup=False)
     for lim in result.limits:
         if lim.get("reason"):
             err.print(f"P({lim['expr']}): not determined: {lim['reason']}", markup=False)
@@ -130,6 +134,8 @@ def study_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
     units: str = units_option(),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
+    max_runs: int = typer.Option(100_000, "--max-runs", min=1, help="Refuse (exit 2, before anything runs) a study of more simulation runs (--samples, x (d + 2) with --sensitivity)."),
+    yes: bool = typer.Option(False, "--yes", "-y", help="Run a study above --max-runs (or whose runs exceed the 2 GB output estimate)."),
 ) -> None:
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
@@ -216,15 +222,13 @@ def study_command(
                 resume=resume,
                 progress=bar,
                 on_start=start,
+                max_runs=math.inf if yes else max_runs,
+                max_output=math.inf if yes else None,
             )
         except StudyInterrupted as exc:
             bar.close()
-            if exc.lost:
-                raise fail(
-                    f"{exc.lost} runs did not run (a worker process failed); {exc.done} of {exc.total} are kept in "
-                    f"{exc.store} (and its .journal); run the same command with --resume to run the rest",
-                    1,
-                ) from None
+            if not exc.done:
+                raise fail(f"interrupted before any of the {exc.total} runs finished: nothing was kept", 130) from None
             raise fail(
                 f"interrupted: {exc.done} of {exc.total} runs are kept in {exc.store} (and its .journal); "
                 "run the same command with --resume to finish",
@@ -248,6 +252,21 @@ def study_command(
             _render(result, err_console, shown)
             err_console.print(f"wrote {result.output} and {result.csv}" + (f" and {plot}" if plot is not None else ""), markup=False)
         write_report_page([Path(result.output)], report, quiet=json_, units=shown)
+        if result.not_run:
+            raise fail(f"incomplete: {result.not_run} of {result.n_runs} runs did not run (a worker process failed); "
+                       f"{result.output} keeps the others and its .journal; run the same command with --resume to "
+                       "run them (no probability is concluded meanwhile)", 1)
         if result.failed:
             raise fail(f"incomplete: {result.failed} of {result.n_runs} runs failed (their rows hold the reason in "
                        "'status'); no probability is concluded from the others", 1)
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, FIGURES, HTML
+declare("study", reads=[Reads("machine", "machine"), Reads("config", "config", fixture="config",
+                                                           example=("study", "--config", "{in:config}", "-o", "{out:-o}"))],
+        writes=[Writes("out", "-o", HDF5, "study", journal=True), Writes(None, "-o", CSV, "csv", beside="-o:.csv"),
+                Writes("plot", "--plot", FIGURES, "figure", optional=True), Writes("report", "--report", HTML, "report", optional=True)],
+        force=True, example=("study", "{in:machine}", "--dist", "element.K.preload=normal:40N:1N", "-n", "3", "--workers", "1", "-q",
+                             "-o", "{out:-o}", "--plot", "{out:--plot}", "--report", "{out:--report}"))

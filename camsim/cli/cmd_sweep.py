@@ -162,6 +162,7 @@ def sweep_command(
     or SIGTERM (finished rows are written, the rest marked "cancelled").
     """
     from camsim.cli.app import parse_sample_rate
+    from camsim.errors import FileSystemError
     from camsim.io.atomic import check_writable
     from camsim.cli.progress import Bar
     from camsim.run.lifecycle import sigterm_as_interrupt
@@ -203,7 +204,12 @@ def sweep_command(
             )
         finally:
             bar.close()
-        h5_path, csv_path = write_sweep(result, target)
+        try:
+            h5_path, csv_path = write_sweep(result, target)
+        except FileSystemError as exc:  # the journal has every finished row
+            again = "--fresh (the traces of --keep-traces are not in the journal)" if keep_traces else "--resume"
+            raise exc.with_advice(f"{result.journal} keeps the finished rows: free space and run the same command "
+                                  f"with {again}") from None
         finish_sweep(result)
         if json_:
             print_json(
@@ -229,6 +235,8 @@ def sweep_command(
                           units=machine_units(units, result.machine, [*vary, *values, *set_]))
         if result.interrupted:
             done = sum(r["status"] != "cancelled" for r in result.rows)
+            if not done:
+                raise fail(f"interrupted before any of the {len(result.rows)} variants finished: nothing was kept", 130)
             raise fail(
                 f"interrupted: kept the {done} finished variants of {len(result.rows)} in {h5_path} (the rest have status 'cancelled'); rerun with --resume to complete it",
                 130,
@@ -245,3 +253,13 @@ def sweep_command(
                 "holds the reason); no conclusion is drawn from them",
                 1,
             )
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, Writes, declare
+from camsim.io.outputs import HDF5, CSV, HTML
+declare("sweep", reads=[Reads("machine", "machine")], force=True,
+        writes=[Writes("output", "-o", HDF5, "sweep", journal=True), Writes(None, "-o", CSV, "csv", beside="-o:.csv"),
+                Writes("report", "--report", HTML, "report", optional=True)],
+        example=("sweep", "{in:machine}", "--vary", "cam.speed=100:140:20rpm", "--workers", "1", "-q", "-o", "{out:-o}",
+                 "--report", "{out:--report}"))

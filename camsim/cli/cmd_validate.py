@@ -183,3 +183,8 @@ def _print_machine(machine: Machine, u: DisplayUnits) -> None:
         err_console.print(
             f"initial {escape(ic.mass)}: displacement {_g(ic.displacement, 'm', u)}, velocity {_g(ic.velocity, 'm/s', u)}"
         )
+
+
+# What the command reads and writes (camsim.cli.contracts; the conformance suite's source).
+from camsim.cli.contracts import Reads, declare
+declare("validate", reads=[Reads("machine_file", "machine")], example=("validate", "{in:machine_file}"))

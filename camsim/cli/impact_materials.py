@@ -75,9 +75,25 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
                       g(r.peak_pressure, scale=1e-6), g(r.yield_pressure, scale=1e-6),
                       g(r.pressure_ratio, ".3g") + flag, g(r.rebound, ".3g"), g(r.contact_duration, ".4g", 1e6))
     err_console.print(table)
+    for note in _dash_notes(ranking.rows):  # issue 35: every "–" says why
+        err_console.print(note, markup=False)
     speeds = [r.approach_velocity for r in ranking.rows if r.status == "ok"]
     if speeds:
         err_console.print(f"approach speed of the largest impact: {min(speeds):.4g} to {max(speeds):.4g} m/s",
                           markup=False)
     err_console.print("ranked: below first yield before yielding, then by peak force, then by rebound "
                       "(docs/impact.md, materials)", markup=False)
+
+
+def _dash_notes(rows) -> list[str]:
+    """Why a cell of the ranking shows "–"."""
+    notes = []
+    if any(r.status != "ok" for r in rows):
+        notes.append("–: that pair did not run to a result (the column after E* says why)")
+    ok = [r for r in rows if r.status == "ok"]
+    if any(r.yield_pressure is None for r in ok):
+        notes.append("first yield –, p/p_yield –: no yield strength in the library for that pair's materials")
+    if any(r.contact_duration is None or not math.isfinite(r.contact_duration) for r in ok):
+        notes.append("duration –: the contact was still closed when the run ended")
+    return notes
+

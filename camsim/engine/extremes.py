@@ -35,18 +35,14 @@ import numpy as np
 
 from camsim.errors import SimulationError
 from camsim.elements.affine import N_INPUT
-from camsim.engine.stepping import _FACT, _P, state_scale, step_input_derivatives
+from camsim.engine.stepping import _FACT, _P, step_input_derivatives
+from camsim.engine.taylor import taylor_states
 
 #: The bound of a smooth q between two nodes, h²/8·|q̈|, is taken this many times over
 #: (q̈ itself estimated from the nodes; see _screen).
 SCREEN_SAFETY = 4.0
 #: Chebyshev–Lobatto points per refined step (the interpolant's degree + 1).
 CHEBYSHEV_POINTS = 13
-#: Taylor terms of a step's exact solution are taken until the next would be below this
-#: (relative to the balanced state).
-TAYLOR_TOL = 1e-18
-#: Largest balanced norm ‖A·h‖₁ for the Taylor series (beyond it the step is split).
-TAYLOR_NORM = 4.0
 #: A located value between nodes replaces the best node value only when it is larger by more
 #: than this fraction of the values interpolated (the interpolation's rounding).
 ROUNDING = 64 * np.finfo(float).eps
@@ -63,120 +59,6 @@ _FINE_V = np.polynomial.chebyshev.chebvander(_FINE, CHEBYSHEV_POINTS - 1)
 #: The first and second derivatives of a Chebyshev series as matrices on its coefficients.
 _DER1 = np.array([np.polynomial.chebyshev.chebder(e) for e in np.eye(CHEBYSHEV_POINTS)]).T
 _DER2 = np.array([np.polynomial.chebyshev.chebder(e, 2) for e in np.eye(CHEBYSHEV_POINTS)]).T
-
-
-# ---------------------------------------------------------------------- dense states
-def taylor_states(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Exact states of a linear configuration inside steps, from the Taylor series of the solution.
-
-    Parameters
-    ----------
-    config : Configuration
-        ż = A·z + B·u + b.
-    z0 : ndarray (S, m)
-        State at each step's start.
-    D : ndarray (S, 8)
-        The steps' cam-input derivatives d^j s/dt^j at their starts (the degree-7
-        polynomial the step maps integrate, :func:`camsim.engine.stepping.step_input_derivatives`).
-    h : ndarray (S,)
-        Step lengths [s].
-    sigma : ndarray (P,) or (S, P)
-        Fractions of the step (0 … 1) at which the state is wanted (the same for every
-        step, or per step).
-
-    Returns
-    -------
-    ndarray (S, P, m)
-
-    Notes
-    -----
-    In the balanced state w = T⁻¹·z (T the diagonal balancing of A) and the scaled
-    coefficients e_k = w^(k)·h^k/k!, the series is e_{k+1} = h/(k+1)·(A_b·e_k + (B_b·u^(k)
-    + [k = 0]·b_b)·h^k/k!), summed until ‖h·A_b‖^k/k! is below :data:`TAYLOR_TOL`: the
-    exact solution to rounding, a few small products instead of an ``expm`` per point.
-    Steps whose ‖h·A_b‖₁ exceeds :data:`TAYLOR_NORM` are halved recursively.
-    """
-    S, m = z0.shape
-    sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (S, np.shape(sigma)[-1]))
-    P = sigma.shape[1]
-    out = np.empty((S, P, m))
-    if m == 0 or S == 0:
-        return out
-    T = state_scale(config)
-    Ab = config.A * (T[None, :] / T[:, None])
-    Bb = config.B / T[:, None]
-    bb = config.b / T
-    norm_a = float(np.linalg.norm(Ab, 1))
-    h = np.asarray(h, dtype=float)
-    long = h * norm_a > TAYLOR_NORM
-    if np.any(long):
-        # a long step (a stretch's only step between two events far apart with no grid
-        # point, in a soft machine): its halves, each from its own exact start state
-        for s in np.flatnonzero(long).tolist():
-            out[s] = _split_states(config, z0[s], D[s], float(h[s]), sigma[s])
-    short = np.flatnonzero(~long)
-    if short.size == 0:
-        return out
-    hs = h[short]
-    nrm = float(np.max(hs)) * norm_a
-    terms = 1
-    bound = 1.0
-    while terms < 80:
-        bound *= nrm / terms
-        if bound < TAYLOR_TOL and terms > _P + 1:
-            break
-        terms += 1
-    Dp = np.concatenate([D[short], np.zeros((short.size, terms + N_INPUT))], axis=1)
-    e = z0[short] / T  # e_0 = w0
-    powers = sigma[short][:, :, None] ** np.arange(terms + 1)  # (S, P, K+1)
-    W = powers[:, :, 0, None] * e[:, None, :]
-    hk = np.ones_like(hs)  # h^k / k!
-    for k in range(terms):
-        uk = Dp[:, k : k + N_INPUT] * hk[:, None]  # û_k·h^k/k!
-        forcing = uk @ Bb.T
-        if k == 0:
-            forcing = forcing + bb
-        e = (hs / (k + 1))[:, None] * (e @ Ab.T + forcing)
-        W += powers[:, :, k + 1, None] * e[:, None, :]
-        hk = hk * hs / (k + 1)
-    out[short] = W * T
-    return out
-
-
-def _split_states(config, z0, D, h, sigma):
-    """:func:`taylor_states` of one long step, by its halves."""
-    half = 0.5 * h
-    D_mid = _shift_input(D, half)
-    z_mid = taylor_states(config, z0[None, :], D[None, :], np.array([half]), np.array([1.0]))[0, 0]
-    out = np.empty((sigma.size, z0.size))
-    first = sigma <= 0.5
-    if np.any(first):
-        out[first] = taylor_states(config, z0[None, :], D[None, :], np.array([half]), sigma[first] * 2.0)[0]
-    if np.any(~first):
-        out[~first] = taylor_states(config, z_mid[None, :], D_mid[None, :], np.array([half]),
-                                    sigma[~first] * 2.0 - 1.0)[0]
-    return out
-
-
-def _shift_input(D: np.ndarray, tau: float) -> np.ndarray:
-    """The degree-7 input polynomial's derivatives at τ into its step (D at the start)."""
-    out = np.zeros_like(D)
-    for j in range(D.size):
-        terms = D[j:]
-        out[j] = float(np.sum(terms * tau ** np.arange(terms.size) / _FACT[: terms.size]))
-    return out
-
-
-def step_inputs(D: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """[s, ṡ, s̈, s⃛] of the steps' input polynomials at offsets τ: D (S, 8), τ (S, P) → (S, P, 4)."""
-    S, P = tau.shape
-    Dp = np.concatenate([D, np.zeros((S, N_INPUT - 1))], axis=1)
-    j = np.arange(_P + 1)
-    powers = tau[:, :, None] ** j / _FACT[: _P + 1]  # (S, P, 8)
-    out = np.empty((S, P, N_INPUT))
-    for c in range(N_INPUT):
-        out[:, :, c] = np.einsum("spj,sj->sp", powers, Dp[:, c : c + _P + 1])
-    return out
 
 
 # ---------------------------------------------------------------------- dense states of a stretch
@@ -204,9 +86,9 @@ class _DenseStretch:
         sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (S, np.shape(sigma)[-1]))
         h = self.h[steps]
         D = self.D[steps]
-        # the cam input from its law (a driven mass's acceleration is the cam's s̈: the step's
-        # degree-7 polynomial carries it only to about (h/β)^6 of itself, which made a flat
-        # maximum depend on the grid by 3e-8)
+        # the cam input from its law: inside a short step, the step's degree-7 polynomial
+        # carries the rounding of s amplified into s̈ (7.5e-7 m/s², 6e-8 of the CDTM cam's
+        # peak acceleration, in a 20 µs step), and a driven mass's acceleration *is* s̈
         times = self.nodes[steps][:, None] + h[:, None] * sigma
         ends = np.broadcast_to(self.nodes[steps + 1][:, None], times.shape)
         # one evaluation of the law for every point (the limit from the left at a step's end)
@@ -295,9 +177,7 @@ class StretchExtremes:
         kmax, kmin = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
         self.node_max, self.node_min = Q[kmax, cols], Q[kmin, cols]
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
-        cands_max, self.upper = _screen(nodes, Q)
-        cands_min, lower = _screen(nodes, -Q)
-        self.lower = -lower
+        cands_max, self.upper, cands_min, self.lower = _screen(nodes, Q)
         self._candidates = {1: cands_max, -1: cands_min}
         self._dense = dense
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
@@ -325,6 +205,12 @@ class StretchExtremes:
         if steps.size == 0:
             return best
         dense = self._dense
+        if dense.exact and not self._level1:
+            # the first refinement of a linear stretch evaluates every candidate step of every
+            # observable at once (one Taylor series, one call of the observables)
+            union = sorted({k for cands in self._candidates.values() for ks in cands.values() for k in ks})
+            for k, q in zip(union, dense.values(np.array(union), _SIGMA)):
+                self._level1[k] = q
         missing = [k for k in steps.tolist() if k not in self._level1]
         if missing:
             for k, q in zip(missing, dense.values(np.array(missing), _SIGMA)):
@@ -428,48 +314,61 @@ def stretch_extremes(ctx, config, branches, v_impacts, exact: bool, nodes: np.nd
 
 
 def _screen(nodes: np.ndarray, Q: np.ndarray):
-
-    """Per observable, the steps that may hold a value above its largest node value, and the
-    bound of the values between nodes.
+    """Per observable, the steps that may hold a value beyond its largest (and its smallest)
+    node value, and the bounds of the values between nodes.
 
     Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
     estimated at each node by the divided second difference of its neighbours (exact to
     about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
     :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
     node value, or when it ends at that node (the maximum may sit just beside it). With two
-    nodes (a stretch between two events and no grid point) the one step is a candidate.
+    nodes (a stretch between two events and no grid point) the one step is a candidate. The
+    minimum is screened alike (the same excess below the smaller node value).
 
     Returns
     -------
-    (dict, ndarray)
-        observable → candidate step indices; the bound of each observable (n_obs,).
+    (dict, ndarray, dict, ndarray)
+        For the maxima: observable → candidate step indices, the upper bound of each
+        observable (n_obs,); the same for the minima with the lower bound.
     """
     N, n_obs = Q.shape
-    h = np.diff(nodes)
-    top = np.max(Q, axis=0)
-    kbest = np.argmax(Q, axis=0)
+    kbest, kworst = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
+    cols = np.arange(n_obs)
+    top, bottom = Q[kbest, cols], Q[kworst, cols]
     if N == 2:
         span = np.abs(Q[1] - Q[0])
-        return {j: (0,) for j in range(n_obs)}, top + span + 1e-12 * np.abs(top)
-    slopes = np.diff(Q, axis=0) / h[:, None]  # (N − 1, n_obs)
+        every = {j: (0,) for j in range(n_obs)}
+        return every, top + span + 1e-12 * np.abs(top), dict(every), bottom - span - 1e-12 * np.abs(bottom)
+    h = np.diff(nodes)
+    dQ = np.diff(Q, axis=0)
+    slopes = dQ / h[:, None]  # (N − 1, n_obs)
     curv = np.empty((N, n_obs))
-    curv[1:-1] = 2.0 * np.abs(np.diff(slopes, axis=0)) / (h[:-1] + h[1:])[:, None]
+    curv[1:-1] = np.abs(np.diff(slopes, axis=0)) * (2.0 / (h[:-1] + h[1:]))[:, None]
     curv[0], curv[-1] = curv[1], curv[-2]
-    excess = SCREEN_SAFETY * (h * h / 8.0)[:, None] * np.maximum(curv[:-1], curv[1:])
+    excess = (SCREEN_SAFETY / 8.0 * h * h)[:, None] * np.maximum(curv[:-1], curv[1:])
     # a stretch's first and last steps: their end node has no neighbour beyond it, so the
     # curvature there is the next node's: their bound also takes the slope across the step
-    excess[0] += 0.5 * np.abs(Q[1] - Q[0])
-    excess[-1] += 0.5 * np.abs(Q[-1] - Q[-2])
-    bound = np.maximum(Q[:-1], Q[1:]) + excess  # (N − 1, n_obs)
-    tiny = 1e-13 * np.maximum(np.abs(top), np.max(np.abs(Q), axis=0))
-    above = bound > (top + tiny)[None, :]
-    out: dict[int, tuple[int, ...]] = {}
-    for j in range(n_obs):
-        steps = set(np.flatnonzero(above[:, j]).tolist())
-        k = int(kbest[j])
-        steps.update(s for s in (k - 1, k) if 0 <= s < N - 1)
-        out[j] = tuple(sorted(steps))
-    return out, np.maximum(top, np.max(bound, axis=0))
+    excess[0] += 0.5 * np.abs(dQ[0])
+    excess[-1] += 0.5 * np.abs(dQ[-1])
+    upper = np.maximum(Q[:-1], Q[1:]) + excess  # (N − 1, n_obs)
+    lower = np.minimum(Q[:-1], Q[1:]) - excess
+    scale = np.maximum(np.abs(top), np.abs(bottom))
+    above = upper > (top + 1e-13 * scale)[None, :]
+    below = lower < (bottom - 1e-13 * scale)[None, :]
+    out = []
+    for flags, best in ((above, kbest), (below, kworst)):
+        cands: dict[int, tuple[int, ...]] = {}
+        rows, js = np.nonzero(flags)
+        per = {j: [] for j in range(n_obs)}
+        for r, j in zip(rows.tolist(), js.tolist()):
+            per[j].append(r)
+        for j in range(n_obs):
+            steps = set(per[j])
+            k = int(best[j])
+            steps.update(s for s in (k - 1, k) if 0 <= s < N - 1)
+            cands[j] = tuple(sorted(steps))
+        out.append(cands)
+    return out[0], np.maximum(top, np.max(upper, axis=0)), out[1], np.minimum(bottom, np.min(lower, axis=0))
 
 
 def _clip(dense: _DenseStretch, lo: float, hi: float):

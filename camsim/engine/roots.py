@@ -14,6 +14,7 @@ import numpy as np
 
 from camsim.engine.state import cubic_root
 from camsim.engine.stepping import exact_partial, input_at
+from camsim.engine.taylor import StepPolynomial, poly_value, poly_value_and_slope
 
 #: Newton on a guard stops when its bracket is this narrow [s] (about one ulp of t ~ 10 s).
 ROOT_BRACKET = 1e-15
@@ -21,8 +22,87 @@ ROOT_BRACKET = 1e-15
 DIP_RESOLUTION = 1e-10
 
 
+#: Points of a step at which a guard's polynomial is screened for its first crossing.
+SCREEN_POINTS = 65
+_SCREEN = np.linspace(0.0, 1.0, SCREEN_POINTS)
+
+
 def refine(config, guard, z0, Dk, Ek, hk, just_started, ends=None):
-    """Locate the first root of the guard in one step on the exact solution.
+    """Locate the first root of the guard in one step on the exact solution: (τ, z) or None.
+
+    The state over the step is its Taylor polynomial (:class:`camsim.engine.taylor.StepPolynomial`),
+    so the guard is a scalar polynomial in σ = τ/h: screened at :data:`SCREEN_POINTS`
+    points, a sign change brackets the root; without one, each local minimum of the screen
+    is polished by Newton's method on the polynomial's derivative, and one at or below zero
+    brackets a grazing dip. The root is then found by a safeguarded Newton iteration on the
+    polynomial to rounding. A step too long for the series (never one of the grid's) is
+    searched on the matrix exponential instead (:func:`refine_expm`).
+    """
+    poly = StepPolynomial(config, z0, Dk, hk)
+    if not poly.ok:
+        return refine_expm(config, guard, z0, Dk, Ek, hk, just_started, ends)
+    coef = poly.affine(guard.value)
+    values = np.polynomial.polynomial.polyval(_SCREEN, coef)
+    if just_started:
+        values[0] = max(values[0], guard.tol)
+    if values[0] <= 0.0:
+        return None
+    below = np.flatnonzero(values <= 0.0)
+    first = int(below[0]) if below.size else values.size
+    # a dip between two positive points before the first point at or below zero comes first
+    bracket = _polynomial_dip(coef, values[: first + 1] if first < values.size else values)
+    if bracket is None:
+        if first == values.size:
+            return None
+        bracket = float(_SCREEN[first - 1]), float(_SCREEN[first])
+    x = _polynomial_root(coef, *bracket)
+    return x * hk, poly.state(x)
+
+
+def _polynomial_dip(coef, values):
+    """(a, b) with p(a) > 0 ≥ p(b) at the earliest local minimum of the screen (all its
+    points positive) that Newton's method on p′ takes to or below zero, or None."""
+    d1 = np.polynomial.polynomial.polyder(coef)
+    d2 = np.polynomial.polynomial.polyder(d1)
+    inner = np.flatnonzero((values[1:-1] <= values[:-2]) & (values[1:-1] <= values[2:]) & (values[1:-1] > 0.0)) + 1
+    for k in inner.tolist():
+        a, b = float(_SCREEN[k - 1]), float(_SCREEN[k + 1])
+        x = float(_SCREEN[k])
+        for _ in range(30):
+            slope, curv = poly_value(d1, x), poly_value(d2, x)
+            if curv <= 0.0:
+                break
+            x_new = min(max(x - slope / curv, a), b)
+            if abs(x_new - x) <= 1e-16:
+                x = x_new
+                break
+            x = x_new
+        if poly_value(coef, x) <= 0.0:
+            return a, x  # p(a) > 0: a point of the screen before the minimum
+    return None
+
+
+def _polynomial_root(coef, lo: float, hi: float) -> float:
+    """The root of p in (lo, hi], p(lo) > 0 ≥ p(hi): safeguarded Newton to rounding."""
+    x = 0.5 * (lo + hi)
+    for _ in range(100):
+        p, dp = poly_value_and_slope(coef, x)
+        if p > 0.0:
+            lo = x
+        else:
+            hi = x
+        if p == 0.0 or hi - lo <= 2e-16 * max(hi, 1e-300):
+            break
+        x_new = x - p / dp if dp != 0.0 else 0.5 * (lo + hi)
+        if not (lo < x_new < hi):
+            x_new = 0.5 * (lo + hi)
+        x = x_new
+    return hi if poly_value(coef, hi) <= 0.0 and hi - lo <= 2e-16 * max(hi, 1e-300) else x
+
+
+def refine_expm(config, guard, z0, Dk, Ek, hk, just_started, ends=None):
+    """:func:`refine` on the exact matrix exponential of each evaluated point (a step too long
+    for the Taylor series).
 
     ``ends`` = (g0, g1, ġ0, ġ1), the exact guard values and rates at the step's ends,
     when known: a sign change then brackets the root, and the root of their cubic

@@ -77,16 +77,11 @@ def write_report(path: str | os.PathLike[str], result, title: str = "", units=No
     InputError
         A suffix that is not png, svg or pdf.
     """
-    import matplotlib
-
-    from camsim.io.atomic import atomic_path
-    from camsim.figures.style import _METADATA
+    from camsim.figures.style import save_figure
 
     target = Path(path)
     fmt = target.suffix.lstrip(".").lower()
     if fmt not in REPORT_FORMATS:
         raise InputError(f"--report {path}: unknown figure format '{target.suffix}' (use .png, .svg or .pdf)")
     fig = plot_fit(result, title, units=units)
-    with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=150, metadata=_METADATA[fmt])
-    return target
+    return save_figure(fig, target, fmt, dpi=150)

@@ -156,15 +156,7 @@ def plot_optimize(result, units=None):
 
 
 def save_optimize_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, units=None) -> Path:
-    """Write the figure atomically (format from the suffix: png, svg, pdf), values in ``units``."""
-    import matplotlib
+    """Write the figure through the output policy (format from the suffix: png, svg, pdf), values in ``units``."""
+    from camsim.figures.style import save_figure
 
-    from camsim.figures.style import _METADATA
-    from camsim.io.atomic import atomic_path
-
-    target = Path(path)
-    fmt = target.suffix.lower().lstrip(".")
-    fig = plot_optimize(result, units=units)
-    with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
-    return target
+    return save_figure(plot_optimize(result, units=units), Path(path), dpi=dpi)

@@ -32,7 +32,6 @@ from camsim.errors import InputError, ResultFileError
 from camsim.figures.style import shown
 from camsim.figures.style import _METADATA, _STYLE, _WIDTH, _in, _sample_mask, _window_text, axis_label, displayed, pretty_units  # noqa: F401 - shared with the other figure modules
 from camsim.figures.sweep import plot_sweep_columns, plot_sweep_mass, sweep_masses  # noqa: F401 - part of this module's API
-from camsim.io.atomic import atomic_path
 from camsim.io.results import (
     file_kind,
     long_name_of,
@@ -569,13 +568,9 @@ def save_figures(figures: dict[str, Figure], out_dir: str | os.PathLike[str], fm
 
     for name in figures:  # every image is checked before the first is written (docs/results.md)
         check_output(d / f"{name}.{fmt}", fmt, owner="figure", option="-o")
-    written = []
-    for name, fig in figures.items():
-        target = d / f"{name}.{fmt}"
-        with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
-        written.append(target)
-    return written
+    from camsim.figures.style import save_figure
+
+    return [save_figure(fig, d / f"{name}.{fmt}", fmt, dpi=dpi) for name, fig in figures.items()]
 
 
 def plot_result(result, out_dir: str | os.PathLike[str] | None = None, **options) -> dict:

@@ -147,18 +147,13 @@ def plot_study(result, outputs: list[str] | None = None, units=None):
 
 def save_study_plot(result, path: str | os.PathLike[str], dpi: float = 120.0, outputs: list[str] | None = None,
                     units=None) -> Path:
-    """Write the study figure to ``path`` (format from the suffix: png, svg, pdf), atomically, in ``units``."""
-    import matplotlib
-
+    """Write the study figure to ``path`` (format from the suffix: png, svg, pdf) through the output policy, in ``units``."""
     from camsim.errors import InputError
-    from camsim.io.atomic import atomic_path
-    from camsim.figures.style import _METADATA
+    from camsim.figures.style import _METADATA, save_figure
 
     target = Path(path)
     fmt = target.suffix.lstrip(".").lower()
     if fmt not in _METADATA:
         raise InputError(f"--plot {path}: unknown format '{fmt}' (png, svg or pdf)")
     fig = plot_study(result, outputs, units=units)
-    with matplotlib.rc_context({"svg.hashsalt": "camsim"}), atomic_path(target) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
-    return target
+    return save_figure(fig, target, fmt, dpi=dpi)

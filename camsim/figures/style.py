@@ -41,6 +41,36 @@ _WIDTH = 6.5  # [in]
 _METADATA = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None, "Producer": None}}
 
 
+def save_figure(fig, path, fmt: str | None = None, dpi: float = 150.0):
+    """Write ``fig`` to ``path`` through the output policy (:func:`camsim.io.outputs.writing`).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : path
+        The image; its format is ``fmt`` or, by default, its suffix (png, svg, pdf).
+    dpi : float
+        Resolution of raster output [dots per inch].
+
+    Returns
+    -------
+    Path
+        ``path``. The same figure gives the same bytes (no dates, a fixed SVG hash salt).
+    """
+    from pathlib import Path
+
+    import matplotlib
+
+    from camsim.io.outputs import FIGURES, output_format, writing
+
+    target = Path(path)
+    fmt = fmt or output_format(target, FIGURES)
+    with matplotlib.rc_context({"svg.hashsalt": "camsim"}), writing(target, fmt, owner="figure") as out:
+        with out.binary() as fh:
+            fig.savefig(fh, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
+    return target
+
+
 def _in(values: np.ndarray, window: tuple[float | None, float | None] | None) -> np.ndarray:
     mask = np.ones(values.shape, dtype=bool)
     if window is None:

@@ -19,16 +19,38 @@ One place decides what a command may write, so that no command loses a user's wo
 Every check raises :class:`camsim.errors.InputError` (one line, exit 2) before anything
 is computed or written. The functions are plain library calls so that every analysis
 (sweep, study, fit, optimize) applies the same rules.
+
+And one way to write (issue 35): :func:`writing` is the only way camsim creates a file.
+It hands the writer an opened temporary file (:class:`camsim.io.atomic.Target`), never a
+path, and owns everything around it:
+
+* the **lock** beside the output (:mod:`camsim.io.locks`): a second writer of the same
+  file exits 2 naming the first one's process id. Inside an :func:`output_session` (every
+  command runs in one) an output checked by :func:`check_output` stays locked from the
+  check, before anything is computed, to the end of the command;
+* the **checks** above for an output nobody checked (a library call): the suffix's
+  format and owner the writer declares, against the file that is there;
+* the **temporary file** and its **rename** into place, and its removal on failure;
+* the **environment's refusals** (no space, a quota, a permission, a read-only file
+  system, an I/O error): :class:`camsim.errors.FileSystemError`, one line naming the file
+  and the cause, exit 1, nothing under the output's name.
+
+``tests/test_architecture.py`` fails on any other way of writing a file in the package
+(``open(..., "w")``, ``os.replace``, ``savefig(path)``, ``h5py.File(path, "w")``...).
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
-from camsim.errors import InputError
-from camsim.io.atomic import check_writable
+from camsim.errors import FileSystemError, InputError
+from camsim.io import locks
+from camsim.io.atomic import Target, check_writable, remove_stale_temps
 
 __all__ = [
     "HDF5",
@@ -44,6 +66,10 @@ __all__ = [
     "check_journal",
     "same_file",
     "beside",
+    "writing",
+    "output_session",
+    "PDF",
+    "DXF",
 ]
 
 #: Suffix -> format of the outputs camsim writes.
@@ -52,6 +78,8 @@ CSV: Mapping[str, str] = {".csv": "csv"}
 TOML: Mapping[str, str] = {".toml": "toml"}
 FIGURES: Mapping[str, str] = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 HTML: Mapping[str, str] = {".html": "html", ".htm": "html"}
+PDF: Mapping[str, str] = {".pdf": "pdf"}
+DXF: Mapping[str, str] = {".dxf": "dxf"}
 
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _NAMES = {"hdf5": "an HDF5 file", "toml": "a TOML file", "csv": "a CSV file", "png": "a PNG image",
@@ -185,11 +213,23 @@ def result_owner(path: str | os.PathLike[str], kind: str | None = None) -> str |
     if kind == "csv":
         return "csv"
     if kind == "html":
+        # the page's head carries its generator, after Bokeh's inlined runtime (~1.7 MB)
+        marker = b'<meta name="generator" content="camsim report">'
         try:
-            head = Path(path).read_text(encoding="utf-8", errors="replace")[:2000]
+            with open(path, "rb") as fh:
+                seen = b""
+                while len(seen) < 16 * 2**20:
+                    chunk = fh.read(2**20)
+                    if not chunk:
+                        break
+                    seen = seen[-len(marker):] + chunk
+                    if marker in seen:
+                        return "report"
+                    if b"</head>" in chunk:
+                        break
         except OSError:
             return None
-        return "report" if '<meta name="generator" content="camsim report">' in head else None
+        return None
     return None
 
 
@@ -255,7 +295,105 @@ def check_output(
             if fmt == "html" and found is None:
                 what = "an HTML page not written by camsim"
             raise InputError(f"{target}: {option}: the file exists and is {what}; pass --force to replace it")
+    _claim(target)
     return target
+
+
+# --------------------------------------------------------------------------------------
+# Writing: the session, the claims, the one way to write a file
+# --------------------------------------------------------------------------------------
+#: Depth of nested output sessions, and the outputs locked in them (real path -> lock).
+_SESSIONS = [0]
+_CLAIMS: dict[str, locks.OutputLock] = {}
+
+
+@contextmanager
+def output_session() -> Iterator[None]:
+    """A command's lifetime: outputs checked inside stay locked until it ends.
+
+    Outside a session (a library call), :func:`check_output` only checks and
+    :func:`writing` locks for the duration of the write.
+    """
+    _SESSIONS[0] += 1
+    try:
+        yield
+    finally:
+        _SESSIONS[0] -= 1
+        if _SESSIONS[0] == 0:
+            while _CLAIMS:
+                _, lock = _CLAIMS.popitem()
+                lock.release()
+
+
+def _claim(path: Path) -> None:
+    """Lock ``path`` until the session ends (no-op outside a session)."""
+    if _SESSIONS[0] == 0:
+        return
+    key = os.path.realpath(path)
+    if key not in _CLAIMS:
+        _CLAIMS[key] = locks.acquire(path)
+
+
+def _describe(existed: bool) -> str:
+    return "the previous file is unchanged" if existed else "nothing was written under this name"
+
+
+@contextmanager
+def writing(
+    path: str | os.PathLike[str],
+    fmt: str | None = None,
+    *,
+    owner: str | None = None,
+    option: str = "-o",
+) -> Iterator[Target]:
+    """Write one output: lock it, hand the writer its opened temporary file, rename it into place.
+
+    Parameters
+    ----------
+    path : path
+        The output.
+    fmt : str, optional
+        Its format (``"hdf5"``, ``"csv"``, ``"toml"``, ``"png"``...). With ``owner``, an
+        output that no command checked (a library call) is checked here by
+        :func:`check_output` against the file that is there; None: the caller holds the
+        lock and has checked it (a row store's view).
+    owner : str, optional
+        What the writer writes there (:func:`check_output`).
+
+    Yields
+    ------
+    Target
+        The opened temporary file: ``target.h5()``, ``target.text()``, ``target.binary()``,
+        ``target.put_bytes(...)``; ``target.check()`` raises a write error early.
+
+    Raises
+    ------
+    FileSystemError
+        The file system refused the write (exit 1): the temporary file is removed, the
+        output keeps its previous content (or is absent).
+    OutputLockedError
+        Another process is writing the same output (exit 2).
+    """
+    final = Path(path)
+    if fmt is not None and owner is not None and not locks.is_held(final):
+        check_output(final, fmt, owner=owner, option=option)
+    lock = locks.acquire(final)
+    try:
+        existed = final.exists()
+        remove_stale_temps(final)
+        target = Target(final)
+        try:
+            yield target
+            target._finish()
+        except BaseException as exc:
+            target._discard()
+            if FileSystemError.applies(exc):
+                raise FileSystemError(str(final), exc, advice=_describe(existed)) from None
+            if isinstance(exc, FileSystemError) and exc.path == str(final) and not exc.advice:
+                raise exc.with_advice(_describe(existed)) from None
+            raise
+    finally:
+        lock.release()
 
 
 def beside(path: str | os.PathLike[str], suffix: str) -> Path:
@@ -320,6 +458,8 @@ def check_journal(
         raise InputError("--resume and --fresh: give one of them, not both")
     journal = Path(journal)
     exists = journal.exists()
+    if exists and (fresh or resume):
+        _refuse_live_journal(output, journal, "--fresh" if fresh else "--resume")
     if exists and fresh:
         journal.unlink()
         return False
@@ -329,3 +469,25 @@ def check_journal(
             "or with --fresh to discard it and start again"
         )
     return exists and resume
+
+
+def _refuse_live_journal(output: str | os.PathLike[str], journal: Path, option: str) -> None:
+    """InputError when a live process holds ``journal`` (its job is running): ``--fresh``
+    would discard the rows it is writing, ``--resume`` would write beside it."""
+    pid = locks.is_locked(output)
+    if pid is None:
+        try:
+            fd = os.open(journal, os.O_RDONLY | os.O_CLOEXEC)
+        except OSError:
+            return
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                return
+            pid = 0
+        finally:
+            os.close(fd)
+    if pid is not None:
+        who = f"a running camsim process (PID {pid})" if pid else "a running camsim process"
+        raise InputError(f"{journal}: {option}: the job is still running in {who}; wait for it or stop it first")

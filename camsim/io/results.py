@@ -13,6 +13,12 @@ A camsim result file is HDF5 with root attributes ``camsim_version`` and ``schem
     the cam program alone (``/cam/...``).
 
 Everything here only reads; the files are opened read-only.
+
+Every reader opens a result through :func:`open_h5`, which validates the file against
+the layout of its kind (:func:`check_layout`, spec §7 and docs/results.md) before anything
+reads it: a missing or malformed dataset is bad input (exit 2) naming the file and the
+dataset, never a result shown without it. A run names what it stores in
+``/summary``'s ``recorded`` attribute, so a trace (a mass) removed from a file is found.
 """
 
 from __future__ import annotations
@@ -34,13 +40,15 @@ SUPPORTED_SCHEMAS = (1,)
 FILE_KINDS = ("run", "compare", "sweep", "cam")
 
 
-def open_h5(path: str | os.PathLike[str]) -> h5py.File:
+def open_h5(path: str | os.PathLike[str], *, validate: bool = True) -> h5py.File:
     """Open a camsim result file read-only, after checking that it is one.
 
     Parameters
     ----------
     path : path
         The ``.h5`` file.
+    validate : bool
+        Check the layout of its kind (:func:`check_layout`); the default for every reader.
 
     Returns
     -------
@@ -51,7 +59,8 @@ def open_h5(path: str | os.PathLike[str]) -> h5py.File:
     ------
     ResultFileError
         With a one-line message naming the file: missing, not HDF5, not a camsim file
-        (no ``camsim_version``/``schema`` attributes) or a schema this version cannot read.
+        (no ``camsim_version``/``schema`` attributes), a schema this version cannot read,
+        or (``validate``) a dataset its kind holds that is missing or malformed.
     """
     p = Path(path)
     if not p.exists():
@@ -81,10 +90,140 @@ def open_h5(path: str | os.PathLike[str]) -> h5py.File:
             raise ResultFileError(
                 f"{p}: schema: version {schema} is not supported by this camsim (reads {supported})"
             )
+        if validate:
+            check_layout(f, p)
     except BaseException:
         f.close()
         raise
     return f
+
+
+# --------------------------------------------------------------------------------------
+# The layout of each kind (issue 35: readers validate what they read)
+# --------------------------------------------------------------------------------------
+#: Columns every event table has (spec §7).
+EVENT_COLUMNS = ("time", "angle_deg", "element", "kind")
+#: Quantities of every mass (spec §7).
+MASS_QUANTITIES = ("displacement", "velocity", "acceleration")
+
+
+def _missing(f: h5py.File, where: str, why: str) -> ResultFileError:
+    return ResultFileError(f"{f.filename}: {where}: not in the file ({why})")
+
+
+def _malformed(f: h5py.File, where: str, why: str) -> ResultFileError:
+    return ResultFileError(f"{f.filename}: {where}: malformed ({why})")
+
+
+def _table(f: h5py.File, group: h5py.Group, name: str, columns: tuple[str, ...], why: str) -> None:
+    where = f"{group.name.rstrip('/')}/{name}"
+    if name not in group:
+        raise _missing(f, where, why)
+    dset = group[name]
+    if not isinstance(dset, h5py.Dataset) or dset.dtype.names is None or dset.ndim != 1:
+        raise _malformed(f, where, "not a table (a one-dimensional compound dataset)")
+    lacking = [c for c in columns if c not in dset.dtype.names]
+    if lacking:
+        raise _malformed(f, where, f"no column {', '.join(lacking)}")
+
+
+def _trace(f: h5py.File, group: h5py.Group, path: str, n: int | None, why: str) -> int:
+    """Check one trace (float, first dimension the time base's); returns its length."""
+    where = f"{group.name.rstrip('/')}/{path}"
+    if path not in group:
+        raise _missing(f, where, why)
+    dset = group[path]
+    if not isinstance(dset, h5py.Dataset):
+        raise _malformed(f, where, "a group, not a dataset")
+    if dset.ndim < 1 or dset.dtype.kind != "f":
+        raise _malformed(f, where, f"{dset.dtype} of shape {dset.shape}, not floating-point samples")
+    if n is not None and dset.shape[0] != n:
+        raise _malformed(f, where, f"{dset.shape[0]} samples, but time has {n}")
+    return dset.shape[0]
+
+
+def _check_run(f: h5py.File, group: h5py.Group) -> None:
+    """The run layout at ``group`` (a file root or a comparison's side)."""
+    _table(f, group, "events", EVENT_COLUMNS, "a run result holds its event table, spec §7")
+    recorded = None
+    if "summary" in group:
+        summary = group["summary"]
+        if not isinstance(summary, h5py.Group):
+            raise _malformed(f, summary.name, "a dataset, not the group of the run's scalars")
+        if "recorded" in summary.attrs:
+            import json
+
+            try:
+                recorded = json.loads(attr_text(summary, "recorded"))
+                if not isinstance(recorded, list) or not all(isinstance(p, str) for p in recorded):
+                    raise ValueError
+            except ValueError:
+                raise _malformed(f, f"{summary.name}@recorded", "not a JSON list of trace paths") from None
+    if recorded is None:  # a file without the list of what it stores: the spec's minimum
+        recorded = ["time"] + [f"masses/{m}/{q}" for m in names_under(group, "masses") for q in MASS_QUANTITIES]
+        why = "a run result holds its time base and traces, spec §7"
+    else:
+        why = "listed in /summary recorded: the run stored it"
+    if not recorded:
+        return  # --summary-only: events and summary, no traces
+    n = _trace(f, group, "time", None, why)
+    for path in recorded:
+        if path != "time":
+            _trace(f, group, path, n, why)
+
+
+def _check_compare(f: h5py.File) -> None:
+    for side in ("impact", "no_impact"):
+        if side not in f or not isinstance(f[side], h5py.Group):
+            raise _missing(f, f"/{side}", "a comparison holds both runs, spec §7")
+        _check_run(f, f[side])
+    if "difference" not in f:
+        raise _missing(f, "/difference", "a comparison holds the percent differences, spec §7")
+    diff = f["difference"]
+    n = _trace(f, diff, "time", None, "the differences' time base")
+    for mass in names_under(diff, "masses"):
+        for q in MASS_QUANTITIES:
+            _trace(f, diff, f"masses/{mass}/{q}", n, "a difference per mass and quantity")
+
+
+def _check_cam(f: h5py.File) -> None:
+    n = _trace(f, f, "time", None, "a cam file holds one revolution, docs/cam-design.md")
+    for q in ("angle", "displacement", "velocity", "acceleration", "jerk"):
+        _trace(f, f, f"cam/{q}", n, "a cam file holds s, v, a, j against the cam angle")
+
+
+#: file_kind -> the check of its layout.
+LAYOUTS = {
+    "run": lambda f: _check_run(f, f),
+    "compare": _check_compare,
+    "sweep": lambda f: _table(f, f, "sweep/summary", ("status",), "a sweep holds its table, docs/sweeps.md"),
+    "study": lambda f: _table(f, f, "study/rows", ("run", "status"), "a study holds its rows, docs/tolerance.md"),
+    "optimize": lambda f: _table(f, f, "optimize/runs", ("run", "status"), "an optimisation history holds its runs, docs/optimize.md"),
+    "cam": _check_cam,
+}
+
+
+def check_layout(f: h5py.File, path: str | os.PathLike[str] | None = None) -> str:
+    """Validate an open camsim result against the layout of its kind; returns the kind.
+
+    Raises
+    ------
+    ResultFileError
+        Naming the file and the first dataset that is missing or malformed (exit 2).
+    """
+    kind = attr_text(f, "file_kind")
+    if not kind:
+        kind = file_kind(f)
+    check = LAYOUTS.get(kind)
+    if check is None:
+        return kind  # a kind this version does not know: its reader says so
+    try:
+        check(f)
+    except ResultFileError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:  # damaged metadata
+        raise ResultFileError(f"{f.filename}: damaged ({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    return kind
 
 
 def _text(value: object) -> str:

@@ -40,13 +40,20 @@ which parallel workers finish) would make the bytes of the file depend on schedu
 The view written here is in index order, so the same rows give the same bytes.
 
 Temporary view files carry the writer's process id (``.<name>.<pid>.<random>.tmp``); a
-store that opens removes the ones whose process is dead. The journal is locked with
-``flock`` while a store is open, so two jobs never write the same journal.
+store that opens removes the ones whose process is dead. While a store is open it holds
+the output's lock (:mod:`camsim.io.locks`, naming its process id to a second writer)
+and an ``flock`` on the journal, so two jobs never write the same journal.
+
+Every file goes through the output policy (:func:`camsim.io.outputs.writing`): the view
+and the journal's header line are written atomically; rows are appended with
+:func:`camsim.io.atomic.append_record`. When the file system refuses (a full disk), the
+row being appended is cut off again, the journal keeps every row stored before, and
+:class:`camsim.errors.FileSystemError` says so (exit 1; ``--resume`` continues once there
+is space).
 """
 
 from __future__ import annotations
 
-import errno
 import fcntl
 import json
 import math
@@ -59,8 +66,9 @@ from typing import Any
 
 import numpy as np
 
-from camsim.errors import InputError
-from camsim.io.atomic import remove_stale_temps, temp_path_for
+from camsim.errors import FileSystemError, InputError
+from camsim.io import locks
+from camsim.io.atomic import append_record, open_journal, remove_stale_temps, temp_path_for
 
 __all__ = ["RowStore", "journal_path_for", "read_rows", "remove_stale_temps", "temp_path_for"]
 
@@ -184,35 +192,27 @@ def _write_view(
 ) -> None:
     import h5py
 
-    from camsim.io.hdf5 import create_file
+    from camsim.io.outputs import writing
 
     indices = sorted(rows)
-    tmp = temp_path_for(path)
-    try:
-        with create_file(tmp) as f:
-            if decorate is not None:
-                decorate(f)
-            dtypes = [(INDEX_COLUMN, np.int64)]
-            arrays = [np.array(indices, dtype=np.int64)]
-            for name, _ in columns:
-                array = _column_array([rows[i].get(name) for i in indices])
-                dtypes.append((name, h5py.string_dtype("utf-8") if array.dtype == object else array.dtype))
-                arrays.append(array)
-            data = np.empty(len(indices), dtype=dtypes)
-            for (name, _), array in zip(dtypes, arrays):
-                data[name] = array
-            dset = f.create_dataset(table, data=data)
-            dset.attrs[f"units:{INDEX_COLUMN}"] = ""
-            for name, unit in columns:
-                dset.attrs[f"units:{name}"] = unit
-            dset.attrs["rowstore_meta"] = json.dumps(meta, allow_nan=True, sort_keys=True)
-            dset.attrs["complete"] = bool(complete)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with writing(path) as target, target.h5() as f:
+        if decorate is not None:
+            decorate(f)
+        dtypes = [(INDEX_COLUMN, np.int64)]
+        arrays = [np.array(indices, dtype=np.int64)]
+        for name, _ in columns:
+            array = _column_array([rows[i].get(name) for i in indices])
+            dtypes.append((name, h5py.string_dtype("utf-8") if array.dtype == object else array.dtype))
+            arrays.append(array)
+        data = np.empty(len(indices), dtype=dtypes)
+        for (name, _), array in zip(dtypes, arrays):
+            data[name] = array
+        dset = f.create_dataset(table, data=data)
+        dset.attrs[f"units:{INDEX_COLUMN}"] = ""
+        for name, unit in columns:
+            dset.attrs[f"units:{name}"] = unit
+        dset.attrs["rowstore_meta"] = json.dumps(meta, allow_nan=True, sort_keys=True)
+        dset.attrs["complete"] = bool(complete)
     _fsync_directory(path.parent)
 
 
@@ -268,6 +268,7 @@ class RowStore:
         rows: dict[int, dict],
         fd: int,
         *,
+        lock: locks.OutputLock,
         table: str,
         decorate: Callable[[Any], None] | None,
         fsync: bool,
@@ -279,6 +280,10 @@ class RowStore:
         self.meta = meta
         self._rows = rows
         self._fd: int | None = fd
+        self._lock: locks.OutputLock | None = lock
+        #: Settings stored with the job but not compared on resume (``info`` of :meth:`create`).
+        self.info: dict = {}
+        self._failed = False
         self._table = table
         self._decorate = decorate
         self._fsync = fsync
@@ -300,6 +305,7 @@ class RowStore:
         decorate: Callable[[Any], None] | None = None,
         fsync: bool = True,
         view_ratio: float = 10.0,
+        info: dict | None = None,
     ) -> RowStore:
         """Start a new job at ``path`` (an existing journal and view are replaced).
 
@@ -311,6 +317,9 @@ class RowStore:
             Column name and SI unit text (``""`` for numbers without a unit), in order.
         meta : dict
             JSON-able description of the job, compared on :meth:`resume`.
+        info : dict, optional
+            JSON-able settings kept in the header but not compared on :meth:`resume` (a
+            resumed job reads them as :attr:`info`, e.g. to state a changed budget).
         """
         path = Path(path)
         columns = [(str(n), str(u)) for n, u in columns]
@@ -322,24 +331,31 @@ class RowStore:
         meta = _jsonable(dict(meta))
         json.dumps(meta, allow_nan=True)  # not JSON-able: TypeError now, not at resume
         journal = journal_path_for(path)
-        remove_stale_temps(path)
-        remove_stale_temps(journal)
-        # The new journal is written under a temporary name and renamed, so a crash here
-        # leaves either no journal or one with a complete header.
-        tmp = temp_path_for(journal)
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o666)
+        from camsim.io.outputs import writing
+
+        lock = locks.acquire(path, what="this job")
+        fd = -1
         try:
-            _lock(fd, journal)
-            os.write(fd, _encode({"rowstore": FORMAT, "columns": columns, "meta": meta}))
-            os.fsync(fd)
+            remove_stale_temps(path)
+            remove_stale_temps(journal)
             _lock_existing(journal)  # refuse to replace a journal another job is writing
-            os.replace(tmp, journal)
+            # The new journal is written under a temporary name and renamed (the policy), so
+            # a crash here leaves either no journal or one with a complete header.
+            with writing(journal) as target:
+                header = {"rowstore": FORMAT, "columns": columns, "meta": meta}
+                if info:
+                    header["info"] = _jsonable(dict(info))
+                target.put_bytes(_encode(header))
+            _fsync_directory(journal.parent)
+            fd = open_journal(journal)
+            _lock(fd, journal)
+            store = cls(path, columns, meta, {}, fd, lock=lock, table=table, decorate=decorate, fsync=fsync,
+                        view_ratio=view_ratio)
         except BaseException:
-            os.close(fd)
-            tmp.unlink(missing_ok=True)
+            if fd >= 0:
+                os.close(fd)
+            lock.release()
             raise
-        _fsync_directory(journal.parent)
-        store = cls(path, columns, meta, {}, fd, table=table, decorate=decorate, fsync=fsync, view_ratio=view_ratio)
         store._refresh_view(force=True)
         return store
 
@@ -364,24 +380,30 @@ class RowStore:
         """
         path = Path(path)
         journal = journal_path_for(path)
-        remove_stale_temps(path)
-        remove_stale_temps(journal)
-        header, rows, valid = _read_journal(journal)
-        meta = _jsonable(dict(meta))
-        diff = _differences(header["meta"], meta)
-        if diff:
-            raise InputError(f"{journal}: cannot resume: the job differs in " + "; ".join(diff))
-        fd = os.open(journal, os.O_WRONLY | os.O_APPEND)
+        lock = locks.acquire(path, what="this job")
+        fd = -1
         try:
+            remove_stale_temps(path)
+            remove_stale_temps(journal)
+            header, rows, valid = _read_journal(journal)
+            meta = _jsonable(dict(meta))
+            diff = _differences(header["meta"], meta)
+            if diff:
+                raise InputError(f"{journal}: cannot resume: the job differs in " + "; ".join(diff))
+            fd = open_journal(journal)
             _lock(fd, journal)
             if os.fstat(fd).st_size != valid:
                 os.ftruncate(fd, valid)  # drop a line cut short by a crash
                 os.fsync(fd)
+            columns = [(str(n), str(u)) for n, u in header["columns"]]
+            store = cls(path, columns, header["meta"], rows, fd, lock=lock, table=table, decorate=decorate,
+                        fsync=fsync, view_ratio=view_ratio)
         except BaseException:
-            os.close(fd)
+            if fd >= 0:
+                os.close(fd)
+            lock.release()
             raise
-        columns = [(str(n), str(u)) for n, u in header["columns"]]
-        store = cls(path, columns, header["meta"], rows, fd, table=table, decorate=decorate, fsync=fsync, view_ratio=view_ratio)
+        store.info = dict(header.get("info") or {})
         store._refresh_view(force=True)
         return store
 
@@ -413,11 +435,18 @@ class RowStore:
             raise ValueError(f"RowStore: {unknown} are not columns of this store")
         record = {"i": int(index), "row": {name: _jsonable(row[name]) for name, _ in self.columns if name in row}}
         line = _encode(record)
-        written = os.write(self._fd, line)
-        if written != len(line):  # pragma: no cover - a full disk
-            raise OSError(errno.ENOSPC, f"{self.journal}: short write")
-        if self._fsync:
-            os.fsync(self._fd)
+        size = os.fstat(self._fd).st_size
+        try:
+            append_record(self._fd, line, self._fsync)
+        except OSError as exc:
+            self._failed = True
+            try:
+                os.ftruncate(self._fd, size)  # the journal stays a valid prefix
+            except OSError:
+                pass  # a cut line fails its checksum and is dropped on resume
+            if not FileSystemError.applies(exc):
+                raise
+            raise FileSystemError(str(self.journal), exc, advice=self._kept()) from None
         self._rows[int(index)] = record["row"]
         self._dirty = True
         self._refresh_view()
@@ -437,11 +466,14 @@ class RowStore:
         if self._fd is None:
             return
         try:
-            if self._dirty or complete:
+            if (self._dirty or complete) and not self._failed:
                 self._refresh_view(force=True, complete=complete)
         finally:
             os.close(self._fd)
             self._fd = None
+            if self._lock is not None:
+                self._lock.release()
+                self._lock = None
 
     def remove_journal(self) -> None:
         """Delete the journal (after the job's final files are written); closes first."""
@@ -455,11 +487,19 @@ class RowStore:
         self.close()
 
     # -- internals -----------------------------------------------------------------------
+    def _kept(self) -> str:
+        n = len(self._rows)
+        return (f"{self.journal} keeps the {n} finished row{'s' if n != 1 else ''}; free space and run the same "
+                "command with --resume to continue")
     def _refresh_view(self, force: bool = False, complete: bool = False) -> None:
         now = time.monotonic()
         if not force and now - self._view_end < self._view_ratio * self._view_cost:
             return
-        _write_view(self.path, self._table, self.columns, self.meta, self._rows, complete, self._decorate)
+        try:
+            _write_view(self.path, self._table, self.columns, self.meta, self._rows, complete, self._decorate)
+        except FileSystemError as exc:
+            self._failed = True
+            raise FileSystemError(exc.path, exc.error, advice=self._kept()) from None
         self._view_end = time.monotonic()
         self._view_cost = self._view_end - now
         self._dirty = False

@@ -63,7 +63,7 @@ from camsim.elements import CAM, GROUND, Element
 from camsim.elements.base import Branch
 from camsim.machine.description import Cam, Machine
 
-__all__ = ["CompensationError", "compensate", "GRID_POINTS", "RECURSION_GAIN_MAX"]
+__all__ = ["CompensationError", "compensate", "GRID_POINTS", "RECURSION_GAIN_MAX", "assumption_warnings"]
 
 #: Grid points over one revolution for a damped path's periodic solution.
 GRID_POINTS = 2**15
@@ -459,3 +459,43 @@ def _check_smooth(program: CamProgram, cam: Cam, need: int, n_masses: int, key: 
                     f"the {names[n]} (order {n}) of the written program jumps at the start of this segment (the "
                     f"join with cam.segments[{before}], {math.degrees(float(th)):g} deg); compensation through {n_masses} mass(es) needs it continuous "
                     f"up to order {need} (give the segments enough continuity, e.g. polynomial continuity = {need})")
+
+
+def assumption_warnings(machine: Machine, events) -> list[str]:
+    """The compensation's own assumptions, checked on a simulated run (issue 35).
+
+    The compensated cam is exact for the machine with the contacts on its path closed, the
+    preloaded links on it joined and the contacts off it open (module docstring). A run in
+    which a path contact opens (``release``), a path link separates (``separation``) or a
+    contact off the path closes (``impact``, ``rejoin``, ``stick``) does not move the output
+    as written from that moment: one warning per element, naming it and when it first did.
+
+    Parameters
+    ----------
+    machine : Machine
+        The simulated machine (nothing is checked without ``cam.compensated``).
+    events : iterable of Event
+        The run's events (``kind``, ``element``, ``time`` [s], ``angle_deg`` [deg]).
+    """
+    comp = getattr(machine.cam, "compensated", None) if machine.cam is not None else None
+    if comp is None:
+        return []
+    on_path = set(comp.path)
+    first: dict[str, tuple[str, object]] = {}
+    for e in sorted(events, key=lambda e: e.time):
+        kind = str(getattr(e.kind, "value", e.kind))
+        if e.element in on_path and kind in ("release", "separation"):
+            first.setdefault(e.element, (kind, e))
+        elif e.element not in on_path and e.element != CAM and kind in ("impact", "rejoin", "stick"):
+            first.setdefault(e.element, (kind, e))
+    rpm = comp.speed * 60.0 / (2.0 * math.pi)
+    chain = " - ".join(comp.path)
+    out = []
+    for name, (kind, e) in first.items():
+        what = {"release": "opened (the design keeps it closed)", "separation": "separated (the design keeps it joined)"}.get(
+            kind, "closed (the design keeps a contact off the path open)")
+        angle = getattr(e, "angle_deg", float("nan"))
+        where = f"t = {e.time:.6g} s" + (f", cam angle {angle:.5g} deg" if angle == angle else "")
+        out.append(f"[cam.compensation]: {name} {what} at {where}: from then on {comp.output} does not follow the "
+                   f"written motion (the cam is compensated for {rpm:.6g} rpm along {chain})")
+    return out

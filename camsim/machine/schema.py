@@ -256,7 +256,10 @@ def main(argv: list[str]) -> int:
     text = path.read_text(encoding="utf-8")
     new = render_reference(text)
     if new != text:
-        path.write_text(new, encoding="utf-8")
+        from camsim.io.outputs import writing
+
+        with writing(path) as out:
+            out.put_text(new)
         print(f"updated {path}")
     else:
         print(f"{path} is current")

@@ -66,7 +66,7 @@ def wait_rendered(page, timeout_ms: float = 30000) -> None:
 
 def print_pdf(html: str | os.PathLike[str], pdf: str | os.PathLike[str]) -> Path:
     """Print ``html`` to ``pdf`` (A4 landscape, the page's print CSS), written atomically."""
-    from camsim.io.atomic import atomic_path
+    from camsim.io.outputs import writing
 
     sync_playwright = _playwright(required=True)
     exe = find_browser(required=True)
@@ -80,8 +80,10 @@ def print_pdf(html: str | os.PathLike[str], pdf: str | os.PathLike[str]) -> Path
             page.emulate_media(media="print")
             page.evaluate("() => document.querySelectorAll('details').forEach(d => d.open = true)")
             page.wait_for_timeout(300)  # Bokeh re-lays out after the media change
-            with atomic_path(pdf) as tmp:
-                page.pdf(path=str(tmp), format="A4", landscape=True, print_background=True, prefer_css_page_size=True)
+            data = page.pdf(format="A4", landscape=True, print_background=True, prefer_css_page_size=True)
         finally:
             browser.close()
+    with writing(pdf, "pdf", owner="report", option="--pdf") as target:
+        target.put_bytes(data)
     return Path(pdf)
+

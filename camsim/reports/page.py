@@ -170,8 +170,9 @@ def definition_list(items: Sequence[tuple[str, str]], cls: str = "facts") -> str
 
 
 def verdict(label: str, state: str, detail: str, key: str) -> str:
-    """One verdict tile: ``state`` is ``ok``, ``warn`` or ``fail`` (said in words too, not by colour)."""
-    word = {"ok": "OK", "warn": "CHECK", "fail": "FAIL", "info": "INFO"}[state]
+    """One verdict tile: ``state`` is ``ok``, ``warn`` or ``fail`` (said in words too, not by colour);
+    ``nodata`` when nothing could be checked (issue 35: never OK without data)."""
+    word = {"ok": "OK", "warn": "CHECK", "fail": "FAIL", "info": "INFO", "nodata": "NO DATA"}[state]
     return (f'<div class="verdict {state}" data-verdict="{esc(key)}"><span class="state">{word}</span>'
             f"<h3>{esc(label)}</h3><p>{detail}</p></div>")
 
@@ -221,11 +222,11 @@ def _stretch(model) -> int | None:
 
 def write_page(text: str, output: str | os.PathLike[str]) -> Path:
     """Write the page atomically (camsim.io.atomic)."""
-    from camsim.io.atomic import atomic_path
+    from camsim.io.outputs import writing
 
     out = Path(output)
-    with atomic_path(out) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+    with writing(out, "html", owner="report") as target:
+        target.put_text(text)
     return out
 
 

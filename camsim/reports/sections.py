@@ -132,7 +132,10 @@ def verdict_section(source: Source, view: RunView, design: dict | None, title: s
     tiles = []
     # Jump: the hub's flag; the first jump/release at a cam contact says where.
     cam_contacts = {e.name for e in view.machine.elements if e.unilateral and "cam" in e.nodes}
-    if sm.get("jump"):
+    if "jump" not in sm:
+        tiles.append(verdict("Follower jump", "nodata", "no data: the file has no /summary with the run's jump flag "
+                             "(written by an older camsim)", "jump"))
+    elif sm.get("jump"):
         where = ""
         for i in range(view.n_events):
             kind, element = view.event(i, "kind"), view.event(i, "element")
@@ -142,8 +145,14 @@ def verdict_section(source: Source, view: RunView, design: dict | None, title: s
         tiles.append(verdict("Follower jump", "fail", f"The follower leaves the cam at {_speed(source, view.machine)};{where}.", "jump"))
     else:
         lo = sm.get("min_cam_contact_force", float("nan"))
-        tiles.append(verdict("Follower jump", "ok", f"None at {_value(source, speed, 'rad/s', 'speed_rpm', '.6g')}; smallest cam contact force "
-                             f"{_value(source, lo, 'N', 'min_cam_contact_force')}.", "jump"))
+        if isinstance(lo, float) and math.isnan(lo):  # issue 35: no bare "–"
+            from camsim.run.result import missing_reason
+
+            why = missing_reason(view.machine, "min_cam_contact_force", {**sm, "status": "ok"}) or "not in the file"
+            force = f"no smallest cam contact force: {esc(why)}"
+        else:
+            force = f"smallest cam contact force {_value(source, lo, 'N', 'min_cam_contact_force')}"
+        tiles.append(verdict("Follower jump", "ok", f"None at {_value(source, speed, 'rad/s', 'speed_rpm', '.6g')}; {force}.", "jump"))
     impacts = view.impact_rows()
     n = int(sm.get("impacts", len(impacts)))
     if n:
@@ -169,10 +178,15 @@ def verdict_section(source: Source, view: RunView, design: dict | None, title: s
                              f"{_value(source, design.get('peak_torque'), 'N*m', 'peak_torque')}; "
                              f"pressure angle {fmt(pa)} deg against the limit {fmt(limit)} deg.", "design"))
     res = sm.get("periodicity_residual", float("nan"))
-    state = "info" if not np.isfinite(res) else ("ok" if res < 1e-3 else "warn")
-    tiles.append(verdict("Periodicity", state, f"Residual one revolution apart, relative to peak: "
-                         f"<span class=value data-key=periodicity_residual>{fmt(res, '.3g')}</span> [-] "
-                         "(below 1e-3: a steady state).", "periodicity"))
+    if not np.isfinite(res):  # issue 35: no data is not a verdict
+        from camsim.run.result import missing_reason
+
+        why = "the file has no /summary" if not sm else missing_reason(view.machine, "periodicity_residual", {"periodicity_residual": res})
+        tiles.append(verdict("Periodicity", "nodata", f"no data: {esc(why or 'not computed')}.", "periodicity"))
+    else:
+        tiles.append(verdict("Periodicity", "ok" if res < 1e-3 else "warn", f"Residual one revolution apart, relative to peak: "
+                             f"<span class=value data-key=periodicity_residual>{fmt(res, '.3g')}</span> [-] "
+                             "(below 1e-3: a steady state).", "periodicity"))
     s.add('<div class="verdicts">' + "".join(tiles) + "</div>")
     if not summary:
         return s
@@ -222,7 +236,9 @@ def event_section(source: Source, view: RunView, detail_names: dict[int, int] | 
         rows.append(row)
     note = "" if view.n_events <= MAX_EVENT_ROWS else f"<p class=note>The first {MAX_EVENT_ROWS} of {view.n_events} events; the file has them all.</p>"
     s.add(table(headers, rows, cls="events", id=source.name("event-table" + (f"-{view.label}" if view.label else "")), numeric=numeric,
-                caption="Events (approach speed as |relative velocity|; Johnson's bounds and the simulated peak for impacts)") + note)
+                caption="Events (approach speed as |relative velocity|; Johnson's bounds and the simulated peak for impacts; "
+                        "– where a column does not apply to the kind of event, and for an impact's contact duration "
+                        "where the contact is still closed when the recording ends: it outlasts the recorded revolutions)") + note)
     return s
 
 
@@ -429,6 +445,15 @@ def _design(source: Source, view: RunView) -> dict | None:
         return None  # a run stored with --record/--summary-only: the scalars in /summary still show
 
 
+def _stored_text(view: RunView, recorded: list[str]) -> str:
+    """How many traces the file stores (a --summary-only run: none)."""
+    stored = max(len(view.traces) - 1, 0)  # without time
+    if not stored:
+        return "none (a --summary-only run: the events and the summary)"
+    listed = max(len([p for p in recorded if p != "time"]), stored) if recorded else stored
+    return f"{stored} of {listed}"
+
+
 @register("run")
 def run_sections(source: Source) -> list[Section]:
     from camsim.io.results import attr_text
@@ -439,7 +464,7 @@ def run_sections(source: Source) -> list[Section]:
     recorded = json.loads(_attr(f["summary"], "recorded", "[]")) if "summary" in f else []
     extra = [("sample rate", esc(engineering(float(_attr(f, 'sample_rate')), "Hz"))), ("speed", _speed(source, machine)),
              ("variant", "no-impact" if _attr(f, "no_impact", False) else "with impact"),
-             ("traces stored", f"{len(view.traces) - 1} of {len(recorded) - 1 if recorded else len(view.traces) - 1}")]
+             ("traces stored", _stored_text(view, recorded))]
     out = [header_section(source, machine.name, extra), verdict_section(source, view, _design(source, view))]
     detail, names = impact_detail_section(source, view)
     out.append(event_section(source, view, names))

@@ -83,6 +83,8 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
                 _fmt(e.contact_duration * 1e3 if not math.isnan(e.contact_duration) else float("nan")),
             )
         console.print(t)
+        for note in _dash_notes(shown_rows):  # issue 35: every "–" says why
+            console.print(note, markup=False)
         if len(impacts) > len(shown_rows):
             console.print(f"... {len(impacts) - len(shown_rows)} more impacts: all are in the file's /events table and in --json")
     else:
@@ -138,6 +140,27 @@ def render_rods(summary: dict, console: Console, system: DisplayUnits) -> None:
         console.print(t)
 
 
+def _dash_notes(impacts) -> list[str]:
+    """Why an impact row shows "–": one line per column that has one."""
+    notes = []
+    if any(math.isnan(e.contact_duration) for e in impacts):
+        notes.append("duration –: the contact is still closed when the recording ends (it outlasts the recorded "
+                     "revolutions; record more with --cycles to see it open)")
+    if any(math.isnan(e.peak_force) for e in impacts):
+        notes.append("simulated peak –: no output sample fell inside the contact (sample faster with --sample-rate "
+                     "to resolve it)")
+    if any(math.isnan(e.johnson_lower) or math.isnan(e.johnson_upper) for e in impacts):
+        notes.append("Johnson –: no common-velocity estimate for this contact (its law has no closed form; the "
+                     "simulated peak is the figure)")
+    if any(math.isnan(e.relative_velocity) for e in impacts):
+        notes.append("approach –: the contact closed without relative speed (a closing at rest)")
+    return notes
+
+
+def _at(value, fmt=".4g", unit="deg") -> str:
+    return "–" if value is None else f"{format(value, fmt)} {unit}"
+
+
 def render_geometry_checks(summary: dict, console: Console, title: str = "cam geometry checks",
                            units: DisplayUnits | str | None = None) -> None:
     """Print the static cam design checks (:func:`camsim.cam.geometry.geometry_summary`), lengths in ``units``."""
@@ -164,6 +187,10 @@ def render_geometry_checks(summary: dict, console: Console, title: str = "cam ge
         table.add_row("contact from axis", f"{k * summary['face_min_contact']:.4g} to {k * summary['face_max_contact']:.4g}",
                       length, "", "")
     console.print(table)
+    for key in ("min_pitch_radius", "min_surface_radius", "min_concave_radius"):  # issue 35: every "–" says why
+        if (roller or key != "min_pitch_radius") and summary.get(key) is None:
+            console.print(f"{key.replace('_', ' ')} –: " + {"min_concave_radius": "the cam has no concave part",
+                                                            }.get(key, "no convex part of the curve"), markup=False)
     for warning in summary.get("warnings", ()):
         console.print(f"warning: {in_units(warning, system)}", style="yellow", markup=False)
 

@@ -20,10 +20,13 @@ from camsim.run.samples import RunSetup, sample_traces, stretch_samples  # noqa:
 
 
 def after_run_warnings(machine, events) -> list[str]:
-    """Rods that saw impacts too fast for their segments; Hertz contacts past yield (camsim.run.checks)."""
+    """Rods that saw impacts too fast for their segments; Hertz contacts past yield (camsim.run.checks);
+    a compensated cam whose assumptions the run broke (issue 35: a path contact opened...)."""
+    from camsim.machine.compensation import assumption_warnings
     from camsim.run.checks import contact_stress_rows, rod_warnings, stress_warnings
 
-    return rod_warnings(machine, events) + stress_warnings(contact_stress_rows(machine, events))
+    return (rod_warnings(machine, events) + stress_warnings(contact_stress_rows(machine, events))
+            + assumption_warnings(machine, events))
 
 
 def period_end(run: RunSetup, state: State) -> dict | None:

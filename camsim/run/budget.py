@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 from camsim.errors import InputError
 
-__all__ = ["DEFAULT_MAX_OUTPUT", "DEFAULT_MAX_STEPS", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
+__all__ = ["DEFAULT_MAX_OUTPUT", "DEFAULT_MAX_RUNS", "DEFAULT_MAX_STEPS", "check_runs", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
 
 #: Default largest estimated output of a run without ``--yes`` [bytes] (2 GB).
 DEFAULT_MAX_OUTPUT = 2_000_000_000
@@ -255,4 +255,33 @@ def check_budget(estimate: Estimate, max_bytes: float, where: str, max_steps: fl
             f"{estimate.recorded_s:.4g} s recorded), above {max_steps:.3g} (minutes to hours of computing); "
             f"lower the stiffness or damping that sets the pace (or make that contact rigid, "
             f'law = "restitution"), record less with --cycles or simulation.duration, or pass --yes to run it anyway'
+        )
+
+
+#: Largest number of simulation runs a job (an optimisation, a study) starts without ``--yes``:
+#: at 0.1 to 0.3 s per run and core (CDTM, docs/performance.md), hours of computing.
+DEFAULT_MAX_RUNS = 100_000
+
+
+def check_runs(runs: float, max_runs: float | None, where: str, counted: str, fewer: str) -> None:
+    """Raise :class:`InputError` when a job would make more than ``max_runs`` simulation runs.
+
+    Parameters
+    ----------
+    runs : float
+        The runs the job would make at most.
+    max_runs : float or None
+        ``--max-runs`` (None: ``--yes``, no limit).
+    where : str
+        The command, for the message (``"optimize"``).
+    counted : str
+        How ``runs`` was counted, e.g. ``"300 evaluations x 3 speeds x 32 samples"``.
+    fewer : str
+        The options that make fewer runs.
+    """
+    if max_runs is not None and runs > max_runs:
+        raise InputError(
+            f"{where}: up to {runs:,.0f} simulation runs ({counted}), above --max-runs {max_runs:,.0f} "
+            f"(hours of computing at 0.1 to 0.3 s per run and core); {fewer}; or raise --max-runs, "
+            "or pass --yes to run them anyway"
         )

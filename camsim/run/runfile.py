@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING
 import h5py
 import numpy as np
 
-from camsim.io.atomic import atomic_path
-from camsim.io.hdf5 import SCHEMA, create_file, write_root_attributes, write_table, write_time, write_trace  # noqa: F401 - SCHEMA, write_root_attributes: also this writer's names
+from camsim.io.hdf5 import SCHEMA, write_root_attributes, write_table, write_time, write_trace  # noqa: F401 - SCHEMA, write_root_attributes: also this writer's names
+from camsim.io.outputs import writing
 
 if TYPE_CHECKING:
     from camsim.elements.events import Event
@@ -106,21 +106,19 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
 
 def write_run(result, path: str | os.PathLike[str]) -> None:
     """Write a run result to ``path`` atomically."""
-    with atomic_path(path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, result.machine, "run")
-            write_run_group(f, result)
+    with writing(path, "hdf5", owner="run") as target, target.h5() as f:
+        write_root_attributes(f, result.machine, "run")
+        write_run_group(f, result)
 
 
 def write_comparison(comparison, path: str | os.PathLike[str]) -> None:
     """Write a :class:`~camsim.analyses.compare.Comparison` (impact, no-impact, difference) atomically."""
-    with atomic_path(path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, comparison.impact.machine, "compare")
-            write_run_group(f.create_group("impact", track_order=True), comparison.impact)
-            write_run_group(f.create_group("no_impact", track_order=True), comparison.no_impact)
-            diff = f.create_group("difference", track_order=True)
-            time = write_time(diff, comparison.time)
-            for name, quantities in comparison.difference.items():
-                for quantity, data in quantities.items():
-                    write_trace(diff, f"masses/{name}/{quantity}", data, "%", f"{quantity} of {name}: 100·(impact − no impact)/max|impact|", time)
+    with writing(path, "hdf5", owner="compare") as target, target.h5() as f:
+        write_root_attributes(f, comparison.impact.machine, "compare")
+        write_run_group(f.create_group("impact", track_order=True), comparison.impact)
+        write_run_group(f.create_group("no_impact", track_order=True), comparison.no_impact)
+        diff = f.create_group("difference", track_order=True)
+        time = write_time(diff, comparison.time)
+        for name, quantities in comparison.difference.items():
+            for quantity, data in quantities.items():
+                write_trace(diff, f"masses/{name}/{quantity}", data, "%", f"{quantity} of {name}: 100·(impact − no impact)/max|impact|", time)

@@ -493,16 +493,16 @@ def simulate_to_file(
     SimulationError
         As :func:`camsim.run.simulation.simulate`.
     """
-    from camsim.io.atomic import atomic_path
-    from camsim.io.hdf5 import create_file
     from camsim.io.hdf5 import write_root_attributes
+    from camsim.io.outputs import writing
     from camsim.run.streamfile import TraceStreamWriter
 
     if record_last is not None and record_last < 1:
         raise InputError(f"--record-last {record_last}: must be at least 1 revolution")
     # No chunk cache: the writer writes whole chunks, and HDF5's cache (with its free
     # lists) would otherwise hold on to memory that grows with the file (measured).
-    with threadpool_limits(limits=1, user_api="blas"), atomic_path(path) as tmp, create_file(tmp, rdcc_nbytes=0) as f:
+    with threadpool_limits(limits=1, user_api="blas"), writing(path, "hdf5", owner="run") as target, \
+            target.h5(rdcc_nbytes=0) as f:
         write_root_attributes(f, machine, "run")
 
         def make(run: RunSetup) -> StreamAssembler:
@@ -513,7 +513,8 @@ def simulate_to_file(
                     raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {run.machine.source} has none")
                 k = math.ceil(((run.t_end - run.t_rec) - record_last * run.period) / run.h_out - 1e-6)
                 keep_from = k * run.h_out if k > 0 else None
-            writer = TraceStreamWriter(f, trace_layout(run), stored, keep_from, boundaries_deg(run), compress=compress)
+            writer = TraceStreamWriter(f, trace_layout(run), stored, keep_from, boundaries_deg(run), compress=compress,
+                                       check=target.check)
             return StreamAssembler(run, writer, path=str(path), record_last=int(record_last or 0))
 
         return _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=make)

@@ -9,13 +9,13 @@ table, the group attributes and the summary are written when the run ends.
 The values are those of the in-memory writer (:func:`camsim.run.runfile.write_run_group`)
 bit for bit; only the storage differs (chunks of :data:`CHUNK` samples, gzip only with
 ``compress``). The caller writes into a temporary file that is renamed when complete
-(:func:`camsim.io.atomic.atomic_path`).
+(:func:`camsim.io.outputs.writing`); a full disk stops the run at the next piece.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import h5py
 import numpy as np
@@ -45,11 +45,15 @@ class TraceStreamWriter:
         Cam segment joins [deg], stored as ``cam/boundaries_deg`` after the cam traces.
     compress : bool
         gzip + shuffle the traces (smaller file, more CPU).
+    check : callable, optional
+        Called after every piece written: raises when the file system refused a write
+        (:meth:`camsim.io.atomic.Target.check`), so a run onto a full disk stops there.
     """
 
     def __init__(self, group: h5py.Group, layout: Mapping, record: Sequence[str], keep_from: float | None,
-                 boundaries_deg: np.ndarray, compress: bool = False):
+                 boundaries_deg: np.ndarray, compress: bool = False, check: Callable[[], None] | None = None):
         self.group = group
+        self._check = check
         self.keep_from = keep_from
         self.paths = [p for p in layout if p in set(record)]
         self.samples = 0
@@ -109,6 +113,8 @@ class TraceStreamWriter:
             self._pending[path] = [data[n:]] if n < data.shape[0] else []
         self.samples += n
         self._waiting -= n
+        if self._check is not None:
+            self._check()
 
     def finish(self, result) -> None:
         """The event table, the run attributes and the summary (after the last piece)."""

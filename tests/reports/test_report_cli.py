@@ -54,7 +54,11 @@ def test_not_a_camsim_result(tmp_path):
 
 def test_kind_without_a_page(tmp_path):
     """A result kind the page builder has no section builder for is named in the error."""
-    bad = _camsim_file(tmp_path / "cam.h5", "cam")  # `camsim cam -o` writes one; no page for it
+    from pathlib import Path
+
+    machine = Path(__file__).resolve().parents[2] / "machines" / "cdtm.toml"
+    bad = tmp_path / "cam.h5"  # `camsim cam -o` writes one; no page for it
+    assert CliRunner().invoke(app, ["cam", str(machine), "--points", "20", "-o", str(bad)]).exit_code == 0
     out = tmp_path / "page.html"
     r = _invoke(bad, "-o", out)
     assert r.exit_code == 2
@@ -70,9 +74,9 @@ def test_unwritable_output(tmp_path, cdtm_run):
         assert r.exit_code == 2
         _one_error_line(r, str(out))
     before = h5.read_bytes()
-    r = _invoke(h5, "-o", h5)
+    r = _invoke(h5, "-o", h5)  # issue 35: the suffix says HTML first (the input rule stands behind it)
     assert r.exit_code == 2
-    _one_error_line(r, "input")
+    _one_error_line(r, "unknown output format '.h5'")
     assert h5.read_bytes() == before
     assert list(tmp_path.iterdir()) == []
 

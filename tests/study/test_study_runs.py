@@ -145,7 +145,7 @@ def test_cli_files_agree_and_json_schema(tmp_path):
     )
     assert r.exit_code == 0, r.stderr
     payload = json.loads(r.stdout)
-    assert set(payload) == {"n_samples", "n_runs", "seed", "method", "output", "csv", "failed", "incomplete", "outputs", "limits", "sensitivity", "ranking"}
+    assert set(payload) == {"n_samples", "n_runs", "seed", "method", "output", "csv", "failed", "not_run", "incomplete", "outputs", "limits", "sensitivity", "ranking"}
     assert payload["n_samples"] == 8 and payload["n_runs"] == 8 * 5 and payload["seed"] == 2
     assert payload["csv"] == str(tmp_path / "s.csv")
     q = payload["outputs"]["min_cam_contact_force"]

@@ -324,9 +324,17 @@ def _evaluation_store(path, resume: bool, source, fixed, parameters, paths, sett
         "warmup_cycles": settings.warmup_cycles,
         "sample_rate": settings.sample_rate,
     }
+    def decorate(f) -> None:  # a camsim file of its own kind: never mistaken for a user's (issue 35)
+        from camsim.io.hdf5 import SCHEMA
+        from camsim._version import __version__
+
+        f.attrs["camsim_version"] = __version__
+        f.attrs["schema"] = SCHEMA
+        f.attrs["file_kind"] = "fit"
+
     if resume:
-        return RowStore.resume(path, meta, table="evaluations")
+        return RowStore.resume(path, meta, table="evaluations", decorate=decorate)
     if journal_path_for(path).exists():
         raise InputError(f"{path}: the evaluations of an interrupted fit are there; add --resume to continue it, "
                          f"or delete {journal_path_for(path)} to start over")
-    return RowStore.create(path, store_columns(keys), meta, table="evaluations")
+    return RowStore.create(path, store_columns(keys), meta, table="evaluations", decorate=decorate)

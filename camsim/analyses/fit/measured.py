@@ -298,14 +298,13 @@ def write_measured(path: str | os.PathLike[str], time: np.ndarray, columns: dict
     -------
     Path
     """
-    from camsim.io.atomic import atomic_path
+    from camsim.io.outputs import writing
 
     target = Path(path)
-    with atomic_path(target) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow([f"time [{time_unit}]"] + [f"{p} [{u}]" for p, (_, u) in columns.items()])
-            arrays = [np.asarray(v, dtype=float) for v, _ in columns.values()]
-            for i, ti in enumerate(np.asarray(time, dtype=float)):
-                w.writerow([repr(float(ti))] + [repr(float(a[i])) for a in arrays])
+    with writing(target, "csv", owner="csv") as out, out.text() as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow([f"time [{time_unit}]"] + [f"{p} [{u}]" for p, (_, u) in columns.items()])
+        arrays = [np.asarray(v, dtype=float) for v, _ in columns.values()]
+        for i, ti in enumerate(np.asarray(time, dtype=float)):
+            w.writerow([repr(float(ti))] + [repr(float(a[i])) for a in arrays])
     return target

@@ -221,10 +221,10 @@ def _has_comment(line: str) -> bool:
 
 def write_fitted(path: str | os.PathLike[str], text: str, result, source: str = "<string>") -> Path:
     """Write :func:`fitted_text` to ``path`` atomically (temporary name, then rename)."""
-    from camsim.io.atomic import atomic_path
+    from camsim.io.outputs import writing
 
     content = fitted_text(text, result, source)
     target = Path(path)
-    with atomic_path(target) as tmp:
-        tmp.write_text(content, encoding="utf-8")
+    with writing(target, "toml", owner="fit") as out:
+        out.put_text(content)
     return target

@@ -135,7 +135,7 @@ def write_machine(result: LumpResult, target: str | Path, *, validate: bool = Tr
     """
     import os
 
-    from camsim.io.atomic import atomic_path
+    from camsim.io.outputs import writing
 
     table = result.machine.get("cam", {}).get("table")
     if isinstance(table, str) and not Path(table).is_absolute():
@@ -143,10 +143,10 @@ def write_machine(result: LumpResult, target: str | Path, *, validate: bool = Tr
         where = Path(os.path.relpath(result.base_dir / table, Path(target).parent or Path(".")))
         result.machine["cam"]["table"] = where.as_posix()
     text = result.to_toml()
-    with atomic_path(target) as tmp:
-        tmp.write_text(text, encoding="utf-8")
-        if validate:
-            check_with_loader(result, tmp)
+    if validate:  # the text as the output's folder will read it, before anything is written
+        _validate_text(result, text, Path(target).parent)
+    with writing(target, "toml", owner="lump") as out:
+        out.put_text(text)
     return Path(target)
 
 

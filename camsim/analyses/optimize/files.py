@@ -66,11 +66,11 @@ def optimised_text(result) -> str:
 
 def write_optimised(result, path: Path) -> Path:
     """Write :func:`optimised_text` atomically."""
-    from camsim.io.atomic import atomic_path
+    from camsim.io.outputs import writing
 
     content = optimised_text(result)
-    with atomic_path(path) as tmp:
-        tmp.write_text(content, encoding="utf-8")
+    with writing(path, "toml", owner="optimize") as target:
+        target.put_text(content)
     return path
 
 
@@ -104,8 +104,8 @@ def _table(f, name: str, columns: list[tuple[str, list, str]]) -> None:
 
 def write_history(result, path: Path, runs: dict[int, dict]) -> Path:
     """The history file (module docstring), written atomically over the row store's view."""
-    from camsim.io.atomic import atomic_path
-    from camsim.io.hdf5 import create_file, write_root_attributes
+    from camsim.io.hdf5 import write_root_attributes
+    from camsim.io.outputs import writing
 
     p = result.problem
     cands = result.candidates
@@ -135,23 +135,22 @@ def write_history(result, path: Path, runs: dict[int, dict]) -> Path:
     run_names = [n for n, _ in [("run", ""), ("overrides", "")]] + [e.text for e in p.run_exprs] + ["status"]
     run_cols = [(n, [r.get(n, math.nan if n not in ("overrides", "status") else "") for r in run_rows],
                  result.units.get(n, "")) for n in run_names]
-    with atomic_path(path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, p.base, "optimize")
-            g = f.create_group("optimize", track_order=True)
-            g.attrs["status"] = result.status
-            g.attrs["method"] = result.method
-            g.attrs["seed"] = result.seed
-            g.attrs["budget"] = result.budget
-            g.attrs["evaluations"] = len(cands)
-            g.attrs["runs"] = result.runs
-            g.attrs["json"] = json.dumps(result.to_json(), default=str)
-            if run_rows:
-                _table(f, "optimize/runs", run_cols)
-            if cands:
-                _table(f, "optimize/candidates", cols)
-            if result.front:
-                fcols = [(f"param:{v.key}", [c.values.get(v.key) for c in result.front], v.unit) for v in p.variables]
-                fcols += [(f"objective:{g.text}", [c.objectives[k] for c in result.front], g.unit) for k, g in enumerate(p.goals)]
-                _table(f, "optimize/front", fcols)
+    with writing(path, "hdf5", owner="optimize") as target, target.h5() as f:
+        write_root_attributes(f, p.base, "optimize")
+        g = f.create_group("optimize", track_order=True)
+        g.attrs["status"] = result.status
+        g.attrs["method"] = result.method
+        g.attrs["seed"] = result.seed
+        g.attrs["budget"] = result.budget
+        g.attrs["evaluations"] = len(cands)
+        g.attrs["runs"] = result.runs
+        g.attrs["json"] = json.dumps(result.to_json(), default=str)
+        if run_rows:
+            _table(f, "optimize/runs", run_cols)
+        if cands:
+            _table(f, "optimize/candidates", cols)
+        if result.front:
+            fcols = [(f"param:{v.key}", [c.values.get(v.key) for c in result.front], v.unit) for v in p.variables]
+            fcols += [(f"objective:{g.text}", [c.objectives[k] for c in result.front], g.unit) for k, g in enumerate(p.goals)]
+            _table(f, "optimize/front", fcols)
     return path

@@ -46,9 +46,11 @@ _RPM = 60.0 / (2.0 * math.pi)
 class OptimizeInterrupted(KeyboardInterrupt):
     """Ctrl-C (or SIGTERM, or a lost worker) stopped the optimisation; the stored runs are kept."""
 
-    def __init__(self, evaluations: int, runs: int, history: Path | None, lost: int = 0):
+    def __init__(self, evaluations: int, runs: int, history: Path | None, lost: int = 0, made: int = 0):
         super().__init__(f"{evaluations} evaluations done")
-        self.evaluations, self.runs, self.history, self.lost = evaluations, runs, history, lost
+        #: Candidate evaluations completed; simulation runs kept in the history's journal
+        #: (0 without a history); runs lost with a worker; runs made by this process.
+        self.evaluations, self.runs, self.history, self.lost, self.made = evaluations, runs, history, lost, made
 
 
 @dataclass
@@ -179,6 +181,32 @@ class OptimizeResult:
         }
 
 
+def _check_size(source, fixed, problem, budget, robust, samples, cycles, warmup_cycles, sample_rate, max_runs,
+                max_output) -> None:
+    """Know before you start (issue 35): refuse a job of too many runs, or runs too large to
+    hold, before the reference run (InputError naming the estimate and the remedies)."""
+    from camsim.run.budget import DEFAULT_MAX_OUTPUT, DEFAULT_MAX_RUNS, check_budget, check_runs, estimate_run
+
+    n_speeds = len(problem.speeds)
+    n_samples = samples if robust else 1
+    counted = f"--budget {budget} evaluations" + (f" x {n_speeds} speeds" if n_speeds > 1 else "") + (
+        f" x {n_samples} robust samples" if robust else "") + " + 1 reference"
+    fewer = []
+    if n_speeds > 1:
+        fewer.append("fewer --speeds (a coarser step)")
+    if robust:
+        fewer.append("fewer robust --samples")
+    fewer.append("a smaller --budget")
+    check_runs(budget * n_speeds * n_samples + 1, DEFAULT_MAX_RUNS if max_runs is None else max_runs, "optimize",
+               counted, "make fewer runs with " + ", ".join(fewer))
+    speeds = [s for s in problem.speeds if s is not None]
+    slowest = [f"cam.speed={min(speeds)!r}"] if speeds else []  # the longest run: most samples
+    machine = source.load(list(fixed) + slowest)
+    estimate = estimate_run(machine, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
+    where = f"{source.source or 'optimize'}" + (f" at {min(speeds) * 60 / (2 * math.pi):.6g} rpm" if speeds else "")
+    check_budget(estimate, DEFAULT_MAX_OUTPUT if max_output is None else max_output, where)
+
+
 def _meta(source, fixed, args: dict) -> dict:
     return {"kind": "camsim optimize", "machine_sha256": hashlib.sha256(source.text.encode()).hexdigest(),
             "set": list(fixed), **args}
@@ -245,6 +273,8 @@ def optimize(
     force: bool = False,
     progress: Callable[[int, int | None, float | None], None] | None = None,
     on_start: Callable[[int, int, str], None] | None = None,
+    max_runs: int | None = None,
+    max_output: float | None = None,
 ) -> OptimizeResult:
     """Optimise machine keys for an objective under constraints (``camsim optimize``).
 
@@ -298,6 +328,13 @@ def optimize(
         ``progress(evaluations, budget, best_so_far)`` after each candidate.
     on_start : callable, optional
         ``on_start(budget, stored_runs, executor_name)`` once every check passed.
+    max_runs : int, optional
+        Refuse (InputError, before anything runs) a job that could make more simulation
+        runs: ``budget`` x speeds x robust samples (default
+        :data:`camsim.run.budget.DEFAULT_MAX_RUNS`; ``math.inf``: no limit).
+    max_output : float, optional
+        Refuse a run whose output (held in memory) would be larger [bytes], estimated at
+        the slowest speed (default :data:`camsim.run.budget.DEFAULT_MAX_OUTPUT`).
 
     Returns
     -------
@@ -357,6 +394,8 @@ def optimize(
     journal = journal_path_for(history) if history is not None else None
     inputs = [source.source] if source.source and Path(source.source).exists() else []
     check_outputs(inputs, {"-o": output, "-r": history}, journal, resume, fresh, force)
+    _check_size(source, fixed, problem, budget, robust, int(samples), cycles, warmup_cycles, sample_rate,
+                max_runs, max_output)
 
     # The machine as the file gives it: the expressions, their units, the constraint scales.
     from camsim.run.simulation import simulate
@@ -400,6 +439,7 @@ def optimize(
     names = [e.text for e in problem.run_exprs]
     columns = [("run", ""), ("overrides", "")] + [(n, units.get(n, "")) for n in names] + [("status", "")]
     store, cache = None, {}
+    notes: list[str] = []
     if history is not None:
         from camsim.io.hdf5 import write_root_attributes
         from camsim.io.rowstore import RowStore
@@ -415,11 +455,15 @@ def optimize(
                 store.close()
                 raise InputError(f"{store.journal}: cannot resume: the stored columns differ from this job's")
             cache = {r["overrides"]: r for r in store.rows().values()}
+            before = store.info.get("budget")
+            if before is not None and int(before) != int(budget):  # issue 35: a changed setting is stated
+                notes.append(f"resumed with --budget {budget}; the interrupted job had --budget {before} (its "
+                             f"{len(cache)} stored runs are reused either way)")
     executor = None
     try:
         executor = make_executor(workers, 10**6, scheduler, dask_local)
         if store is None and history is not None:
-            store = RowStore.create(history, columns, meta, **kwargs)
+            store = RowStore.create(history, columns, meta, info={"budget": int(budget)}, **kwargs)
     except BaseException:
         if store is not None:
             store.close()
@@ -429,7 +473,6 @@ def optimize(
     ev = Evaluator(source, fixed, problem, RunSpec(cycles, warmup_cycles, sample_rate), draws=draws, deviations=devs,
                    executor=executor, store=store, cache=cache, budget=None, p_max=max_probability, seed=int(seed),
                    scales=scales, progress=progress)
-    notes: list[str] = []
     interrupted = False
     front: list[Candidate] = []
     initial = None
@@ -465,9 +508,14 @@ def optimize(
             if not interrupted:
                 raise
     if interrupted:
+        kept = len(cache) + ev.runs_made if store is not None else 0
         if store is not None:
-            store.close()
-        raise OptimizeInterrupted(len(ev.candidates), ev.runs_made + len(cache), None if history is None else Path(history), ev.lost)
+            if kept:
+                store.close()
+            else:  # nothing finished: no journal to resume
+                store.remove_journal()
+        raise OptimizeInterrupted(len(ev.candidates), kept, None if history is None else Path(history), ev.lost,
+                                  made=ev.runs_made)
 
     notes = list(dict.fromkeys(notes))
     best = ev.best(0)

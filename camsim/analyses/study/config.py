@@ -80,6 +80,8 @@ def read_config(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise InputError(f"{p}: --config: no such file") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{p}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{p}: not a TOML file (not UTF-8 text: a binary or HDF5 file?)") from None
     except OSError as exc:
         raise InputError(f"{p}: cannot read ({exc.strerror})") from None
     table = doc.get("study")

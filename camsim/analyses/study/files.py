@@ -59,8 +59,9 @@ def write_study(result, path: str | os.PathLike[str], csv_path: str | os.PathLik
     (Path, Path)
         The HDF5 and CSV paths.
     """
-    from camsim.io.atomic import atomic_path, check_writable
-    from camsim.io.hdf5 import create_file, write_table
+    from camsim.io.atomic import check_writable
+    from camsim.io.hdf5 import write_table
+    from camsim.io.outputs import writing
     from camsim.io.hdf5 import write_root_attributes
     from camsim.analyses.sweep.files import csv_cell
 
@@ -71,39 +72,38 @@ def write_study(result, path: str | os.PathLike[str], csv_path: str | os.PathLik
     frame = result.rows
     names = [c for c, _ in result.columns]
     s = result.settings
-    with atomic_path(h5_path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, result.machine, "study")
-            group = f.create_group("study", track_order=True)
-            group.attrs["dist"] = [d.text for d in result.dists]
-            group.attrs["correlate"] = list(result.correlate) or [""]
-            group.attrs["set"] = list(result.fixed_overrides) or [""]
-            group.attrs["limit"] = list(result.limit_texts) or [""]
-            group.attrs["output"] = [e.text for e in s.outputs] or [""]
-            group.attrs["method"] = result.method
-            group.attrs["seed"] = int(result.seed)
-            group.attrs["n_samples"] = int(result.n_samples)
-            group.attrs["n_runs"] = int(result.n_runs)
-            group.attrs["incomplete"] = bool(result.failed)  # issue 26: failed runs, no probabilities
-            group.attrs["tol_sigma"] = float(result.dists[0].tol_sigma)
-            group.attrs["sensitivity"] = result.sensitivity is not None
-            group.attrs["cycles"] = -1 if s.cycles is None else int(s.cycles)
-            group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else int(s.warmup_cycles)
-            group.attrs["sample_rate"] = math.nan if s.sample_rate is None else float(s.sample_rate)
-            payload = result.to_json()
-            payload.pop("output", None)
-            payload.pop("csv", None)
-            group.attrs["summary_json"] = _json_text(payload)
-            cols = {name: (frame[name].to_numpy(), unit) for name, unit in result.columns}
-            table = write_table(group, "rows", cols)
-            table.attrs["columns"] = names
-            table.attrs["units"] = [u for _, u in result.columns]
-    with atomic_path(csv_target) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(names)
-            for row in frame.itertuples(index=False, name=None):
-                writer.writerow([csv_cell(v) for v in row])
+    with writing(h5_path, "hdf5", owner="study") as target, target.h5() as f:
+        write_root_attributes(f, result.machine, "study")
+        group = f.create_group("study", track_order=True)
+        group.attrs["dist"] = [d.text for d in result.dists]
+        group.attrs["correlate"] = list(result.correlate) or [""]
+        group.attrs["set"] = list(result.fixed_overrides) or [""]
+        group.attrs["limit"] = list(result.limit_texts) or [""]
+        group.attrs["output"] = [e.text for e in s.outputs] or [""]
+        group.attrs["method"] = result.method
+        group.attrs["seed"] = int(result.seed)
+        group.attrs["n_samples"] = int(result.n_samples)
+        group.attrs["n_runs"] = int(result.n_runs)
+        group.attrs["incomplete"] = bool(result.failed)  # issue 26: failed runs, no probabilities
+        group.attrs["not_run"] = int(result.not_run)  # issue 35: runs lost with a worker (--resume)
+        group.attrs["tol_sigma"] = float(result.dists[0].tol_sigma)
+        group.attrs["sensitivity"] = result.sensitivity is not None
+        group.attrs["cycles"] = -1 if s.cycles is None else int(s.cycles)
+        group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else int(s.warmup_cycles)
+        group.attrs["sample_rate"] = math.nan if s.sample_rate is None else float(s.sample_rate)
+        payload = result.to_json()
+        payload.pop("output", None)
+        payload.pop("csv", None)
+        group.attrs["summary_json"] = _json_text(payload)
+        cols = {name: (frame[name].to_numpy(), unit) for name, unit in result.columns}
+        table = write_table(group, "rows", cols)
+        table.attrs["columns"] = names
+        table.attrs["units"] = [u for _, u in result.columns]
+    with writing(csv_target, "csv", owner="csv") as target, target.text() as fh:
+        writer = csv.writer(fh)
+        writer.writerow(names)
+        for row in frame.itertuples(index=False, name=None):
+            writer.writerow([csv_cell(v) for v in row])
     return h5_path, csv_target
 
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from camsim.errors import InputError, MachineFileError, SimulationError
+from camsim.analyses.study.analysis import analyse, complete_row, stored_row, typed
 from camsim.analyses.study.distributions import DEFAULT_TOL_SIGMA, Distribution, parse_dist
 from camsim.analyses.study.outputs import OutputExpr, parse_output, run_scalars, run_unit
 from camsim.analyses.study.sampling import (
@@ -171,6 +172,8 @@ class StudyResult:
     output: Path | None = None
     csv: Path | None = None
     limit_texts: list[str] = field(default_factory=list)
+    #: Runs that did not run (their worker process failed; ``--resume`` runs them).
+    not_run: int = 0
 
     @property
     def outputs(self) -> list[str]:
@@ -195,6 +198,7 @@ class StudyResult:
             "output": None if self.output is None else str(self.output),
             "csv": None if self.csv is None else str(self.csv),
             "failed": self.failed,
+            "not_run": self.not_run,
             "incomplete": self.failed > 0,
             "outputs": self.stats,
             "limits": self.limits,
@@ -266,6 +270,8 @@ def study(
     resume: bool = False,
     progress: Callable[[int, int], None] | None = None,
     on_start: Callable[[int, int, str], None] | None = None,
+    max_runs: float | None = None,
+    max_output: float | None = None,
 ) -> StudyResult:
     """Run a tolerance study of a machine: statistics, limit probabilities, Sobol' indices.
 
@@ -386,10 +392,20 @@ def study(
         raise InputError(f"--workers {workers}: needs at least 1")
     source = machine if isinstance(machine, MachineSource) else MachineSource.from_path(machine)
 
+    # Know before you start (issue 35): the runs, and the size of each (held in memory).
+    from camsim.run.budget import DEFAULT_MAX_OUTPUT, DEFAULT_MAX_RUNS, check_budget, check_runs, estimate_run
+
+    total_runs = n_runs(samples, len(parsed), sensitivity)
+    counted = f"--samples {samples}" + (f" x (d + 2) = {samples} x {len(parsed) + 2} for --sensitivity" if sensitivity else "")
+    check_runs(total_runs, DEFAULT_MAX_RUNS if max_runs is None else max_runs, "study", counted,
+               "make fewer runs with fewer --samples" + (" (or without --sensitivity)" if sensitivity else ""))
+
     # The nominal machine: key checks, the output columns.
     from camsim.run.simulation import simulate
 
     base = _check_keys(source, fixed, parsed)
+    check_budget(estimate_run(base, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate),
+                 DEFAULT_MAX_OUTPUT if max_output is None else max_output, str(source.source or "study"))
     try:
         nominal_result = simulate(base, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     except SimulationError as exc:
@@ -472,18 +488,26 @@ def study(
     if store is None:
         store = open_store(h5_path, columns, meta, base, resume=False) if output is not None else MemoryRowStore.create(None, columns, meta)
     tasks = [(source, tuple(fixed) + tuple(_assignment(k, v) for k, v in zip(keys, values[i])), settings) for i in todo]
-    interrupted, lost = _run_missing(executor, tasks, todo, store, lambda i, row: _stored_row(i, design[i], keys, values[i], row, column_names),
+    interrupted, lost = _run_missing(executor, tasks, todo, store, lambda i, row: stored_row(i, design[i], keys, values[i], row, column_names),
                                total, progress, on_start, name)
     stored = store.rows()
-    if interrupted or lost:
-        store.close()
+    if interrupted:
+        if stored:
+            store.close()
+        else:  # nothing finished: no journal to resume (a rerun starts afresh)
+            store.remove_journal()
         raise StudyInterrupted(len(stored), total, h5_path, lost=lost)
+    not_run = [i for i in range(total) if i not in stored]
+    rows = dict(stored)
+    for i in not_run:  # a worker process died: no result, and no conclusion drawn without it
+        rows[i] = stored_row(i, design[i], keys, values[i],
+                              {"status": "not run: its worker process failed (--resume runs it)"}, column_names)
 
     import pandas as pd
 
-    frame = pd.DataFrame([_complete(stored[i], columns) for i in range(total)], columns=[c for c, _ in columns])
-    frame = _typed(frame)
-    stats, limit_rows, sens, ranking, notes = _analyse(frame, output_names, parsed_limits, keys, samples, sensitivity, int(seed))
+    frame = pd.DataFrame([complete_row(rows[i], columns) for i in range(total)], columns=[c for c, _ in columns])
+    frame = typed(frame)
+    stats, limit_rows, sens, ranking, notes = analyse(frame, output_names, parsed_limits, keys, samples, sensitivity, int(seed))
     result = StudyResult(
         rows=frame,
         columns=columns,
@@ -507,13 +531,15 @@ def study(
         output=h5_path,
         csv=csv_path,
         limit_texts=list(limits),
+        not_run=len(not_run),
     )
     if output is not None:
         from camsim.analyses.study.files import write_study
 
-        store.close(complete=True)
+        store.close(complete=not not_run)
         write_study(result, h5_path, csv_path)  # replaces the view with the final file
-        store.remove_journal()
+        if not not_run:  # kept for --resume otherwise
+            store.remove_journal()
     else:
         store.close()
     return result
@@ -561,84 +587,3 @@ def _run_missing(executor, tasks, todo, store, stored_row, total, progress, on_s
                 if not interrupted:
                     raise
     return interrupted, lost
-
-
-def _analyse(frame, output_names, limits, keys, samples: int, sensitivity: bool, seed: int):
-    """Statistics, limit probabilities and Sobol' indices of the finished rows.
-
-    Failed runs are left out; with ``sensitivity`` the statistics and limits use blocks A
-    and B of Saltelli's design (the first 2N rows: 2N points of the input distribution).
-    """
-    from camsim.analyses.study.statistics import limit_probability, summarize
-
-    ok = (frame["status"] == "ok").to_numpy()
-    stats_mask = ok.copy()
-    if sensitivity:
-        stats_mask[2 * samples:] = False
-    cols = {q: frame[q].to_numpy(dtype=float) for q in output_names}
-    notes: list[str] = []
-    described = [q for q in output_names if np.any(np.isfinite(cols[q][stats_mask]))]
-    for q in output_names:
-        if q not in described:
-            notes.append(f"{q}: no value in any run (left out of the statistics)")
-    stats = summarize({q: cols[q][stats_mask] for q in described}, described, seed)
-    limit_rows = [limit_probability(lim, cols[lim.quantity][stats_mask]) for lim in limits]
-    sens = None
-    ranking: list[tuple[str, float]] = []
-    if sensitivity:
-        from camsim.analyses.study.sensitivity import rank_inputs, sobol_from_outputs
-
-        n, d = samples, len(keys)
-        y = np.array([np.where(ok, cols[q], np.nan) for q in described])  # (outputs, runs)
-        f_a, f_b = y[:, :n], y[:, n:2 * n]
-        f_ab = np.stack([y[:, (2 + i) * n:(3 + i) * n] for i in range(d)])
-        sens, sens_notes = sobol_from_outputs(f_a, f_b, f_ab, keys, described, seed)
-        notes += sens_notes
-        ranking = rank_inputs(sens, [lim.quantity for lim in limits] or None)
-    failed = int((~ok).sum())
-    if failed:
-        notes.append(f"{failed} of {len(ok)} runs failed (their rows hold the reason in 'status'; left out of the statistics)")
-        pool = np.arange(ok.size) < (2 * samples if sensitivity else ok.size)  # the rows the limits are taken over
-        counted, lost = int(pool.sum()), int((pool & ~ok).sum())
-        for row in limit_rows if lost else ():
-            # A failed run may be exactly one that crosses the limit: no probability is
-            # concluded from the runs that did not fail (issue 26); the bounds are exact.
-            low, high = row["crossed"] / counted, (row["crossed"] + lost) / counted
-            row.update(probability=None, per_million=None, ci95=[None, None],
-                       reason=f"{lost} of {counted} runs failed: P is between {low:.4g} and {high:.4g} "
-                              f"({row['crossed']} crossed among the {row['n']} that ran)")
-    return stats, limit_rows, sens, ranking, notes
-
-
-def _stored_row(index: int, design: str, keys, values, row: dict, names: set[str]) -> dict:
-    """The stored form of one run: run, design, SI inputs, then the run's columns (others dropped)."""
-    out: dict[str, Any] = {"run": int(index), "design": design}
-    for k, v in zip(keys, values):
-        out[f"param:{k}"] = float(v)
-    for c, v in row.items():
-        if c in names:
-            out[c] = v.item() if isinstance(v, np.generic) else v
-    return out
-
-
-def _complete(row: dict, columns) -> dict:
-    from camsim.run.result import missing_scalar
-
-    return {name: row[name] if name in row else missing_scalar(name) for name, _ in columns}
-
-
-def _typed(frame):
-    """Column dtypes: run/impacts int64, jump bool, status/design str, the rest float64."""
-    for name in frame.columns:
-        if name in ("run", "impacts"):
-            frame[name] = frame[name].astype(np.int64)
-        elif name == "jump":
-            frame[name] = frame[name].astype(bool)
-        elif name in ("status", "design"):
-            frame[name] = frame[name].astype(object)
-        elif frame[name].dtype == object:
-            try:
-                frame[name] = frame[name].astype(float)
-            except (TypeError, ValueError):
-                pass
-    return frame

@@ -61,3 +61,6 @@ class MemoryRowStore:
 
     def close(self, complete: bool = False) -> None:
         pass
+
+    def remove_journal(self) -> None:
+        pass

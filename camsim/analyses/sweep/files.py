@@ -46,8 +46,9 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
     (Path, Path)
         The HDF5 and CSV paths.
     """
-    from camsim.io.atomic import atomic_path, check_writable
-    from camsim.io.hdf5 import create_file, write_table
+    from camsim.io.atomic import check_writable
+    from camsim.io.hdf5 import write_table
+    from camsim.io.outputs import writing
     from camsim.run.runfile import write_root_attributes, write_run_group
 
     h5_path = Path(path)
@@ -55,38 +56,37 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
     check_writable(h5_path)
     check_writable(csv_target)
     nan = float("nan")
-    with atomic_path(h5_path) as tmp:
-        with create_file(tmp) as f:
-            write_root_attributes(f, result.machine, "sweep")
-            group = f.create_group("sweep", track_order=True)
-            group.attrs["varied_keys"] = [name[6:] for name, _ in result.columns if name.startswith("param:")]
-            group.attrs["fixed_overrides"] = list(result.fixed_overrides) or [""]
-            s = result.settings
-            group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
-            group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
-            group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
-            group.attrs["interrupted"] = bool(result.stopped)
-            group.attrs["incomplete"] = bool(result.incomplete)  # a row did not run: no conclusion drawn
-            cols = {name: (result.column(name), unit) for name, unit in result.columns}
-            table = write_table(group, "summary", cols)
-            table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
-            table.attrs["first_jump_rpm"] = nan if result.first_jump_rpm is None else float(result.first_jump_rpm)
-            if result.jump_bracket_rpm is not None:
-                table.attrs["jump_bracket_rpm"] = np.array(result.jump_bracket_rpm, dtype=float)
-            if result.runs:
-                variants = group.create_group("variants", track_order=True)
-                for k, run in enumerate(result.runs):
-                    if run is None:
-                        continue
-                    g = variants.create_group(str(k), track_order=True)
-                    g.attrs["overrides"] = list(result.overrides[k])
-                    write_run_group(g, run)
-    with atomic_path(csv_target) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow([name for name, _ in result.columns])
-            for row in result.rows:
-                writer.writerow([csv_cell(row[name]) for name, _ in result.columns])
+    with writing(h5_path, "hdf5", owner="sweep") as target, target.h5() as f:
+        write_root_attributes(f, result.machine, "sweep")
+        group = f.create_group("sweep", track_order=True)
+        group.attrs["varied_keys"] = [name[6:] for name, _ in result.columns if name.startswith("param:")]
+        group.attrs["fixed_overrides"] = list(result.fixed_overrides) or [""]
+        s = result.settings
+        group.attrs["cycles"] = -1 if s.cycles is None else s.cycles
+        group.attrs["warmup_cycles"] = -1 if s.warmup_cycles is None else s.warmup_cycles
+        group.attrs["sample_rate"] = nan if s.sample_rate is None else float(s.sample_rate)
+        group.attrs["interrupted"] = bool(result.stopped)
+        group.attrs["incomplete"] = bool(result.incomplete)  # a row did not run: no conclusion drawn
+        cols = {name: (result.column(name), unit) for name, unit in result.columns}
+        table = write_table(group, "summary", cols)
+        table.attrs["jump_onset_rpm"] = nan if result.jump_onset_rpm is None else float(result.jump_onset_rpm)
+        table.attrs["first_jump_rpm"] = nan if result.first_jump_rpm is None else float(result.first_jump_rpm)
+        if result.jump_bracket_rpm is not None:
+            table.attrs["jump_bracket_rpm"] = np.array(result.jump_bracket_rpm, dtype=float)
+        if result.runs:
+            variants = group.create_group("variants", track_order=True)
+            for k, run in enumerate(result.runs):
+                if run is None:
+                    continue
+                g = variants.create_group(str(k), track_order=True)
+                g.attrs["overrides"] = list(result.overrides[k])
+                write_run_group(g, run)
+                target.check()  # a full disk stops here, not after every variant
+    with writing(csv_target, "csv", owner="csv") as target, target.text() as fh:
+        writer = csv.writer(fh)
+        writer.writerow([name for name, _ in result.columns])
+        for row in result.rows:
+            writer.writerow([csv_cell(row[name]) for name, _ in result.columns])
     return h5_path, csv_target
 
 

@@ -642,9 +642,11 @@ def _open_store(output, resume: bool, columns, meta, machine):
 def finish_sweep(result: SweepResult) -> None:
     """Remove the journal of a sweep that ran every variant (after :func:`write_sweep`).
 
-    Kept when the sweep was interrupted or a worker failed, for ``--resume``.
+    Kept when the sweep was interrupted or a worker failed, for ``--resume`` (unless no
+    variant finished: there is nothing to resume then).
     """
-    if result.journal is not None and not result.interrupted and not result.executor_failures:
+    finished = any(r["status"] != "cancelled" for r in result.rows)
+    if result.journal is not None and (not (result.interrupted or result.executor_failures) or not finished):
         Path(result.journal).unlink(missing_ok=True)
 
 
