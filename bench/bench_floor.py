@@ -46,7 +46,6 @@ from __future__ import annotations
 import argparse
 import gc
 import json
-import math
 import os
 import statistics
 import subprocess
@@ -102,7 +101,7 @@ class CamsimCalls:
 
 
 def serve() -> None:
-    """Child of ``--also``: one round of camsim calls per input line, one JSON line back."""
+    """A child process (one per source tree): one round of camsim calls per input line, one JSON line back."""
     calls = CamsimCalls()
     print(json.dumps({"events": calls.events, "camsim": str(Path(calls.camsim.__file__).parent)}), flush=True)
     for line in sys.stdin:
