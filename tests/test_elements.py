@@ -66,6 +66,23 @@ def test_outcomes_are_typed():
     assert power.outcome(GuardKind.CLOSE, 0.3).v_impact == 0.3
 
 
+def test_a_lifted_contact_that_pushes_again_is_no_impact():
+    """Issue 34: a lifted compliant contact whose law pushes again (δ > 0, δ̇ = −k·δ/c < 0)
+    closes without an event row, and keeps the approach speed of the impact that closed it
+    (v_impact None: unchanged; it was reset to 1e-12 m/s, a Hunt–Crossley χ = α(e)/1e-12)."""
+    seat = elements.LinearContact("s", "ground", "M", stiffness=1e5)
+    power = elements.PowerContact("p", "ground", "M", coefficient=1e9, exponent=1.5, restitution=0.8)
+    for contact in (seat, power):
+        out = contact.outcome(GuardKind.REENGAGE, -0.018)
+        assert out.branch is Branch.CLOSED and out.event is None and out.v_impact is None
+    from camsim.elements.lash import LinearLash
+
+    lash = LinearLash("y", "cam", "M", clearance=1e-4, offset=5e-5, stiffness=1e5)
+    assert lash.outcome_at(GuardKind.REENGAGE, -0.018, -1e-6).branch is lash.closed_branches[0]
+    assert lash.outcome_at(GuardKind.REENGAGE, 0.018, 2e-4).branch is lash.closed_branches[1]
+    assert lash.outcome_at(GuardKind.REENGAGE, 0.018, 2e-4).event is None
+
+
 def test_rigid_initial_penetration_is_refused():
     rigid = elements.RigidContact("r", "ground", "M", gap=0.0, restitution=0.5)
     with pytest.raises(ValueError, match="penetrates the rigid contact r"):

@@ -56,9 +56,10 @@ class GuardKind(StrEnum):
 
     SEPARATE = "separate"  # a preloaded link reaches its separation deflection
     REJOIN = "rejoin"  # a separated link closes again
-    CLOSE = "close"  # a contact closes (or a lifted compliant contact pushes again)
+    CLOSE = "close"  # a contact closes: its penetration rises through zero (an impact)
     RELEASE = "release"  # a contact's force reaches zero
     UNLIFT = "unlift"  # a lifted compliant contact's penetration returns to zero
+    REENGAGE = "reengage"  # a lifted compliant contact's law pushes again (no impact: issue 34)
     # A closed nonlinear law's kinks, located like events but no rows of the event table
     # (issue 34): its next piece, its previous one; its force clamped at zero, and pushing again.
     KINK_UP = "kink-up"

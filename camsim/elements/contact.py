@@ -108,7 +108,19 @@ class Contact(Element):
             return Outcome()
         if kind == GuardKind.RELEASE:
             return Outcome(Branch.OPEN, EventKind.RELEASE, rate)
+        if kind == GuardKind.REENGAGE:
+            return self.reengaging()
         return self.closing(rate)
+
+    def reengaging(self) -> Outcome:
+        """A lifted contact whose law pushes again while it still penetrates (δ > 0).
+
+        Its force rises from zero, continuously: there is no approach (δ̇ = −k·δ/c < 0 for a
+        linear law) and nothing to annotate, so this is no impact and no row of the event
+        table (spec §3: a contact closes when δ rises through 0). The contact keeps the
+        approach speed of the impact that closed it (a power law's χ = α(e)/v).
+        """
+        return Outcome(self.closed_branch)
 
     def closing(self, rate: float) -> Outcome:
         """The outcome of the contact closing at approach speed ``rate`` [m/s]."""

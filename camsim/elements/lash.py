@@ -207,6 +207,8 @@ class Lash(Element):
         if kind == GuardKind.RELEASE:
             return Outcome(Branch.OPEN, EventKind.RELEASE, rate if d < self.offset else -rate)
         sign, _ = self.contact_side(Branch.OPEN, d)
+        if kind == GuardKind.REENGAGE:  # that side's force resumes: no impact, no row
+            return Outcome(self.closed_branches[0 if sign > 0 else 1])
         closing = self.contact.closing(rate if sign > 0 else -rate)
         branch = None if closing.branch is None else self.closed_branches[0 if sign > 0 else 1]
         return Outcome(branch, closing.event, closing.velocity, closing.v_impact, closing.rigid_impact)

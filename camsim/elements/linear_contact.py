@@ -83,7 +83,7 @@ class LinearContact(Contact):
         return [(GuardKind.RELEASE, self._law_affine(ctx, 1.0), FORCE_TOL)]
 
     def lifted_guards(self, ctx):
-        return [(GuardKind.CLOSE, self._law_affine(ctx, -1.0), FORCE_TOL)]
+        return [(GuardKind.REENGAGE, self._law_affine(ctx, -1.0), FORCE_TOL)]
 
     def johnson_bounds(self, m1, m2, v):
         from camsim.physics.impact import johnson_linear

@@ -173,7 +173,7 @@ class PowerContact(Contact):
         factor = self._factor(ctx)
         if factor is None:
             return []
-        return [(GuardKind.CLOSE, Affine(-factor.Cz, -factor.Du, -factor.Fn, -factor.e), FACTOR_TOL)]
+        return [(GuardKind.REENGAGE, Affine(-factor.Cz, -factor.Du, -factor.Fn, -factor.e), FACTOR_TOL)]
 
     def closing(self, rate):
         v_impact = max(rate, 1e-12) if self.restitution is not None else None

@@ -254,6 +254,18 @@ class EngineContext:
         return out
 
     @staticmethod
+    def guard_rate(config: Configuration, guard: Guard, z: np.ndarray, u: np.ndarray, fn: np.ndarray) -> float:
+        """ġ of a guard at one state (z: (m,), u: (1, 4), fn: (1, p)); NaN where it is not
+        known: a guard of a nonlinear configuration that reads the nonlinear forces or the jerk."""
+        if guard.rate is not None:
+            return float(guard.rate(z[None, :], u)[0, 0])
+        g = guard.value
+        if np.any(g.Fn) or np.any(g.Du[:, -1]):
+            return math.nan
+        zdot = config.A @ z + config.B @ u[0] + config.b + config.L @ fn[0]
+        return float((g.Cz @ zdot + g.Du[:, :-1] @ u[0, 1:])[0])
+
+    @staticmethod
     def _rate(config: Configuration, g: Affine) -> Affine:
         """d/dt of an affine guard in a linear configuration."""
         Du = g.Cz @ config.B

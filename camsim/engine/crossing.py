@@ -255,6 +255,30 @@ def root_near(g, t_lo: float, t_hi: float, t_guess: float) -> float | None:
     return min(root + 2e-14, hi) if g(root) > 0.0 else root
 
 
+def grazes(cam, config, guard, t: float, step_end: float, z: np.ndarray) -> bool:
+    """True when a located zero of the guard is a touch, not a crossing (issue 34).
+
+    A guard that reaches zero and turns back before it falls below −tol (a follower that
+    meets a disc tangentially where the lobe's base circle touches it, a contact force
+    that touches zero and rises again) never leaves its branch's validity by more than
+    its tolerance: no event, so no pair of rows at one instant that changes nothing. The
+    guard is taken to second order at the zero, with the cam input from its analytic law
+    (the left limit at ``step_end``): g, ġ, g̈. Only a guard curving up (g̈ > 0) can touch;
+    its minimum is then g − ġ²/(2·g̈), whether the root was placed before the vertex or
+    after it. A guard curving down at its zero (a rebound too small to resolve, landing
+    again) is always a crossing, whatever the sign of ġ where its root was placed.
+    """
+    if cam is None or not hasattr(cam, "svaj") or guard.rate is None:
+        return False
+    u = analytic_input(cam, t, step_end)
+    g = float(guard.value(z[None, :], u[None, :])[0, 0])
+    g_rate = float(guard.rate(z[None, :], u[None, :])[0, 0])
+    zdot = config.A @ z + config.B @ u + config.b
+    # ü = [ṡ, s̈, s⃛, s⁗]: s⁗ is not an input; the jerk term of ġ (a guard reading s̈) is left out
+    curvature = float((guard.rate.Cz @ zdot + guard.rate.Du[:, :3] @ u[1:])[0])
+    return curvature > 0.0 and g - g_rate * g_rate / (2.0 * curvature) >= -guard.tol
+
+
 def analytic_input(cam, t: float, end: float) -> np.ndarray:
     """[s, ṡ, s̈, s⃛] at one instant from the cam laws (the left limit at ``end``): (4,)."""
     return _analytic_inputs(cam, np.array([t]), end)[0]

@@ -27,7 +27,7 @@ from camsim.engine.linear import LinearStepper
 from camsim.engine.nonlinear import ExponentialStepper
 from camsim.engine.rigid import resolve as resolve_rigid
 from camsim.engine.rk import RungeKuttaStepper
-from camsim.engine.state import TIME_EPS, Guard, State, Stretch
+from camsim.engine.state import TIME_EPS, Guard, State, Stretch, leaving_zero
 from camsim.engine.watch import CamForceWatch
 from camsim.model.assembly import Model
 
@@ -160,7 +160,8 @@ class Integrator(EngineContext):
         for guard in self.guards(state, config):
             if guard.kind == GuardKind.UNLIFT:
                 continue
-            if guard.value(z[None, :], u, fn)[0, 0] < -guard.tol:
+            value = guard.value(z[None, :], u, fn)[0, 0]
+            if value < -guard.tol and not leaving_zero(value, self.guard_rate(config, guard, z, u, fn), guard.tol):
                 return guard
         return None
 

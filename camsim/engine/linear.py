@@ -16,9 +16,9 @@ import math
 import numpy as np
 
 from camsim.engine.context import GRID_SNAP, EngineContext
-from camsim.engine.crossing import polish_crossing
+from camsim.engine.crossing import grazes, polish_crossing
 from camsim.engine.roots import refine
-from camsim.engine.state import TIME_EPS, State
+from camsim.engine.state import TIME_EPS, State, leaving_zero
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
 
@@ -119,11 +119,15 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
     g0 = G[:-1].copy()
     g1 = G[1:]
     if first_chunk:
-        now = np.flatnonzero(g0[0] < -tol)
+        # A guard at its zero and leaving it on the valid side is the one just crossed (or
+        # its mirror in the new branches: a released contact's lifted guard), whatever the
+        # sign of its value there; state.leaving_zero.
+        leaving = leaving_zero(g0[0], Gd[0], tol)
+        now = np.flatnonzero((g0[0] < -tol) & ~leaving)
         if now.size:
             return nodes[0], Z[0], guards[int(now[0])], 0
-        just = np.abs(g0[0]) <= tol
-        g0[0, just] = tol[just]  # just crossed: do not find it again
+        just = (np.abs(g0[0]) <= tol) | leaving
+        g0[0, just] = np.maximum(g0[0, just], tol[just])  # just crossed: do not find it again
     d0 = Gd[:-1] * steps
     d1 = Gd[1:] * steps
     crossing = (g1 <= 0.0) & (g0 > 0.0)
@@ -176,6 +180,8 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
             if polished is None:
                 continue
             tau, z = polished
+            if grazes(ctx.cam, config, guard, nodes[k] + tau, nodes[k] + float(steps[k, 0]), z):
+                continue  # a touch within the guard's tolerance: no event (issue 34)
             if best is None or nodes[k] + tau < best[0]:
                 best = (nodes[k] + tau, z, guard, k)
     return best

@@ -20,6 +20,23 @@ from camsim.model.assembly import Configuration
 #: Two times closer than this [s] are the same instant (a stretch end on a grid point, a
 #: boundary reached): far below the 1e-9 s event accuracy, far above rounding of t ~ 1e3 s.
 TIME_EPS = 1e-13
+#: An event is placed within this time [s] of its guard's zero (camsim.engine.crossing):
+#: where integration restarts after it, a guard of the new branches may read up to its
+#: rate times this on the wrong side of zero (issue 34: a lobe contact released where its
+#: force was still +5e-9 N, 1.5e-13 s early, and its lifted guard read -5e-9 N < -1e-9 N).
+RESTART_TIME = 1e-10
+
+
+def leaving_zero(g, g_rate, tol):
+    """True where a guard is at its zero to the event accuracy and moving into validity.
+
+    At the instant integration restarts (after an event) a guard ``g`` with |g| within its
+    tolerance plus |ġ|·:data:`RESTART_TIME` is at its zero; if its rate ġ is positive it is
+    leaving zero on the valid side, so it is neither violated nor crossing there, whatever
+    the sign its value was rounded or located to (spec §4: a contact that releases does not
+    close again at the same instant). Works on floats and arrays.
+    """
+    return (g_rate > 0.0) & (np.abs(g) <= tol + np.abs(g_rate) * RESTART_TIME)
 
 @dataclass
 class Guard:

@@ -96,6 +96,23 @@ def observable_units(path: str) -> str:
     return "N"
 
 
+def fold_best(records, j: int, sense: int, best: tuple[float, float] | None) -> tuple[float, float] | None:
+    """The located maximum (sense +1) or minimum (−1) of observable ``j`` over ``records``
+    and ``best`` (a value and time found before, or None): the record with the best node
+    value first, whose located value then prunes the others by their screening bounds (in
+    time order, every record would be refined until the best so far is high). Ties keep the
+    earlier time (the first occurrence, as ``argmax``)."""
+    nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
+    for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
+        r = records[k]
+        if best is not None and sense * r.bound(j, sense) <= sense * best[0]:
+            continue
+        value, t = r.extreme(j, sense)
+        if best is None or sense * value > sense * best[0] or (value == best[0] and t < best[1]):
+            best = (value, t)
+    return best
+
+
 class _Window:
     """One impact's contact window: the located extremes of its element's force in it."""
 
@@ -103,23 +120,19 @@ class _Window:
         self.event, self.element, self.column = event, element, column
         self.t_close = t_close
         self.t_open = math.inf
-        self.best: dict[int, tuple[float, float] | None] = {1: None, -1: None}
+        self.records: list[StretchExtremes] = []
 
     def add(self, record: StretchExtremes) -> None:
         if record.t0 < self.t_close - 1e-12 or record.t1 > self.t_open + 1e-12:
             return
-        for sense in (1, -1):
-            best = self.best[sense]
-            if best is not None and sense * record.bound(self.column, sense) <= sense * best[0]:
-                continue
-            value, t = record.extreme(self.column, sense)
-            if best is None or sense * value > sense * best[0]:
-                self.best[sense] = (value, t)
+        self.records.append(record)
 
     def finish(self, t_rec: float) -> None:
         """Set the event's located peak force and its instant (the element's own measure of
         an impact's force: :meth:`~camsim.elements.base.Element.impact_force`)."""
-        top, bottom = self.best[1], self.best[-1]
+        top = fold_best(self.records, self.column, 1, None)
+        bottom = fold_best(self.records, self.column, -1, None)
+        self.records = []
         if top is None or bottom is None:
             return
         measure = self.element.impact_force(np.array([top[0], bottom[0]]))
@@ -185,22 +198,12 @@ class ExtremesFolder:
         self.windows = still
 
     def _fold_waiting(self) -> None:
-        """The waiting records into the run's extremes, per observable the record with the best
-        node value first: its located value then prunes most others by their bounds (in time
-        order, every record would be refined until the best so far is high)."""
+        """The waiting records into the run's extremes (:func:`fold_best`)."""
         records, self._waiting = self._waiting, []
         for sense in (1, -1):
             best = self.best[sense]
             for j in range(len(best)):
-                nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
-                for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
-                    r = records[k]
-                    if best[j] is not None and sense * r.bound(j, sense) <= sense * best[j][0]:
-                        continue
-                    value, t = r.extreme(j, sense)
-                    if (best[j] is None or sense * value > sense * best[j][0]
-                            or (value == best[j][0] and t < best[j][1])):
-                        best[j] = (value, t)
+                best[j] = fold_best(records, j, sense, best[j])
 
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);

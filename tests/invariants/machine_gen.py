@@ -20,7 +20,12 @@ What is drawn (spec §3, §6):
   optionally doubled by a contact or a lash of any law, optionally stopped by a seat
   (a ground contact of any law with a gap inside the lift, as the thesis machine's seat);
 * gravity on or off; an ``[initial]`` table (a drop of the last mass, or a velocity) or
-  not.
+  not;
+* with ``several_contacts`` (issue 34): three masses, the cam acting on the first through
+  a contact (the cam node moves with s(t), the follower may leave it) and a concentric
+  *disc* under it as well (a ground contact whose surface is inside the lift: the follower
+  lands on it where the lobe drops below it), and the second mass *between two stops*: a
+  seat under it (ground) and a stop carried by the third mass above it.
 
 Stiffnesses stay within 1e3-3e6 N/m (natural frequencies below ~1.5 kHz), so a machine
 runs in a fraction of a second at any sample rate of the suite.
@@ -236,7 +241,8 @@ def _contact_law(draw, law: str, plain: bool = False) -> dict:
 
 
 @st.composite
-def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_laws: bool = True):
+def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_laws: bool = True,
+                  several_contacts: bool = False, cam_contact: bool = False):
     """A :class:`MachineSpec`.
 
     Parameters
@@ -248,6 +254,13 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
     max_masses : int
     nonlinear_laws : bool
         False: no power-law or Adams IMPACT contact (linear and rigid contacts only).
+    several_contacts : bool
+        Several contacts on one mass: three masses; a contact from the moving cam and a
+        disc (a ground contact) on the first; a seat under the second and a stop on it
+        from the third (issue 34).
+    cam_contact : bool
+        The cam acts on the first mass through a contact or a lash, never drives it: the
+        cam node moves with s(t) and the follower may leave it (issue 34).
     """
     laws = ("linear",) if linear else CONTACT_LAWS if nonlinear_laws else ("linear", "restitution")
     nonlinear = []  # at most one power-law or adams-impact contact: they step by collocation,
@@ -264,11 +277,14 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
     ratio = draw(st.one_of(st.none(), st.floats(allow_subnormal=False, min_value=0.5, max_value=1.5)))
     model_lift = lift * (ratio or 1.0)
     omega = rpm * 2 * math.pi / 60.0
-    n = draw(st.integers(min_value=1, max_value=max_masses))
+    n = 3 if several_contacts else draw(st.integers(min_value=1, max_value=max_masses))
     names = [f"M{k + 1}" for k in range(n)]
     masses = [(name, draw(_log_uniform(0.05, 2.0))) for name in names]
     gravity = draw(st.booleans())
-    coupling = draw(st.sampled_from(["drives", "contact"] if linear else ["drives", "contact", "contact", "lash"]))
+    couplings = ["drives", "contact"] if linear else ["drives", "contact", "contact", "lash"]
+    if cam_contact:
+        couplings = [c for c in couplings if c != "drives"]
+    coupling = "contact" if several_contacts else draw(st.sampled_from(couplings))
     elements: list[dict] = []
     # The closure spring holds the chain against the cam. Its preload is drawn around the
     # jump onset: the force that the chain's mass needs at the cam's largest deceleration.
@@ -285,6 +301,18 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
     elif coupling == "contact":
         law = law_of()
         elements.append({"name": "roller", "type": "contact", "between": ["cam", "M1"], **_contact_law(draw, law, linear)})
+        if several_contacts:
+            # a concentric disc beside the lobe: its surface inside the lift, so that the
+            # follower lands on it where the lobe drops below it. Not rigid under a rigid
+            # lobe: two rigid contacts on one degree of freedom, stuck together at the
+            # crossing, are refused by the rigid solver ("over-constrain the masses": a
+            # known limit, docs/model.md "Events at one instant")
+            disc_law = law_of()
+            while disc_law == "restitution" and law == "restitution":
+                disc_law = law_of()
+            elements.append({"name": "disc", "type": "contact", "between": ["ground", "M1"],
+                             "gap": Q(draw(st.floats(allow_subnormal=False, min_value=0.1, max_value=0.9)) * model_lift, "length"),
+                             **_contact_law(draw, disc_law, linear)})
     else:
         law = law_of()
         clearance = draw(st.floats(allow_subnormal=False, min_value=2e-5, max_value=2e-4))
@@ -305,6 +333,8 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
                              "pull_stiffness": Q(draw(_log_uniform(1e3, 1e5)), "stiffness"),
                              "preload": Q(draw(_log_uniform(1.0, 100.0)), "force"), **_damping(draw, False)})
         extra = draw(st.sampled_from(["none", "none", "contact", "lash"] if not linear else ["none", "contact"]))
+        if several_contacts:
+            extra = "contact" if k == 2 else "none"  # M2 between its seat and M3's stop
         if extra == "contact":
             elements.append({"name": f"stop{k}{k + 1}", "type": "contact", "between": [lower, upper],
                              "gap": Q(draw(st.floats(allow_subnormal=False, min_value=1e-5, max_value=5e-4)), "length"),
@@ -313,7 +343,7 @@ def machine_specs(draw, linear: bool = False, max_masses: int = 4, nonlinear_law
             elements.append({"name": f"lash{k}{k + 1}", "type": "lash", "between": [lower, upper],
                              "clearance": Q(draw(st.floats(allow_subnormal=False, min_value=1e-4, max_value=1e-3)), "length"),
                              **_contact_law(draw, law_of(), linear)})
-        if draw(st.booleans()):
+        if (k == 1) if several_contacts else draw(st.booleans()):
             elements.append({"name": f"seat{k + 1}", "type": "contact", "between": ["ground", upper],
                              "gap": Q(draw(st.floats(allow_subnormal=False, min_value=0.1, max_value=0.6)) * model_lift, "length"),
                              **_contact_law(draw, law_of(), linear)})

@@ -1,9 +1,10 @@
 """Generate the engine reference data in ``tests/data/reference/`` (not run by the tests).
 
-For each reference machine (``machines/cdtm.toml``, ``machines/dynacam-2mass.toml``) this
-runs the independent solver of :mod:`reference_solver` (scipy ``solve_ivp``, DOP853,
+For each reference machine (``machines/cdtm.toml``, ``machines/dynacam-2mass.toml``, and
+the issue-34 regression machines ``tests/invariants/machines/disc-lobe-follower.toml`` and
+``lobe-reengage.toml``) this runs the independent solver of :mod:`reference_solver` (scipy ``solve_ivp``, DOP853,
 rtol 1e-12, atol 1e-15 m / 1e-12 m/s, every branch change a terminal event) with the
-machine's own warm-up (1 cycle) and recorded cycles (1), sampled at 10 kHz on camsim's
+machine's own warm-up and recorded cycles, sampled at 10 kHz on camsim's
 grid t_rec + k/10 kHz, and writes ``tests/data/reference/<machine>.npz`` holding
 
 - ``time`` [s] (0 at the start of the recorded cycle);
@@ -11,17 +12,20 @@ grid t_rec + k/10 kHz, and writes ``tests/data/reference/<machine>.npz`` holding
   for every mass (the driven one too);
 - ``event_time`` [s], ``event_element``, ``event_kind``, ``event_rate`` [m/s] (δ̇ for a
   contact, ḋ for a preloaded link) of the recorded cycle;
+- ``reengage_time`` [s], ``reengage_element``: where a lifted linear contact's law turned
+  positive again (a branch change without a row, issue 34);
 - ``meta`` (a JSON string: solver, method, rtol, atol, sample rate, cycles, the SHA-256 of the
   machine's SI physics (:func:`machine_digest`); no date, so that regenerating gives the same file).
 
 Regenerate (from the repository root)::
 
-    python tests/reference/make_reference.py            # both machines, about 15-50 s
+    python tests/reference/make_reference.py            # every machine, about 30-70 s
     python tests/reference/make_reference.py cdtm       # one machine
 
-Run times on one core: cdtm 14-50 s (machine load), dynacam-2mass about 1 s. The tests that read
-these files are in ``tests/test_engine_reference.py``; they re-run camsim, never this
-script.
+Run times on one core: cdtm 14-50 s (machine load), dynacam-2mass about 1 s, disc-lobe-follower
+about 8 s, lobe-reengage about 4 s. The tests that read these files are in
+``tests/test_engine_reference.py`` and ``tests/invariants/test_no_phantom_events.py``; they
+re-run camsim, never this script.
 """
 
 from __future__ import annotations
@@ -43,7 +47,9 @@ from reference_solver import ATOL_V, ATOL_X, ReferenceSolver, located_extremes  
 from camsim.machine.loader import load_machine, machine_to_dict  # noqa: E402
 
 #: Machines and their reference settings.
-MACHINES = ("cdtm", "dynacam-2mass")
+MACHINES = ("cdtm", "dynacam-2mass", "disc-lobe-follower", "lobe-reengage")
+#: Machines that are not shipped: their files, relative to the repository root.
+TEST_MACHINES = {name: f"tests/invariants/machines/{name}.toml" for name in ("disc-lobe-follower", "lobe-reengage")}
 RTOL = 1e-12
 METHOD = "DOP853"
 SAMPLE_RATE = 10_000.0  # [Hz]
@@ -71,8 +77,10 @@ def machine_digest(machine) -> str:
 
 
 def make(name: str) -> Path:
-    """Compute and write the reference of ``machines/<name>.toml``; return the file path."""
-    path = ROOT / "machines" / f"{name}.toml"
+    """Compute and write the reference of ``machines/<name>.toml`` (or a test machine,
+    :data:`TEST_MACHINES`); return the file path."""
+    relative = TEST_MACHINES.get(name, f"machines/{name}.toml")
+    path = ROOT / relative
     machine = load_machine(path)
     t_start = time.perf_counter()
     ref = ReferenceSolver(machine, rtol=RTOL, method=METHOD).run(sample_rate=SAMPLE_RATE)
@@ -85,8 +93,12 @@ def make(name: str) -> Path:
     arrays["event_element"] = np.array([e[1] for e in ref.events], dtype="U32")
     arrays["event_kind"] = np.array([e[2] for e in ref.events], dtype="U16")
     arrays["event_rate"] = np.array([e[3] for e in ref.events], dtype=float)
+    t_rec = machine.simulation.warmup_cycles * ReferenceSolver(machine).cam.period if machine.cam is not None else 0.0
+    reengage = [e for e in ref.all_events if e[2] == "reengage" and e[0] >= t_rec - 1e-12]
+    arrays["reengage_time"] = np.array([e[0] - t_rec for e in reengage], dtype=float)
+    arrays["reengage_element"] = np.array([e[1] for e in reengage], dtype="U32")
     meta = {
-        "machine": f"machines/{name}.toml",
+        "machine": relative,
         "machine_sha256": machine_digest(machine),
         "solver": "tests/reference/reference_solver.py (scipy.integrate.solve_ivp, terminal events)",
         "method": METHOD,
@@ -128,7 +140,8 @@ def make_extremes(name: str) -> Path:
 def main(argv: list[str]) -> None:
     for name in argv or MACHINES:
         make(name)
-        make_extremes(name)
+        if name not in TEST_MACHINES:  # the issue-34 test machines check events and traces only
+            make_extremes(name)
 
 
 if __name__ == "__main__":

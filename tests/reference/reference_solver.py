@@ -29,7 +29,10 @@ events of solve_ivp located by its root finder on the dense output:
   (``rejoin``);
 - linear contact: it is closed exactly when δ > 0 and k·δ + c·δ̇ > 0 (spec §3:
   F = max(0, k·δ + c·δ̇) while δ > 0), i.e. when h = min(δ, δ + (c/k)·δ̇) > 0; h crossing 0
-  upward is an ``impact``, downward a ``release``.
+  downward is a ``release``; upward it is an ``impact`` where δ rises through 0 (δ̇ ≥ 0,
+  spec §3: "the contact closes when δ crosses 0 upward") and a ``reengage`` where δ is
+  still positive and the law turns positive again (δ̇ < 0: no approach, the force rises
+  from zero; camsim records no row for it, issue 34).
 
 Each integration also stops at the cam's segment boundaries (where the cam jerk or
 acceleration may jump), and the step is limited to a fortieth of the shortest natural period
@@ -75,9 +78,11 @@ class ReferenceResult:
     masses : dict
         name -> {"displacement" [m], "velocity" [m/s], "acceleration" [m/s^2]}.
     events : list of tuple
-        (time [s], element name, kind, rate [m/s]) with rate = δ̇ for contacts, ḋ for links.
+        (time [s], element name, kind, rate [m/s]) with rate = δ̇ for contacts, ḋ for links:
+        the rows of camsim's event table (no ``reengage``).
     all_events : list of tuple
-        Every event from t = 0 on the absolute time base (warm-up included).
+        Every branch change from t = 0 on the absolute time base (warm-up included),
+        ``reengage`` too.
     initial_state : ndarray
         [x..., v...] of the free masses at t = 0.
     """
@@ -318,8 +323,8 @@ class ReferenceSolver:
                         kind = "separation" if new[j] else "rejoin"
                         rate = dd[j]
                     else:
-                        kind = "impact" if new[j] else "release"
                         rate = -dd[j]
+                        kind = ("impact" if rate >= 0.0 else "reengage") if new[j] else "release"
                     events.append((te, e.name, kind, rate))
                     branches = tuple(new)
         return out, events, y, branches
@@ -363,7 +368,8 @@ class ReferenceSolver:
                 i = self.free.index(m.name)
                 masses[m.name] = {"displacement": out[:, i], "velocity": out[:, n + i],
                                   "acceleration": out[:, 2 * n + i]}
-        rec = [(te - t_rec, name, kind, rate_) for te, name, kind, rate_ in events if te >= t_rec - 1e-12]
+        rec = [(te - t_rec, name, kind, rate_) for te, name, kind, rate_ in events
+               if te >= t_rec - 1e-12 and kind != "reengage"]
         return ReferenceResult(time=t_eval - t_rec, masses=masses, events=rec, all_events=events,
                                initial_state=y0)
 
