@@ -12,13 +12,15 @@ inside one step); each candidate is located on the exact solution
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from camsim.engine.context import GRID_SNAP, EngineContext
 from camsim.engine.crossing import grazes, polish_crossing
 from camsim.engine.roots import refine
-from camsim.engine.state import TIME_EPS, State, leaving_zero
+from camsim.elements.affine import Affine
+from camsim.engine.state import TIME_EPS, Guard, State, leaving_zero
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
 
@@ -118,6 +120,7 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
     Gd = Z @ Cz_d + U @ Du_d + e_d
     g0 = G[:-1].copy()
     g1 = G[1:]
+    lift = None
     if first_chunk:
         # A guard at its zero and leaving it on the valid side is the one just crossed (or
         # its mirror in the new branches: a released contact's lifted guard), whatever the
@@ -127,6 +130,19 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
         if now.size:
             return nodes[0], Z[0], guards[int(now[0])], 0
         just = (np.abs(g0[0]) <= tol) | leaving
+        if np.any(just):
+            # The guard just crossed sits at its zero to rounding and may stay there for a
+            # step or two (a rigid contact released with zero relative speed separates as
+            # ½·a·t²: after a 1e-8 s step its gap is still −9e-19 m of rounding). Until it
+            # has first risen above its tolerance it counts as crossing again only below
+            # −tol (the same rule as camsim.engine.span.dop853_span; issue 34: a seat
+            # released, stuck and released again at one instant at 200 kHz only).
+            above = G[1:, just] > tol[just]
+            risen = np.where(above.any(axis=0), above.argmax(axis=0), above.shape[0])
+            lift = np.zeros_like(g0)
+            lift[:, just] = np.where(np.arange(g0.shape[0])[:, None] < risen[None, :], tol[just], 0.0)
+            g0 = g0 + lift
+            g1 = g1 + lift
         g0[0, just] = np.maximum(g0[0, just], tol[just])  # just crossed: do not find it again
     d0 = Gd[:-1] * steps
     d1 = Gd[1:] * steps
@@ -155,7 +171,9 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
     hits = crossing | dip
     for j, guard in enumerate(guards):
         for k in np.flatnonzero(hits[:, j])[:4]:  # the earliest few; false alarms are rare
-            candidates.append((nodes[k], int(k), guard, "scan", (g0[k, j], g1[k, j], Gd[k, j], Gd[k + 1, j])))
+            shift = float(lift[k, j]) if lift is not None else 0.0
+            searched = guard if shift == 0.0 else lifted(guard, shift)
+            candidates.append((nodes[k], int(k), searched, guard, (g0[k, j], g1[k, j], Gd[k, j], Gd[k + 1, j])))
     if not candidates:
         return None
     candidates.sort(key=lambda c: (c[0], c[1]))
@@ -164,7 +182,7 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
     # alone handled them in guard order; issue 25: a seat impact 8.6e-5 s before a
     # rider's inside one 10 kHz step was found only after it, as a penetration).
     best = None
-    for t_k, k, guard, how, ends in candidates:
+    for t_k, k, guard, original, ends in candidates:
         if best is not None and k != best[3]:
             break
         Ek = forcing_coefficients(config, D[k : k + 1])[0]
@@ -183,8 +201,14 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
             if grazes(ctx.cam, config, guard, nodes[k] + tau, nodes[k] + float(steps[k, 0]), z):
                 continue  # a touch within the guard's tolerance: no event (issue 34)
             if best is None or nodes[k] + tau < best[0]:
-                best = (nodes[k] + tau, z, guard, k)
+                best = (nodes[k] + tau, z, original, k)
     return best
+
+
+def lifted(guard: Guard, shift: float) -> Guard:
+    """The guard raised by ``shift`` (its value + shift; the same rate, element and kind)."""
+    value = guard.value
+    return replace(guard, value=Affine(value.Cz, value.Du, value.Fn, value.e + shift))
 
 
 class LinearStepper:
