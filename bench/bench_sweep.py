@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import resource
 import sys
 import time
 from pathlib import Path
@@ -41,13 +42,23 @@ def same_rows(a, b) -> bool:
     return True
 
 
-def timed(label: str, **kwargs):
-    t0 = time.perf_counter()
+def cpu_seconds() -> float:
+    """CPU time [s] of this process and of its finished (reaped) descendants: the workers."""
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def timed(label: str, cpu_of_workers: bool = True, **kwargs):
+    """Run the sweep; print its wall time and, when its workers have exited by the end of the
+    call (serial, process pool; not a Dask cluster, still up), its CPU time with theirs."""
+    c0, t0 = cpu_seconds(), time.perf_counter()
     result = run_sweep(CDTM, **kwargs)
-    dt = time.perf_counter() - t0
+    dt, cpu = time.perf_counter() - t0, cpu_seconds() - c0
     n = len(result.rows)
     failed = len(result.failed)
-    print(f"{label:34s} {dt:7.2f} s  {1e3 * dt / n:7.1f} ms/variant  ({n} variants, {failed} failed)", flush=True)
+    cpu_note = f"; CPU {cpu:.1f} s with the workers" if cpu_of_workers else ""
+    print(f"{label:34s} {dt:7.2f} s  {1e3 * dt / n:7.1f} ms/variant  ({n} variants, {failed} failed{cpu_note})",
+          flush=True)
     return result, dt
 
 
@@ -80,7 +91,7 @@ def main() -> None:
         startup = time.perf_counter() - t0
         print(f"Dask LocalCluster start-up ({args.workers} workers): {startup:.2f} s")
         try:
-            dasked, td = timed(f"Dask LocalCluster ({args.workers} workers)", scheduler=cluster.scheduler_address, **common)
+            dasked, td = timed(f"Dask LocalCluster ({args.workers} workers)", False, scheduler=cluster.scheduler_address, **common)
         finally:
             cluster.close()
         assert same_rows(serial.rows, dasked.rows), "Dask rows differ from serial rows"

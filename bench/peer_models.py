@@ -143,6 +143,25 @@ class ScalarCam:
 
 
 # ------------------------------------------------------------------------------ drivers
+def linear_system(ref: ReferenceSolver, branches: tuple):
+    """(A, e_s, e_v, f0) of ẏ = A·y + e_s·s + e_v·v + f0, y = [x, v] of the free masses, on
+    ``branches``: the reference solver's tension laws f = a + k·d + c·ḋ assembled through
+    its incidence arrays (also the floor's system, ``floor_model.py``)."""
+    n = ref.n
+    a, k, c = ref.branch_coefficients(branches)
+    Df, d1 = ref.Dfree, ref.Dfix[:, 1]
+    minv = (1.0 / ref.mass)[:, None]
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -minv * (Df.T @ (k[:, None] * Df))
+    A[n:, n:] = -minv * (Df.T @ (c[:, None] * Df))
+    es, ev, f0 = np.zeros(2 * n), np.zeros(2 * n), np.zeros(2 * n)
+    es[n:] = -minv[:, 0] * (Df.T @ (k * d1))
+    ev[n:] = -minv[:, 0] * (Df.T @ (c * d1))
+    f0[n:] = -minv[:, 0] * (Df.T @ a) - ref.g
+    return A, es, ev, f0
+
+
 class HybridDriver:
     """The reference solver's hybrid system and the event-restart loop shared by the peers.
 
@@ -177,19 +196,7 @@ class HybridDriver:
     def system(self, branches: tuple):
         """(A, e_s, e_v, f0) of ẏ = A·y + e_s·s + e_v·v + f0 on ``branches`` (cached)."""
         if branches not in self.systems:
-            ref, n = self.ref, self.n
-            a, k, c = ref.branch_coefficients(branches)
-            Df, d1 = ref.Dfree, ref.Dfix[:, 1]
-            minv = (1.0 / ref.mass)[:, None]
-            A = np.zeros((2 * n, 2 * n))
-            A[:n, n:] = np.eye(n)
-            A[n:, :n] = -minv * (Df.T @ (k[:, None] * Df))
-            A[n:, n:] = -minv * (Df.T @ (c[:, None] * Df))
-            es, ev, f0 = np.zeros(2 * n), np.zeros(2 * n), np.zeros(2 * n)
-            es[n:] = -minv[:, 0] * (Df.T @ (k * d1))
-            ev[n:] = -minv[:, 0] * (Df.T @ (c * d1))
-            f0[n:] = -minv[:, 0] * (Df.T @ a) - ref.g
-            self.systems[branches] = (A, es, ev, f0)
+            self.systems[branches] = linear_system(self.ref, branches)
         return self.systems[branches]
 
     def guards_into(self, t: float, y, out) -> None:
