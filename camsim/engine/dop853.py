@@ -51,6 +51,7 @@ import math
 from operator import mul
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 from scipy.integrate import DOP853
 
 #: scipy's DOP853 step-size control constants (scipy.integrate._ivp.rk).
@@ -82,8 +83,10 @@ assert _C[-1] == 1.0  # the last stage sits at t + h (see _attempt)
 _PP = np.arange(_STAGES, dtype=float)
 #: a^(p+1) for p = 0..11 (a^12 = 0) laid out [s, j, p], and a^p laid out [t, p, s] (so
 #: that the sums over p and j, or p and s, are one matrix product each).
-_APOW1 = np.ascontiguousarray(np.array([np.linalg.matrix_power(_A, p + 1) for p in _PP.astype(int)]).transpose(1, 2, 0))
-_APOW0 = np.ascontiguousarray(np.array([np.linalg.matrix_power(_A, p) for p in _PP.astype(int)]).transpose(1, 0, 2))
+#: (one BLAS thread, as in a run: the rounding of a product may depend on the thread count)
+with threadpool_limits(limits=1, user_api="blas"):
+    _APOW1 = np.ascontiguousarray(np.array([np.linalg.matrix_power(_A, p + 1) for p in _PP.astype(int)]).transpose(1, 2, 0))
+    _APOW0 = np.ascontiguousarray(np.array([np.linalg.matrix_power(_A, p) for p in _PP.astype(int)]).transpose(1, 0, 2))
 #: The same as matrices: [s, (j, p)], [(s, j), p] and [t, (p, s)] (the powers of h are
 #: applied to the smaller operand of each product).
 _APOW1_S_JP = _APOW1.reshape(_STAGES, _STAGES * _STAGES)

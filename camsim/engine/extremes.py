@@ -29,8 +29,6 @@ c·v at the instant of impact, and that value is the peak of a damping-dominated
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from camsim.errors import SimulationError
@@ -45,6 +43,10 @@ CHEBYSHEV_POINTS = 13
 #: A located value between nodes replaces the best node value only when it is larger by more
 #: than this fraction of the values interpolated (the interpolation's rounding).
 ROUNDING = 64 * np.finfo(float).eps
+#: Two values of one observable closer than this fraction of its scale are one height (a
+#: dwell's plateau, one peak repeated cycle after cycle): the earlier instant is reported, so
+#: the instant does not hang on the last bits of the arithmetic (library versions, platforms).
+TIE = 1e-12
 #: Newton steps on an interpolant's derivative from its best point of a 65-point grid.
 NEWTON_STEPS = 3
 #: DOP853 tolerance of a nonlinear step integrated again for its dense states.
@@ -52,7 +54,22 @@ DENSE_RTOL = 1e-13
 
 _X = np.cos(np.pi * np.arange(CHEBYSHEV_POINTS)[::-1] / (CHEBYSHEV_POINTS - 1))  # −1 … 1
 _SIGMA = 0.5 * (_X + 1.0)  # 0 … 1 along a step
-_TO_COEF = np.linalg.inv(np.polynomial.chebyshev.chebvander(_X, CHEBYSHEV_POINTS - 1))
+
+
+def _lobatto_to_chebyshev(points: int) -> np.ndarray:
+    """The matrix from values at the Chebyshev–Lobatto points (ascending) to the Chebyshev
+    coefficients of their interpolant, in closed form (the discrete cosine transform): an
+    inverse computed by LAPACK at import would round differently with the number of BLAS
+    threads, and so would every located extreme (a Dask worker's against the caller's)."""
+    n = points - 1
+    j = np.arange(points)
+    M = (2.0 / n) * np.cos(np.pi * np.outer(j, j) / n)  # k × (index j of x_j = cos(πj/n))
+    M[:, [0, n]] *= 0.5
+    M[[0, n], :] *= 0.5
+    return M[:, ::-1]  # the points ascending, as _X
+
+
+_TO_COEF = _lobatto_to_chebyshev(CHEBYSHEV_POINTS)
 _FINE = np.linspace(-1.0, 1.0, 65)
 _FINE_V = np.polynomial.chebyshev.chebvander(_FINE, CHEBYSHEV_POINTS - 1)
 #: The first and second derivatives of a Chebyshev series as matrices on its coefficients.
@@ -177,6 +194,7 @@ class StretchExtremes:
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
         cands_max, self.upper, cands_min, self.lower = _screen(nodes, Q)
         self._candidates = {1: cands_max, -1: cands_min}
+        self._Q = Q
         self._dense = dense
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
         self._refined: dict[tuple[int, int], tuple[float, float]] = {}
@@ -185,20 +203,24 @@ class StretchExtremes:
         """Largest value (sense +1) or smallest (−1) the observable can take here (screening)."""
         return float(self.upper[j]) if sense > 0 else float(self.lower[j])
 
-    def extreme(self, j: int, sense: int) -> tuple[float, float]:
+    def scale(self, j: int) -> float:
+        """The largest magnitude of observable ``j`` at the nodes."""
+        return max(abs(float(self.node_max[j])), abs(float(self.node_min[j])))
+
+    def extreme(self, j: int, sense: int, tie: float = 0.0) -> tuple[float, float]:
         """(value, time) of the located maximum (``sense`` = +1) or minimum (−1) of
-        observable ``j`` over this stretch."""
-        key = (j, sense)
+        observable ``j`` over this stretch; values within ``tie`` of it are one height, and
+        the earliest of them is returned (a plateau's first node)."""
+        key = (j, sense, tie)
         hit = self._refined.get(key)
         if hit is None:
-            hit = self._refined[key] = self._refine(j, sense)
+            hit = self._refined[key] = self._refine(j, sense, tie)
         return hit
 
-    def _refine(self, j: int, sense: int) -> tuple[float, float]:
-        if sense > 0:
-            best = (float(self.node_max[j]), float(self.node_tmax[j]))
-        else:
-            best = (float(self.node_min[j]), float(self.node_tmin[j]))
+    def _refine(self, j: int, sense: int, tie: float) -> tuple[float, float]:
+        q = sense * self._Q[:, j]
+        k = int(np.argmax(q >= q.max() - tie))  # the first node of the best node value's height
+        best = (float(self._Q[k, j]), float(self._dense.nodes[k]))
         steps = np.array(self._candidates[sense].get(j, ()), dtype=int)
         if steps.size == 0:
             return best
@@ -232,10 +254,10 @@ class StretchExtremes:
         sigma_at = lo + width * 0.5 * (x + 1.0)
         times = dense.nodes[steps] + dense.h[steps] * sigma_at
         # a value between nodes wins only when it beats the best node by more than the
-        # interpolation's rounding (a dwell's plateau would otherwise read a few ulps high,
-        # differently at each sample rate)
-        noise = ROUNDING * np.max(np.abs(values), axis=1)
-        for r in range(steps.size):
+        # interpolation's rounding and the tie (a dwell's plateau would otherwise read a few
+        # ulps high, differently at each sample rate)
+        noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
+        for r in np.argsort(times, kind="stable"):
             if vals[r] > sense * best[0] + noise[r]:
                 best = (float(sense * vals[r]), float(times[r]))
         return best
@@ -385,22 +407,3 @@ def _clip(dense: _DenseStretch, lo: float, hi: float):
     t = np.concatenate(ts)
     order = np.argsort(t, kind="stable")
     return t[order], np.concatenate(Zs)[order], np.concatenate(Us)[order]
-
-
-def combine(records, j: int, sense: int, lo: float = -math.inf, hi: float = math.inf) -> tuple[float, float] | None:
-    """(value, time) of the located maximum (sense +1) or minimum (−1) of observable ``j``
-    over the records whose interval lies in [lo, hi]; the records' bounds skip the
-    refinement of those that cannot beat the best so far. None without a record."""
-    chosen = [r for r in records if r is not None and r.t1 >= lo - 1e-12 and r.t0 <= hi + 1e-12]
-    if not chosen:
-        return None
-    # the record with the best node value first: its refined value prunes the others
-    order = sorted(chosen, key=lambda r: -sense * float(r.node_max[j] if sense > 0 else r.node_min[j]))
-    best = None
-    for r in order:
-        if best is not None and sense * r.bound(j, sense) <= sense * best[0]:
-            continue
-        value, t = r.extreme(j, sense)
-        if best is None or sense * value > sense * best[0] or (value == best[0] and t < best[1]):
-            best = (value, t)
-    return best

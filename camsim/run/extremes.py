@@ -18,7 +18,7 @@ from camsim.errors import InputError
 from camsim.elements import CAM, GROUND
 from camsim.elements.affine import N_INPUT
 from camsim.elements.events import Event
-from camsim.engine.extremes import StretchExtremes
+from camsim.engine.extremes import TIE, StretchExtremes
 from camsim.model.assembly import Model
 from camsim.run.samples import RunSetup, derived_traces
 from camsim.run.result import MASS_QUANTITIES, QUANTITY_UNITS, Extreme
@@ -138,21 +138,35 @@ def observable_units(path: str) -> str:
     return "N"
 
 
-def fold_best(records, j: int, sense: int, best: tuple[float, float] | None) -> tuple[float, float] | None:
+def fold_best(records, j: int, sense: int, heights: list[tuple[float, float]] | None,
+              scale: float = 0.0) -> list[tuple[float, float]]:
     """The located maximum (sense +1) or minimum (−1) of observable ``j`` over ``records``
-    and ``best`` (a value and time found before, or None): the record with the best node
-    value first, whose located value then prunes the others by their screening bounds (in
-    time order, every record would be refined until the best so far is high). Ties keep the
-    earlier time (the first occurrence, as ``argmax``)."""
+    and ``heights`` found before: the (value, time) pairs within the tie
+    (:data:`~camsim.engine.extremes.TIE` of ``scale`` and the records' magnitudes) of the
+    best value, of which :func:`earliest` is the one reported. The record with the best node
+    value goes first; its located value then prunes the others by their screening bounds (in
+    time order, every record would be refined until the best so far is high)."""
+    heights = list(heights or [])
+    scale = max([scale, *(r.scale(j) for r in records)])
+    tie = TIE * scale
     nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
     for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
         r = records[k]
-        if best is not None and sense * r.bound(j, sense) <= sense * best[0]:
-            continue
-        value, t = r.extreme(j, sense)
-        if best is None or sense * value > sense * best[0] or (value == best[0] and t < best[1]):
-            best = (value, t)
-    return best
+        if heights:
+            top = max(sense * v for v, _ in heights)
+            bound = sense * r.bound(j, sense)
+            # below the best by more than the tie, or no higher beyond the tie and later
+            if bound < top - tie or (bound <= top + tie and r.t0 >= earliest(heights)[1]):
+                continue
+        heights.append(r.extreme(j, sense, tie))
+        top = max(sense * v for v, _ in heights)
+        heights = [(v, t) for v, t in heights if sense * v >= top - tie]
+    return heights
+
+
+def earliest(heights: list[tuple[float, float]]) -> tuple[float, float]:
+    """The first instant among values of one height (:func:`fold_best`)."""
+    return min(heights, key=lambda h: h[1])
 
 
 class _Window:
@@ -172,11 +186,12 @@ class _Window:
     def finish(self, t_rec: float) -> None:
         """Set the event's located peak force and its instant (the element's own measure of
         an impact's force: :meth:`~camsim.elements.base.Element.impact_force`)."""
-        top = fold_best(self.records, self.column, 1, None)
-        bottom = fold_best(self.records, self.column, -1, None)
+        tops = fold_best(self.records, self.column, 1, None)
+        bottoms = fold_best(self.records, self.column, -1, None)
         self.records = []
-        if top is None or bottom is None:
+        if not tops or not bottoms:
             return
+        top, bottom = earliest(tops), earliest(bottoms)
         measure = self.element.impact_force(np.array([top[0], bottom[0]]))
         if measure is None:
             return
@@ -203,7 +218,9 @@ class ExtremesFolder:
         self.observables = observables
         self.t_rec = t_rec
         n = len(observables.paths)
-        self.best: dict[int, list[tuple[float, float] | None]] = {1: [None] * n, -1: [None] * n}
+        # per sense and observable: the located values of the best height (fold_best)
+        self.best: dict[int, list[list[tuple[float, float]]]] = {1: [[] for _ in range(n)], -1: [[] for _ in range(n)]}
+        self.scale = [0.0] * n  # each observable's largest magnitude so far
         self.windows: list[_Window] = []
         self._waiting: list[StretchExtremes] = []
 
@@ -242,10 +259,12 @@ class ExtremesFolder:
     def _fold_waiting(self) -> None:
         """The waiting records into the run's extremes (:func:`fold_best`)."""
         records, self._waiting = self._waiting, []
+        for j in range(len(self.scale)):
+            self.scale[j] = max([self.scale[j], *(r.scale(j) for r in records)])
         for sense in (1, -1):
             best = self.best[sense]
             for j in range(len(best)):
-                best[j] = fold_best(records, j, sense, best[j])
+                best[j] = fold_best(records, j, sense, best[j], self.scale[j])
 
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);
@@ -256,9 +275,9 @@ class ExtremesFolder:
         self.windows = []
         out = {}
         for j, path in enumerate(self.observables.paths):
-            top, bottom = self.best[1][j], self.best[-1][j]
-            if top is None or bottom is None:
+            if not self.best[1][j] or not self.best[-1][j]:
                 continue
+            top, bottom = earliest(self.best[1][j]), earliest(self.best[-1][j])
             out[path] = {"max": Extreme(top[0], top[1] - self.t_rec), "min": Extreme(bottom[0], bottom[1] - self.t_rec)}
         return out
 

@@ -173,3 +173,38 @@ def test_located_extremes_are_stored_and_read_back(tmp_path, cdtm, cdtm_runs):
     assert back.scalars()["peak_transducer_force"] == run.scalars()["peak_transducer_force"]
     assert [e.peak_force for e in back.impacts()] == [e.peak_force for e in run.impacts()]
     assert np.isfinite([e.peak_time for e in back.impacts()]).all()
+
+
+def test_a_plateau_reports_its_first_instant():
+    """A maximum held over an interval is one height: its first instant is reported, not
+    wherever the last bits of the arithmetic put it. Reference: the barkan follower's cam
+    law (harmonic rise and fall over 2 cycles) reaches its largest acceleration once per
+    cycle at the same angle — the first cycle's instant, 0.009375 s (a quarter of the
+    0.0375 s rise), to 1e-12 s; and M1 of the CDTM rests on the cam's base dwell from t = 0,
+    so its smallest displacement (0 to rounding) is at t = 0."""
+    barkan = simulate(load_machine(ROOT / "machines" / "barkan-follower.toml"), sample_rate=2000.0)
+    value, t = barkan.extreme("masses/F/acceleration", "max")
+    assert t == pytest.approx(0.009375, abs=1e-12)
+    cdtm = simulate(load_machine(ROOT / "machines" / "cdtm.toml"), sample_rate=5000.0)
+    value, t = cdtm.extreme("masses/M1/displacement", "min")
+    assert abs(value) < 1e-15 and t == 0.0
+
+
+def test_located_extremes_do_not_depend_on_the_blas_thread_count():
+    """Same input, same numbers (determinism): the located extremes of one run in two
+    processes, one with a single BLAS thread and one with two (a Dask worker against its
+    caller), are bit-identical. Reference: the run itself, compared exactly."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import json; from camsim import load_machine, simulate; "
+            "r = simulate(load_machine('machines/barkan-follower.toml'), cycles=1, warmup_cycles=0, sample_rate=2000.0); "
+            "print(json.dumps({p: [h['max'].value.hex(), h['min'].value.hex(), h['max'].time.hex(), h['min'].time.hex()] "
+            "for p, h in r.located.items()}))")
+    outputs = []
+    for threads in ("1", "2"):
+        env = dict(os.environ, OPENBLAS_NUM_THREADS=threads, OMP_NUM_THREADS=threads, MKL_NUM_THREADS=threads)
+        done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True)
+        outputs.append(json.loads(done.stdout))
+    assert outputs[0] == outputs[1]
