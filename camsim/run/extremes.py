@@ -225,10 +225,22 @@ class ExtremesFolder:
         self._waiting: list[StretchExtremes] = []
 
     def open_impact(self, event, element, t_close: float) -> None:
-        """An impact at ``t_close`` [s, simulation clock] on ``element`` (its row ``event``)."""
+        """An impact at ``t_close`` [s, simulation clock] on ``element`` (its row ``event``).
+
+        No window for an impact without a finite peak (a rigid contact's: an impulse, no
+        duration): it would never close, and a chattering rigid stop would keep every later
+        stretch in memory and in every window's fold. A new impact on an element ends the
+        element's window still open (its contact must have ended)."""
         column = self.observables.index.get(f"elements/{element.name}/force")
-        if column is not None:
-            self.windows.append(_Window(event, element, column, t_close))
+        if column is None or element.impact_force(np.zeros(1)) is None:
+            return
+        still = []
+        for w in self.windows:
+            if w.element.name == element.name:
+                w.finish(self.t_rec)
+            else:
+                still.append(w)
+        self.windows = [*still, _Window(event, element, column, t_close)]
 
     def close_impact(self, element_name: str, kind, t_open: float) -> None:
         """An event of ``kind`` on ``element_name`` at ``t_open`` [s]: it ends the open window

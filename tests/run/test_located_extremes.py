@@ -208,3 +208,30 @@ def test_located_extremes_do_not_depend_on_the_blas_thread_count():
         done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True)
         outputs.append(json.loads(done.stdout))
     assert outputs[0] == outputs[1]
+
+
+def test_a_rigid_impact_opens_no_peak_window(monkeypatch):
+    """A rigid (restitution) impact is an impulse: no finite peak, no contact duration, so no
+    window of the located peak is opened for it — one would never close, and a chattering
+    rigid stop kept every later stretch in memory and in every window's fold (a streamed
+    invariant run took over ten minutes). Reference: the barkan follower above its jump
+    speed (520 rpm) impacts its rigid seat; the windows opened are counted."""
+    import camsim.run.extremes as extremes
+
+    opened = []
+
+    class Counting(extremes._Window):
+        def __init__(self, *args, **kwargs):
+            opened.append(args[1].name)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(extremes, "_Window", Counting)
+    path = ROOT / "machines" / "barkan-follower.toml"
+    text = path.read_text().replace('speed = "400 rpm"', 'speed = "520 rpm"')
+    result = simulate(load_machine_text(text, str(path), path.parent), sample_rate=2000.0)
+    import tomllib
+
+    rigid = {e["name"] for e in tomllib.loads(text)["element"] if e.get("law") == "restitution"}
+    impacts = [e for e in result.events.impacts() if e.element in rigid]
+    assert impacts, "the reference run must impact its rigid seat"
+    assert not rigid & set(opened)
