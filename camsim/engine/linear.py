@@ -140,7 +140,12 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
             above = G[1:, just] > tol[just]
             risen = np.where(above.any(axis=0), above.argmax(axis=0), above.shape[0])
             lift = np.zeros_like(g0)
-            lift[:, just] = np.where(np.arange(g0.shape[0])[:, None] < risen[None, :], tol[just], 0.0)
+            # ... and only while it is not approaching: a step that ends with the guard
+            # falling is a real return (a rigid bounce whose apex stays below the tolerance
+            # lands after 2·v/a, as it would with no tolerance; lifted, it landed only at −tol,
+            # and at a speed that no longer decayed: 38 bounces instead of 11 before sticking)
+            early = np.arange(g0.shape[0])[:, None] < risen[None, :]
+            lift[:, just] = np.where(early & (Gd[1:, just] >= 0.0), tol[just], 0.0)
             g0 = g0 + lift
             g1 = g1 + lift
         g0[0, just] = np.maximum(g0[0, just], tol[just])  # just crossed: do not find it again

@@ -311,3 +311,32 @@ def test_located_cam_force_extremes_of_a_driven_follower(rate):
         best = minimize_scalar(lambda x: -sign * force(x)[0], bracket=(t[i - 2], t[i], t[i + 2]), tol=1e-14)
         exact = float(force(best.x)[0])
         assert abs(located[which].value - exact) <= 1e-9 * abs(exact), (which, located[which].value, exact)
+
+
+def test_a_seat_released_at_a_sample_instant_releases_once():
+    """Invariant (f), found in CI: a rigid seat released with zero relative speed exactly at
+    a 200 kHz sample instant separates as ½·a·t², so its gap is −9e-19 m of rounding a step
+    later; it was found closing again there (release, stick, release at one instant). The
+    guard just crossed now counts as crossing only below −tol until it first rises above
+    tol (camsim/engine/linear.py). Reference: the invariant itself, same events (1e-9 s)
+    and traces (1e-9 of peak) at every pair of rates, no phantom row."""
+    text = (MACHINES / "seat-released-at-a-sample.toml").read_text()
+    assert check_sample_rate(text, (2e4, 2e5)) == []
+
+
+def test_rigid_micro_bounces_below_the_guard_tolerance_still_land():
+    """Invariant (a), found in CI after the fix above: a follower in a rigid yoke (e = 0.3)
+    chatters; its last flights' apexes (1e-14 m) stay below the guard's tolerance. Lifted
+    to −tol for the whole flight, each landing came only at −tol, at an approach speed
+    that stopped decaying (5.38e-6 m/s, 38 bounces instead of 11 before the stick), and
+    the sample inside the chatter moved 6.7e-8 of peak between 5 and 500 kHz. A guard
+    falling again is a real return. Reference: the invariant at 5 and 500 kHz (events
+    1e-9 s, traces 1e-9 of peak), and the chatter's geometric decay (e = 0.3: each
+    approach speed about 0.3 times the one before) ending in a stick within 12 impacts, not
+    on a plateau of equal speeds."""
+    text = (MACHINES / "yoke-micro-bounces.toml").read_text()
+    assert check_sample_rate(text, (5e3, 5e5)) == []
+    run = simulate(load(text), sample_rate=5e3)
+    chatter = [e for e in run.events if e.element == "yoke" and 0.012 < e.time < 0.0127]
+    impacts = [e.relative_velocity for e in chatter if e.kind.is_impact]
+    assert chatter[-1].kind.value == "stick" and len(impacts) <= 12, impacts
