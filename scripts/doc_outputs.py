@@ -149,7 +149,10 @@ def run_step(step: Step, cwd: Path) -> str:
     env["COLUMNS"] = "140"
     done = subprocess.run(argv, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           timeout=1800)
-    lines = [line.rstrip() for line in done.stdout.splitlines()]
+    # the progress lines a long command prints every 10 s off a terminal (camsim.cli.progress)
+    # depend on the machine's speed and load: not part of the documented output
+    progress = re.compile(r"^[\w ()-]+: [\d.e+]+/[\d.e+]+ \S+( \(\d+ %\))?, ")
+    lines = [line.rstrip() for line in done.stdout.splitlines() if not progress.match(line)]
     if step.excerpt_from:
         start = next((i for i, line in enumerate(lines) if re.search(step.excerpt_from, line)), None)
         if start is None:
