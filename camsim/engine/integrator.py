@@ -26,7 +26,7 @@ from camsim.engine.context import GRID_SNAP, EngineContext
 from camsim.engine.extremes import stretch_extremes
 from camsim.engine.linear import LinearStepper
 from camsim.engine.nonlinear import ExponentialStepper
-from camsim.engine.rigid import resolve as resolve_rigid
+from camsim.engine.rigid import CHATTER_SPAN, resolve as resolve_rigid
 from camsim.engine.rk import RungeKuttaStepper
 from camsim.engine.state import TIME_EPS, Guard, State, Stretch, leaving_zero
 from camsim.engine.watch import CamForceWatch
@@ -64,6 +64,23 @@ class Integrator(EngineContext):
         A time on the grid [s].
     """
 
+    def take_events(self) -> list:
+        """The events recorded since the last call, for a consumer that streams them (the
+        streamed run). The engine itself reads its recent events (a rigid contact's chatter
+        within :data:`~camsim.engine.rigid.CHATTER_SPAN`): those stay in ``events``, the older
+        ones are dropped, so a long streamed run holds a bounded list and takes the same
+        decisions as an in-memory one (a consumer that emptied the list hid every chatter
+        from the engine: a streamed run chattered for ever where the in-memory run stuck)."""
+        taken = getattr(self, "_taken", 0)
+        new = self.events[taken:]
+        if self.events:
+            horizon = self.events[-1].time - 2.0 * CHATTER_SPAN
+            keep = 0
+            while keep < len(self.events) and self.events[keep].time < horizon:
+                keep += 1
+            del self.events[:keep]
+        self._taken = len(self.events)
+        return new
     def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
         super().__init__(model, cam, step, t_ref)
         self._instant_count = 0

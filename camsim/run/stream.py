@@ -269,7 +269,6 @@ class StreamAssembler:
         self._pending: list[np.ndarray] | None = None  # t, x, v, a, u, forces not yet committed
         self._buffer: list[list[np.ndarray]] = []
         self._buffered = 0
-        self._seen = 0
         self.events = EventTable()
         from camsim.cam.design import DesignAccumulator
 
@@ -289,19 +288,14 @@ class StreamAssembler:
     # ------------------------------------------------------------------ events
     def _ingest_events(self) -> None:
         run = self.run
-        raw = run.integrator.events
         t_rec, t_end = run.t_rec, run.t_end
-        while self._seen < len(raw):
-            e = raw[self._seen]
-            self._seen += 1
+        for e in run.integrator.take_events():  # the engine keeps the recent ones it reads
             if not (t_rec - 1e-12 <= e.time <= t_end + 1e-12):
                 continue
             ev = recorded_event(run, e)
             if self._folder is not None:
                 ingest_event(self._folder, run.model, ev, e.time)
             self.events.append(ev)
-        del raw[: self._seen]  # read: the integrator only appends to its list
-        self._seen = 0
 
     # ------------------------------------------------------------------ samples
     def on_stretch(self, stretch, t_known: float) -> None:

@@ -16,6 +16,7 @@ the output grid only chooses where traces are recorded):
 from __future__ import annotations
 
 import math
+import os
 import random
 import tomllib
 from pathlib import Path
@@ -48,7 +49,14 @@ ADAMS_EVENT_TOL = EVENT_TOL
 
 
 def load(text: str):
-    """The machine of ``text`` (source ``<hypothesis>``)."""
+    """The machine of ``text`` (source ``<hypothesis>``). With $CAMSIM_INVARIANT_TRACE set,
+    each machine loaded is appended to that file with the time (to find a slow example)."""
+    trace = os.environ.get("CAMSIM_INVARIANT_TRACE")
+    if trace:
+        import time
+
+        with open(trace, "a") as f:
+            f.write(f"### {time.time():.3f}\n{text}\n")
     return load_machine_text(text, source="<hypothesis>")
 
 

@@ -340,3 +340,16 @@ def test_rigid_micro_bounces_below_the_guard_tolerance_still_land():
     chatter = [e for e in run.events if e.element == "yoke" and 0.012 < e.time < 0.0127]
     impacts = [e.relative_velocity for e in chatter if e.kind.is_impact]
     assert chatter[-1].kind.value == "stick" and len(impacts) <= 12, impacts
+
+
+def test_a_streamed_run_sees_the_chatter_the_in_memory_run_sees(tmp_path):
+    """Invariant (b), found in CI: two stations on one shaft, a rigid lash chattering beside a
+    power-law roller. The streamed run's consumer emptied the engine's event list, which
+    the engine reads to end a chatter (camsim/engine/rigid.py, CHATTER_SPAN): in memory the
+    run stuck and ended in 3 s; streamed, the lash chattered every 3.1e-8 s for ever (over
+    ten minutes at t = 0.0892 s). Reference: the invariant itself, the streamed run equal to
+    the in-memory one bit for bit (traces and event table)."""
+    from invariant_checks import check_streamed
+
+    text = (MACHINES / "streamed-chatter-two-stations.toml").read_text()
+    assert check_streamed(text, tmp_path) == []
