@@ -20,17 +20,24 @@ from camsim.io.hdf5 import create_file, write_table, write_time, write_trace
 def pytest_collection_modifyitems(config, items):
     """Tests marked ``slow`` run in CI (``CI=true``, as ``.ci/run`` has it) or with
     ``CAMSIM_SLOW=1``; the default ``pytest`` skips them to stay under three minutes.
-    ``pytest -m slow`` selects them explicitly."""
+    Tests marked ``full`` (minutes each: the doc's wave tables, the stiff route against
+    DOP853, the extreme-input grid, the memory of a long streamed run) run only with
+    ``CAMSIM_FULL=1``, before a release, so that ``.ci/run`` stays under 15 minutes on two
+    cores. ``pytest -m slow`` or ``-m full`` selects them explicitly."""
     import os
 
-    if os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get("CAMSIM_SLOW") == "1":
-        return
-    if "slow" in (config.getoption("-m") or ""):
-        return
-    skip = pytest.mark.skip(reason="slow: runs in CI (CI=true) or with CAMSIM_SLOW=1")
+    selected = config.getoption("-m") or ""
+    full = os.environ.get("CAMSIM_FULL") == "1" or "full" in selected
+    slow = full or os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get("CAMSIM_SLOW") == "1" \
+        or "slow" in selected
+    skip_slow = pytest.mark.skip(reason="slow: runs in CI (CI=true) or with CAMSIM_SLOW=1")
+    skip_full = pytest.mark.skip(reason="full: runs with CAMSIM_FULL=1 (before a release; minutes each)")
     for item in items:
-        if "slow" in item.keywords:
-            item.add_marker(skip)
+        if "full" in item.keywords and not full:
+            item.add_marker(skip_full)
+        elif "slow" in item.keywords and not slow:
+            item.add_marker(skip_slow)
+
 
 #: Cam speed of the synthetic run [rad/s]: 120 rpm, one cycle in 0.5 s.
 OMEGA = 4.0 * np.pi

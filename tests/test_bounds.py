@@ -34,8 +34,10 @@ OSCILLATOR = _OSC.replace("damping_ratio = 0.05", "damping_ratio = 0.5").replace
 
 
 def _bounds(machine):
+    from camsim.cam.camshaft import cam_input
+
     model = Model(machine)
-    cam = CamProgram(machine.cam)
+    cam = cam_input(machine, None)  # one cam: its program; [[cam]] tables: every cam's (as the run)
     state = initial_state(model, Integrator(model, cam, 1e-4), 0.0)
     sim = machine.simulation
     t_end = (sim.warmup_cycles + sim.cycles) * cam.period if machine.cam is not None else sim.duration

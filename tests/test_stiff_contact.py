@@ -37,7 +37,7 @@ def test_nearly_plastic_seat_finishes():
             assert seat[k + 1].time - seat[k].time > 10e-3
 
 
-@pytest.mark.slow
+@pytest.mark.full
 def test_stiff_route_agrees_with_dop853():
     """Reference: the same run with the Radau route switched off (DOP853 throughout, the
     route every contact took before; 24 s against 4 s) at e = 1e-5, where both finish.

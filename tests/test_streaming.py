@@ -311,7 +311,7 @@ def _peak_rss_mb(args: list[str]) -> float:
     return int(out.stdout.strip()) / 1024.0  # Linux: kB
 
 
-@pytest.mark.slow
+@pytest.mark.full
 def test_peak_memory_does_not_grow_with_revolutions(tmp_path):
     """CDTM at 10 kHz: 50 and 500 revolutions (25 s and 250 s simulated; the traces of
     500 would take 2.5e6 samples x 21 traces x 8 B = 420 MB in memory). The peak RSS of

@@ -285,7 +285,7 @@ def test_block_comparison_catches_a_stale_number():
         assert_block_matches("t", "| a | b |\n|---|---|\n| y | 166.4 |", doc)
 
 
-@pytest.mark.slow
+@pytest.mark.full
 def test_doc_wave_tables_current(documented):
     """docs/validation.md §6 (issue 39): the rod closed forms, the ball drop with the rod model
     and the CDTM's impact screw as a rod, as documented (several minutes: the screw's runs)."""

@@ -81,6 +81,7 @@ class Integrator(EngineContext):
             del self.events[:keep]
         self._taken = len(self.events)
         return new
+
     def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
         super().__init__(model, cam, step, t_ref)
         self._instant_count = 0

@@ -196,7 +196,7 @@ GRID = _grid_cases()
 TIME_BOUND = float(os.environ.get("CAMSIM_EXTREME_TIMEOUT", "240"))
 
 
-@pytest.mark.slow
+@pytest.mark.full
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(case=st.sampled_from(GRID), k=st.integers(min_value=-6, max_value=9))
 def test_any_value_scaled_by_a_power_of_ten_ends_cleanly(tmp_path, case, k):

@@ -62,6 +62,7 @@ from invariant_checks import (
     load,
     FLOOR_FACTOR,
 )
+from known_failures import known
 from machine_gen import machine_specs, multi_cam_specs, nudged, render, render_multi, render_station
 
 PROFILE = settings(settings.get_profile("camsim-invariants"))
@@ -84,7 +85,14 @@ def _floored(check, spec, text: str, *args, **settings) -> list[str]:
     (invariant_checks.rounding_floor: ten times what a ±1-ulp change of every value does to
     the run with ``settings``), as (d) does: a machine whose impacts amplify the last bits
     cannot be held closer than its own rounding."""
-    problems = check(text, *args)
+    from camsim.errors import InputError
+
+    try:
+        problems = check(text, *args)
+    except InputError:
+        # a drawn machine that camsim refuses (rigid contacts over-constraining a mass when
+        # they close together): not a machine the invariant speaks of
+        assume(False)
     if not problems:
         return problems
     floor = rounding_floor(text, (render(nudged(spec, 1)), render(nudged(spec, -1))), **settings)
@@ -101,9 +109,14 @@ def _floored(check, spec, text: str, *args, **settings) -> list[str]:
 
 
 def _report(name: str, text: str, problems: list[str]) -> None:
-    """Fail with the machine's TOML (also written to $CAMSIM_INVARIANT_FAILURES/ if set)."""
+    """Fail with the machine's TOML (also written to $CAMSIM_INVARIANT_FAILURES/ if set); a
+    known failure (known_failures.py: an open engine defect, pinned by a strict xfail) is
+    reported as an expected failure naming it."""
     if not problems:
         return
+    hit = known(text)
+    if hit is not None:
+        pytest.xfail(f"known failure tests/invariants/machines/{hit[0]} (issue 34): {hit[2]}; here: {problems[0]}")
     folder = os.environ.get("CAMSIM_INVARIANT_FAILURES")
     if folder:
         import hashlib

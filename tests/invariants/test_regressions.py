@@ -353,3 +353,33 @@ def test_a_streamed_run_sees_the_chatter_the_in_memory_run_sees(tmp_path):
 
     text = (MACHINES / "streamed-chatter-two-stations.toml").read_text()
     assert check_streamed(text, tmp_path) == []
+
+
+# --------------------------------------------------------------------------- known failures
+# (known_failures.py: machines the CI profile draws on which an invariant fails; strict xfails,
+# so a fix shows here and the entry there must go)
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue 34: a preloaded pair's separation beside a closed "
+                   "Adams IMPACT stop is found 1.27e-5 s late at 500 kHz only (known_failures.py)")
+def test_known_late_separation_at_500_khz():
+    """Invariant (a) at 50 and 500 kHz: the same events (1e-9 s)."""
+    assert check_sample_rate((MACHINES / "known-late-separation-500khz.toml").read_text(), (5e4, 5e5)) == []
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue 34: a power-law roller's chatter ends one impact "
+                   "earlier after a warm-up revolution (known_failures.py)")
+def test_known_multi_cam_warmup_chatter():
+    """Invariant (b) on two stations: cycles = 2 against warmup_cycles = 1, cycles = 1."""
+    from invariant_checks import check_warmup
+
+    assert check_warmup((MACHINES / "known-multi-cam-warmup-chatter.toml").read_text()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue 34: a yoke impact's located peak moves 1.25e-8 of "
+                   "the largest peak between 20 and 200 kHz beside a second station (known_failures.py)")
+def test_known_multi_cam_yoke_peak():
+    """Invariant (g) on two stations at 20 and 200 kHz: located peaks to 1e-8."""
+    from invariant_checks import check_located_extremes
+
+    assert check_located_extremes((MACHINES / "known-multi-cam-yoke-peak.toml").read_text(), (2e4, 2e5)) == []

@@ -1,0 +1,53 @@
+"""Machines the derandomized CI profile draws on which an invariant fails, beyond the known
+limits of the tolerances (test_invariants.KNOWN_LIMIT): the engine's open defects (issue 34).
+
+Each is kept in ``machines/known-*.toml`` with a strict xfail in test_regressions.py that
+checks the invariant on it (so a fix makes that test pass, strict, and fails until the entry
+is removed here). When the suite draws one of them, the test reports an expected failure
+naming it, never a pass. A machine is recognised by its parsed content (key order and
+formatting aside).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from pathlib import Path
+
+MACHINES = Path(__file__).parent / "machines"
+
+#: machine file → (the invariant it breaks, what is wrong, measured)
+KNOWN = {
+    "known-late-separation-500khz.toml": (
+        "a",
+        "a preloaded pair (k12) separating while an Adams IMPACT stop on the same masses is "
+        "closed is found 1.27e-5 s late at 500 kHz only (5, 50 and 200 kHz agree): a missed "
+        "crossing of the nonlinear stepper on the finest grid; present before this turn (1f6b19a)",
+    ),
+    "known-multi-cam-warmup-chatter.toml": (
+        "b",
+        "a power-law roller's chatter against a rigid contact ends one impact earlier after a "
+        "warm-up revolution than in a continuous run (impact and stick at 0.0273014 s): the "
+        "chatter's end is decided at a threshold the last bits move",
+    ),
+    "known-multi-cam-yoke-peak.toml": (
+        "g",
+        "a yoke impact's located peak force differs by 1.25e-8 of the largest peak between 20 "
+        "and 200 kHz beside a second station (tolerance 1e-8 for its numerically integrated "
+        "law; the station alone holds it)",
+    ),
+}
+
+
+def fingerprint(text: str) -> str:
+    """A machine's identity: the hash of its parsed content."""
+    return hashlib.sha256(json.dumps(tomllib.loads(text), sort_keys=True).encode()).hexdigest()
+
+
+_BY_PRINT = {fingerprint((MACHINES / name).read_text()): (name, *why) for name, why in KNOWN.items()}
+
+
+def known(text: str) -> tuple[str, str, str] | None:
+    """(file, invariant, reason) when ``text`` is a known failure, else None."""
+    return _BY_PRINT.get(fingerprint(text))
