@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from camsim.cam.program import CamProgram
 from camsim.cli import app
 from camsim.engine.integrator import Integrator
 from camsim.errors import SimulationError

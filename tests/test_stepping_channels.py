@@ -10,11 +10,10 @@ one-cam pieces side by side, bit for bit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from camsim.elements.affine import N_INPUT, input_rate, shift_rate, times_rate
+from camsim.engine.remainder import _LinearLaw  # the configuration-like system StepMaps reads
 from camsim.engine.stepping import (
     StepMaps,
     _hermite_maps,
@@ -24,18 +23,6 @@ from camsim.engine.stepping import (
     step_input_derivatives,
     taylor_rows,
 )
-
-
-@dataclass
-class _Config:
-    A: np.ndarray
-    B: np.ndarray
-    b: np.ndarray
-    cache: dict = field(default_factory=dict)
-
-    @property
-    def dim(self) -> int:
-        return self.A.shape[0]
 
 
 def _system(seed=1, m=4, cams=2):
@@ -100,9 +87,9 @@ def test_rates_shift_each_cam():
 def test_two_cam_step_maps_are_the_superposition_of_one_cam_maps():
     A, B, b = _system()
     h = 2e-4
-    both = _Config(A, B, b)
-    first = _Config(A, B[:, :N_INPUT], b)
-    second = _Config(A, B[:, N_INPUT:], np.zeros_like(b))
+    both = _LinearLaw(A, B, b)
+    first = _LinearLaw(A, B[:, :N_INPUT], b)
+    second = _LinearLaw(A, B[:, N_INPUT:], np.zeros_like(b))
     K = 40
     t = np.arange(K + 1) * h
     # two smooth cam motions: s_q = a_q·sin(w_q·t + p_q) and its derivatives

@@ -203,10 +203,6 @@ class StretchExtremes:
         """Largest value (sense +1) or smallest (−1) the observable can take here (screening)."""
         return float(self.upper[j]) if sense > 0 else float(self.lower[j])
 
-    def scale(self, j: int) -> float:
-        """The largest magnitude of observable ``j`` at the nodes."""
-        return max(abs(float(self.node_max[j])), abs(float(self.node_min[j])))
-
     def extreme(self, j: int, sense: int, tie: float = 0.0) -> tuple[float, float]:
         """(value, time) of the located maximum (``sense`` = +1) or minimum (−1) of
         observable ``j`` over this stretch; values within ``tie`` of it are one height, and

@@ -64,6 +64,18 @@ class Integrator(EngineContext):
         A time on the grid [s].
     """
 
+    def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
+        super().__init__(model, cam, step, t_ref)
+        self._instant_count = 0
+        self._instant_time = -math.inf
+        self._taken = 0  # events already handed out by take_events
+        #: Jump warnings: the driven mass's cam contact force located like an event (issue 25).
+        self.watch = CamForceWatch(self)
+        #: What the located extremes observe (``observe(config, branches, v_impacts, Z, U)``)
+        #: and over which window [s] (set by :meth:`run`).
+        self._observe = None
+        self._window = (-math.inf, math.inf)
+
     def take_events(self) -> list:
         """The events recorded since the last call, for a consumer that streams them (the
         streamed run). The engine itself reads its recent events (a rigid contact's chatter
@@ -71,8 +83,7 @@ class Integrator(EngineContext):
         ones are dropped, so a long streamed run holds a bounded list and takes the same
         decisions as an in-memory one (a consumer that emptied the list hid every chatter
         from the engine: a streamed run chattered for ever where the in-memory run stuck)."""
-        taken = getattr(self, "_taken", 0)
-        new = self.events[taken:]
+        new = self.events[self._taken:]
         if self.events:
             horizon = self.events[-1].time - 2.0 * CHATTER_SPAN
             keep = 0
@@ -81,17 +92,6 @@ class Integrator(EngineContext):
             del self.events[:keep]
         self._taken = len(self.events)
         return new
-
-    def __init__(self, model: Model, cam, step: float, t_ref: float = 0.0):
-        super().__init__(model, cam, step, t_ref)
-        self._instant_count = 0
-        self._instant_time = -math.inf
-        #: Jump warnings: the driven mass's cam contact force located like an event (issue 25).
-        self.watch = CamForceWatch(self)
-        #: What the located extremes observe (``observe(config, branches, v_impacts, Z, U)``)
-        #: and over which window [s] (set by :meth:`run`).
-        self._observe = None
-        self._window = (-math.inf, math.inf)
 
     def advance(self, state: State, t_stop: float, record: bool) -> tuple[State, Stretch | None, Guard | None]:
         """Integrate one configuration from ``state`` until an event or ``t_stop``.

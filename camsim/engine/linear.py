@@ -135,8 +135,9 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
             # step or two (a rigid contact released with zero relative speed separates as
             # ½·a·t²: after a 1e-8 s step its gap is still −9e-19 m of rounding). Until it
             # has first risen above its tolerance it counts as crossing again only below
-            # −tol (the same rule as camsim.engine.span.dop853_span; issue 34: a seat
-            # released, stuck and released again at one instant at 200 kHz only).
+            # −tol (issue 34: a seat released, stuck and released again at one instant at
+            # 200 kHz only; camsim.engine.span.dop853_span lifts such a guard for its whole
+            # span, without the two limits below).
             above = G[1:, just] > tol[just]
             risen = np.where(above.any(axis=0), above.argmax(axis=0), above.shape[0])
             lift = np.zeros_like(g0)

@@ -138,16 +138,24 @@ def observable_units(path: str) -> str:
     return "N"
 
 
+def magnitudes(records) -> np.ndarray:
+    """Each observable's largest magnitude at the nodes of ``records`` (n_obs,); zeros
+    without a record."""
+    if not records:
+        return np.zeros(0)
+    return np.max(np.abs([(r.node_max, r.node_min) for r in records]), axis=(0, 1))
+
+
 def fold_best(records, j: int, sense: int, heights: list[tuple[float, float]] | None,
-              scale: float = 0.0) -> list[tuple[float, float]]:
+              scale: float) -> list[tuple[float, float]]:
     """The located maximum (sense +1) or minimum (−1) of observable ``j`` over ``records``
     and ``heights`` found before: the (value, time) pairs within the tie
-    (:data:`~camsim.engine.extremes.TIE` of ``scale`` and the records' magnitudes) of the
-    best value, of which :func:`earliest` is the one reported. The record with the best node
-    value goes first; its located value then prunes the others by their screening bounds (in
-    time order, every record would be refined until the best so far is high)."""
+    (:data:`~camsim.engine.extremes.TIE` of ``scale``, the observable's magnitude over these
+    records and those before) of the best value, of which :func:`earliest` is the one
+    reported. The record with the best node value goes first; its located value then prunes
+    the others by their screening bounds (in time order, every record would be refined until
+    the best so far is high)."""
     heights = list(heights or [])
-    scale = max([scale, *(r.scale(j) for r in records)])
     tie = TIE * scale
     nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
     for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
@@ -186,8 +194,11 @@ class _Window:
     def finish(self, t_rec: float) -> None:
         """Set the event's located peak force and its instant (the element's own measure of
         an impact's force: :meth:`~camsim.elements.base.Element.impact_force`)."""
-        tops = fold_best(self.records, self.column, 1, None)
-        bottoms = fold_best(self.records, self.column, -1, None)
+        if not self.records:
+            return
+        scale = float(magnitudes(self.records)[self.column])
+        tops = fold_best(self.records, self.column, 1, None, scale)
+        bottoms = fold_best(self.records, self.column, -1, None, scale)
         self.records = []
         if not tops or not bottoms:
             return
@@ -220,7 +231,7 @@ class ExtremesFolder:
         n = len(observables.paths)
         # per sense and observable: the located values of the best height (fold_best)
         self.best: dict[int, list[list[tuple[float, float]]]] = {1: [[] for _ in range(n)], -1: [[] for _ in range(n)]}
-        self.scale = [0.0] * n  # each observable's largest magnitude so far
+        self.scale = np.zeros(n)  # each observable's largest magnitude so far
         self.windows: list[_Window] = []
         self._waiting: list[StretchExtremes] = []
 
@@ -271,12 +282,13 @@ class ExtremesFolder:
     def _fold_waiting(self) -> None:
         """The waiting records into the run's extremes (:func:`fold_best`)."""
         records, self._waiting = self._waiting, []
-        for j in range(len(self.scale)):
-            self.scale[j] = max([self.scale[j], *(r.scale(j) for r in records)])
+        if not records:
+            return
+        self.scale = np.maximum(self.scale, magnitudes(records))
         for sense in (1, -1):
             best = self.best[sense]
             for j in range(len(best)):
-                best[j] = fold_best(records, j, sense, best[j], self.scale[j])
+                best[j] = fold_best(records, j, sense, best[j], float(self.scale[j]))
 
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);
