@@ -67,6 +67,10 @@ class CamshaftInput:
         """Every cam's [s, ṡ, s̈, s⃛] at times t, cam by cam: (N, 4·c)."""
         return np.concatenate([p.channels(t, side=side) for p in self.programs], axis=1)
 
+    def channels_at(self, t: float, side: str = "right") -> np.ndarray:
+        """:meth:`channels` at one instant t [s]: (4·c,) (equal to it to rounding)."""
+        return np.concatenate([p.channels_at(t, side=side) for p in self.programs])
+
     def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
         """Times in (t_start, t_end) where any cam passes a segment join, sorted, merged."""
         return self._merged([p.boundary_times(t_start, t_end) for p in self.programs])
@@ -154,6 +158,10 @@ class WarpedProgram:
 
     def channels(self, t, side: str = "right") -> np.ndarray:
         return np.stack(self.svaj(np.asarray(t, dtype=float).reshape(-1), side=side), axis=-1)
+
+    def channels_at(self, t: float, side: str = "right") -> np.ndarray:
+        """:meth:`channels` at one instant t [s]: (4,)."""
+        return self.channels(np.array([float(t)]), side=side)[0]
 
     def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
         """Times in (t_start, t_end) where θ(t) passes a segment start of the program."""

@@ -27,6 +27,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from camsim.cam.evaluation import SegmentEvaluator
 from camsim.cam.laws import INNER_BREAKS, rise
 from camsim.cam.description import SYNTHESIS_LAWS, Cam
 
@@ -185,6 +186,7 @@ class CamProgram:
         self._law_names = sorted({law for law in laws if law is not None and law not in SYNTHESIS_LAWS})
         codes = [-1 if law is None or law in SYNTHESIS_LAWS else self._law_names.index(law) for law in laws]
         self._codes = np.array(codes, dtype=int)
+        self._evaluator = SegmentEvaluator(self._starts, betas, signed, self._h0, laws, self._shapes, self._custom)
         self.warnings.extend(synthesis_warnings)
         self.warnings.extend(self._join_warnings())
 
@@ -317,38 +319,16 @@ class CamProgram:
         if getattr(self, "_comp", None) is not None:  # issue 27
             d = self._comp.lift_derivatives(self._written, theta.reshape(-1), 3, side)
             return tuple(row.reshape(theta.shape) for row in d)  # type: ignore[return-value]
-        shape = theta.shape
-        th = theta.reshape(-1)
-        phi = np.mod(th, _TWO_PI)
-        # Rounding of θ = θ0 + ω·t must not put a boundary sample in the wrong segment.
-        tol = 64.0 * _EPS * np.maximum(np.abs(th), _TWO_PI)
-        if side == "left":
-            phi = np.where(phi < tol, phi + _TWO_PI, phi)
-            idx = np.searchsorted(self._starts, phi - tol, side="left") - 1
-        else:
-            phi = np.where(phi > _TWO_PI - tol, phi - _TWO_PI, phi)
-            idx = np.searchsorted(self._starts, phi + tol, side="right") - 1
-        np.clip(idx, 0, len(self._starts) - 1, out=idx)
-        u = np.clip((phi - self._starts[idx]) / self._betas[idx], 0.0, 1.0)
-        y = np.zeros((4, th.size))
-        code = self._codes[idx]
-        for c, law in enumerate(self._law_names):
-            mask = code == c
-            if mask.any():
-                y[:, mask] = rise(law, u[mask])
-        for i in self._custom:  # issue 27: synthesised segments
-            mask = idx == i
-            if mask.any():
-                y[:, mask] = self._shape_values(i, u[mask], 3)
-        h = self._signed[idx]
-        inv_beta = 1.0 / self._betas[idx]
-        out = (
-            self._h0[idx] + h * y[0],
-            h * y[1] * inv_beta,
-            h * y[2] * inv_beta**2,
-            h * y[3] * inv_beta**3,
-        )
-        return tuple(o.reshape(shape) for o in out)  # type: ignore[return-value]
+        out = self._evaluator.lift(theta.reshape(-1), side)
+        return tuple(o.reshape(theta.shape) for o in out)  # type: ignore[return-value]
+
+    def lift_at(self, theta: float, side: str = "right") -> tuple[float, float, float, float]:
+        """:meth:`lift` at one angle, in floats: a few microseconds for a segment program (equal
+        to :meth:`lift` to rounding, :mod:`camsim.cam.evaluation`), the array path otherwise."""
+        evaluator = getattr(self, "_evaluator", None)
+        if evaluator is not None and getattr(self, "_comp", None) is None:
+            return evaluator.lift_at(float(theta), side)
+        return tuple(float(v[0]) for v in self.lift(np.array([float(theta)]), side=side))  # type: ignore[return-value]
 
     def svaj(self, t, side: str = "right") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Displacement, velocity, acceleration and jerk of the cam on the model axis.
@@ -372,7 +352,24 @@ class CamProgram:
     def channels(self, t, side: str = "right") -> np.ndarray:
         """The cam input of the engine at times ``t``: [s, ṡ, s̈, s⃛] per time, (N, 4)
         (:meth:`svaj` stacked; the engine reads input channels, not cams)."""
-        return np.stack(self.svaj(np.asarray(t, dtype=float).reshape(-1), side=side), axis=-1)
+        t = np.asarray(t, dtype=float).reshape(-1)
+        if self.kind == "segments" and getattr(self, "_comp", None) is None:
+            d = self._evaluator.lift(self.start_angle + self.speed * t, side)
+            w, r = self.speed, self.ratio
+            d[0] *= r
+            d[1] *= r * w
+            d[2] *= r * w * w
+            d[3] *= r * w**3
+            return d.T
+        return np.stack(self.svaj(t, side=side), axis=-1)
+
+    def channels_at(self, t: float, side: str = "right") -> np.ndarray:
+        """:meth:`channels` at one instant t [s]: (4,) (equal to it to rounding)."""
+        if self.kind == "none":
+            return np.zeros(4)
+        lift, d1, d2, d3 = self.lift_at(self.start_angle + self.speed * float(t), side)
+        w, r = self.speed, self.ratio
+        return np.array([r * lift, (r * w) * d1, (r * w * w) * d2, (r * w**3) * d3])
 
     def boundary_times(self, t_start: float, t_end: float) -> np.ndarray:
         """Times in the open interval (t_start, t_end) where a segment boundary passes.

@@ -31,6 +31,9 @@ class Stepper(Protocol):
     #: Whether the stepper's solution is exact between samples (the jump watch then follows
     #: its chunks as they are computed; otherwise it watches the stretch afterwards).
     exact: bool
+    #: Whether the stepper crosses the cam's breaks (joins, a law's inner kinks) inside a
+    #: stretch; the driver stops the others at each.
+    crosses_breaks: bool
 
     def applies(self, ctx: "EngineContext", config: "Configuration") -> bool:
         """Whether this stepper advances ``config``."""

@@ -6,9 +6,9 @@ Every way of advancing a configuration (:mod:`camsim.engine.linear`,
 :class:`EngineContext`; the event loop on top (:class:`camsim.engine.integrator.Integrator`)
 is one. The cam input u — [s, ṡ, s̈, s⃛] of every cam, cam by cam
 (:mod:`camsim.elements.affine`) — is evaluated once per grid block and cached; single
-instants between grid points come from the step's degree-7 Hermite polynomials. The
-engine knows input channels only: which cam is which, and how a cam's motion is made, is
-the cam program's business (``channels(t, side)``, ``boundary_times(t0, t1)``).
+instants come from the cam laws in floats (``channels_at``). The engine knows input
+channels only: which cam is which, and how a cam's motion is made, is the cam program's
+business (``channels(t, side)``, ``channels_at(t, side)``, ``break_times(t0, t1)``).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from camsim.elements.affine import N_INPUT, Affine, shift_rate
 from camsim.elements.events import Event, EventKind
 from camsim.model.assembly import Configuration, Model
 from camsim.engine.state import TIME_EPS, Guard, State, Stretch
-from camsim.engine.stepping import _FACT, _P, StepMaps, _hermite_maps, hermite_derivatives, taylor_rows
+from camsim.engine.stepping import StepMaps
 
 #: A time within this fraction of the grid step of a grid point is that grid point: grid
 #: times are t_ref + k·h computed from k, so only rounding (~1e-16·k) separates them.
@@ -108,26 +108,39 @@ class EngineContext:
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
-        """The cam input at times t: (N, 4·c). Single instants are cached (events ask repeatedly)."""
+        """The cam input at times t: (N, 4·c). A single instant comes from the cam laws in
+        floats (:meth:`channels_at`, microseconds) and is cached (events ask repeatedly)."""
         t = np.asarray(t, dtype=float)
         if t.size == 1:
             key = float(t.reshape(-1)[0])
             hit = self._input_cache.get(key)
             if hit is None:
-                hit = self._input_between_grid_points(key)
-                if hit is None:
-                    hit = self.cam.channels(t.reshape(1))
+                hit = self.cam.channels_at(key)[None, :]
                 if len(self._input_cache) > 64:
                     self._input_cache.clear()
                 self._input_cache[key] = hit
             return hit.copy()
         return self.cam.channels(t)
 
+    def input_left(self, t: float) -> np.ndarray:
+        """The cam input at one instant, the limit from the left (a stretch's end, which may
+        be a cam break): (4·c,), from the cam laws."""
+        return self.cam.channels_at(float(t), side="left")
+
+    def breaks_between(self, t0: float, t1: float) -> list[float]:
+        """The cam's break times (joins, inner kinks) in (t0, t1) of the current run, each more
+        than :data:`~camsim.engine.state.TIME_EPS` from both ends, ascending."""
+        joins = self._join_array
+        if not joins:
+            return []
+        i = bisect.bisect_right(joins, t0 + TIME_EPS)
+        j = bisect.bisect_left(joins, t1 - TIME_EPS)
+        return joins[i:j]
+
     def analytic_inputs(self, t: float) -> np.ndarray:
         """The cam input at one instant from the cam laws (the limit from the right at a
-        join): (4·c,). Unlike :meth:`inputs`, never the step's Hermite polynomial, whose s̈
-        and s⃛ inside a short step carry the rounding of s amplified by ~1/h² and ~1/h³."""
-        return self.cam.channels(np.array([float(t)]))[0]
+        join): (4·c,)."""
+        return self.cam.channels_at(float(t))
 
     def analytic_inputs_at(self, t: np.ndarray, step_end) -> np.ndarray:
         """The input channels ([s, ṡ, s̈, s⃛] per cam) at times t from the cam laws:
@@ -152,7 +165,7 @@ class EngineContext:
         U[1:-1] = self._grid_inputs(k0, k1)
         U[-1] = self._node_input(float(nodes[-1]))
         if nodes[-1] in self._joins:
-            U[-1] = self.cam.channels(nodes[-1:], side="left")[0]
+            U[-1] = self.cam.channels_at(float(nodes[-1]), side="left")
         return U
 
     def _node_input(self, t: float) -> np.ndarray:
@@ -162,28 +175,6 @@ class EngineContext:
         if abs(self.t_ref + k * self.h - t) <= TIME_EPS:
             return self._grid_inputs(k, k + 1)[0]
         return self.inputs(np.array([t]))[0]
-
-    def _input_between_grid_points(self, t: float) -> np.ndarray | None:
-        """Cam input at one instant from the Hermite polynomial of its grid step.
-
-        The same degree-7 representation the step maps integrate (exact to ~1e-20
-        relative), built from the cached grid values: a tenth of the cost of evaluating
-        the cam laws at a single point. None where the step holds a cam segment join (the
-        polynomial does not reach across one) or outside a run.
-        """
-        if self._join_array is None:
-            return None
-        h = self.h
-        k = math.floor((t - self.t_ref) / h)
-        t_k = self.t_ref + k * h
-        i = bisect.bisect_right(self._join_array, t_k + TIME_EPS)
-        if i < len(self._join_array) and self._join_array[i] <= t_k + h + TIME_EPS:
-            return None
-        grid = self._grid_inputs(k, k + 2)
-        P0, P1 = _hermite_maps(h)
-        D = hermite_derivatives(grid[0], grid[1], P0, P1)
-        powers = (t - t_k) ** np.arange(_P + 1) / _FACT[: _P + 1]
-        return np.array([[row @ powers for row in taylor_rows(D)]])
 
     def _grid_inputs(self, k0: int, k1: int) -> np.ndarray:
         """Cam input at grid points k0 ≤ k < k1: (k1 − k0, 4·c), from blocks evaluated once."""

@@ -23,7 +23,6 @@ from camsim.elements import Branch, GuardKind
 from camsim.elements.affine import N_INPUT
 from camsim.engine.base import Stepper
 from camsim.engine.context import GRID_SNAP, EngineContext
-from camsim.engine.extremes import stretch_extremes
 from camsim.engine.linear import LinearStepper
 from camsim.engine.nonlinear import ExponentialStepper
 from camsim.engine.rigid import CHATTER_SPAN, resolve as resolve_rigid
@@ -71,10 +70,6 @@ class Integrator(EngineContext):
         self._taken = 0  # events already handed out by take_events
         #: Jump warnings: the driven mass's cam contact force located like an event (issue 25).
         self.watch = CamForceWatch(self)
-        #: What the located extremes observe (``observe(config, branches, v_impacts, Z, U)``)
-        #: and over which window [s] (set by :meth:`run`).
-        self._observe = None
-        self._window = (-math.inf, math.inf)
 
     def take_events(self) -> list:
         """The events recorded since the last call, for a consumer that streams them (the
@@ -96,49 +91,52 @@ class Integrator(EngineContext):
     def advance(self, state: State, t_stop: float, record: bool) -> tuple[State, Stretch | None, Guard | None]:
         """Integrate one configuration from ``state`` until an event or ``t_stop``.
 
-        Returns the state at the end, the recorded samples (grid points in
-        [state.t, end)), and the guard that fired (None when ``t_stop`` was reached).
+        Returns the state at the end, the stretch with every node of its solution (when
+        ``record``; :class:`~camsim.engine.state.Stretch`) and the guard that fired (None
+        when ``t_stop`` was reached). The exact linear stepper crosses the cam's breaks
+        inside the stretch; the others stop at the next one.
         """
         config = self.model.configuration(state.branches)
         guards = self.guards(state, config)
         u0 = self.inputs(np.array([state.t]))[0]
         z0 = config.state_from_input(state.x, state.v, u0)
         stepper = stepper_for(self, config)
+        if not stepper.crosses_breaks:
+            later = self.breaks_between(state.t, t_stop)
+            if later:
+                t_stop = later[0]
         out = stepper.advance(self, state, config, z0, guards, t_stop, record)
         if not stepper.exact:
             self.watch.samples(state, out[0], out[1], config)
-        if record and self._observe is not None:
-            out = self._with_extremes(state, z0, config, stepper.exact, out)
+        if record and (out[1] is None or out[1].samples is None):
+            out = self._with_ends(state, z0, config, stepper.exact, out)
         return out
 
-    def _with_extremes(self, start: State, z0, config, exact: bool, out):
-        """The stepper's output with the stretch's located extremes (camsim.engine.extremes):
-        its nodes are its start, its grid points and its end (a stretch with no grid point
-        inside still gets a record, then with no samples)."""
+    def _with_ends(self, start: State, z0, config, exact: bool, out):
+        """A stepper's grid-point stretch with its start and end as nodes (the one-sided
+        limits there: the located extremes read them); its grid points are its samples."""
         end, stretch, guard = out
         t0, t1 = start.t, end.t
-        if t1 - t0 <= TIME_EPS:
-            return out
+        if t1 - t0 <= TIME_EPS and (stretch is None or not stretch.t.size):
+            return end, None, guard
         u0 = self.inputs(np.array([t0]))[0]
-        u1 = self.analytic_inputs_at(np.array([t1]), t1)[0]  # the limit from the left
+        u1 = self.input_left(t1)  # the limit from the left
         z1 = config.state_from_input(end.x, end.v, u1)
         if stretch is not None and stretch.t.size:
             inner = (stretch.t > t0 + TIME_EPS) & (stretch.t < t1 - TIME_EPS)
+            first = bool(abs(stretch.t[0] - t0) <= TIME_EPS)  # the start is a grid point: a sample
             nodes = np.concatenate([[t0], stretch.t[inner], [t1]])
             Z = np.vstack([z0[None, :], stretch.z[inner], z1[None, :]])
             U = np.vstack([u0[None, :], stretch.u[inner], u1[None, :]])
+            samples = np.concatenate([[first], np.ones(int(inner.sum()), dtype=bool), [False]])
         else:
             nodes, Z, U = np.array([t0, t1]), np.vstack([z0, z1]), np.vstack([u0, u1])
-        record = stretch_extremes(self, config, start.branches, start.v_impacts, exact, nodes, Z, U, self._observe,
-                                  self._window)
-        if record is None:
-            return out
-        if stretch is None:
-            m = config.dim
-            stretch = Stretch(start.branches, config, np.zeros(0), np.zeros((0, m)), np.zeros((0, config.B.shape[1])),
-                              np.zeros((0, len(config.power_contacts))), dict(start.v_impacts))
-        stretch.extremes = record
-        return end, stretch, guard
+            samples = np.zeros(2, dtype=bool)
+        fn = self.nonlinear_forces(config, Z, U, start.v_impacts)
+        if stretch is not None and stretch.t.size and fn.shape[1]:
+            fn[1:-1] = stretch.fn[inner]  # the stepper's own (a rigid contact's v_impacts may differ at the ends)
+        return end, Stretch(start.branches, config, nodes, Z, U, fn, dict(start.v_impacts), samples=samples,
+                            exact=exact), guard
 
     def handle(self, state: State, guard: Guard) -> State:
         """Apply the event of ``guard`` at ``state``; returns the state after it."""
@@ -195,7 +193,7 @@ class Integrator(EngineContext):
 
     # ------------------------------------------------------------------ driver
     def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
-            on_stretch=None, observe=None, record_to: float = math.inf, check=None):
+            on_stretch=None, check=None):
         """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
@@ -205,27 +203,22 @@ class Integrator(EngineContext):
         returned list (which stays empty: memory does not grow with the run), called once
         every event up to ``t`` [s] (the stretch's end) is in :attr:`events`; later events
         and later stretches' samples all lie at or after ``t`` (camsim.run.stream). The consumer
-        may remove the events it has read from :attr:`events` (the integrator only appends).
+        reads new events with :meth:`take_events`.
 
-        ``observe(config, branches, v_impacts, Z, U) -> (N, n)``, when given, are the
-        quantities whose extremes each recorded stretch locates on the solution over
-        [``record_from``, ``record_to``] (``Stretch.extremes``, camsim.engine.extremes).
+        A recorded stretch's samples before ``record_from`` are not samples (a stretch
+        never straddles it when it is one of ``stops``).
 
         ``check(state)``, when given, sees the state after every stretch and raises to stop
         the run (the physical bounds of camsim.run.bounds: a comparison per stretch).
         """
         stretches: list[Stretch] = []
-        self._observe = observe
-        self._window = (record_from, record_to)
         state = self.settle(state)
         if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
             on_stop(state)
         joins = [float(t) for t in self.cam.break_times(state.t - self.h, t_end + self.h)]  # joins and inner kinks
         self._joins = set(joins)
         self._join_array = sorted(joins)
-        joins = [t for t in joins if state.t < t < t_end]
-        boundaries = joins + [s for s in stops if state.t < s < t_end]
-        boundaries = sorted(set(boundaries)) + [t_end]
+        boundaries = sorted({s for s in stops if state.t < s < t_end}) + [t_end]
         bi = 0
         max_stretches = 10_000_000
         count = 0
@@ -237,22 +230,19 @@ class Integrator(EngineContext):
             t_stop = boundaries[bi] if bi < len(boundaries) else t_end
             record = t_stop > record_from - TIME_EPS
             new_state, stretch, guard = self.advance(state, t_stop, record)
-            kept = None
             if stretch is not None:
-                keep = stretch.t >= record_from - GRID_SNAP * self.h
-                if np.any(keep) or stretch.extremes is not None:
-                    kept = Stretch(stretch.branches, stretch.config, stretch.t[keep], stretch.z[keep], stretch.u[keep],
-                                   stretch.fn[keep], stretch.v_impacts, stretch.extremes)
-                    if on_stretch is None:
-                        stretches.append(kept)
+                if stretch.t[0] < record_from - GRID_SNAP * self.h:
+                    stretch.samples = stretch.samples & (stretch.t >= record_from - GRID_SNAP * self.h)
+                if on_stretch is None:
+                    stretches.append(stretch)
             if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):
                 raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
             state = new_state
             if guard is not None:
                 state = self.handle(state, guard)
                 state = self.settle(state)
-            if on_stretch is not None and kept is not None:  # streaming hook (camsim.run.stream)
-                on_stretch(kept, state.t)
+            if on_stretch is not None and stretch is not None:  # streaming hook (camsim.run.stream)
+                on_stretch(stretch, state.t)
             if check is not None:
                 check(state)
             if progress is not None:

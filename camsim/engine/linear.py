@@ -20,84 +20,116 @@ from camsim.engine.context import GRID_SNAP, EngineContext
 from camsim.engine.crossing import grazes, polish_crossing
 from camsim.engine.roots import refine
 from camsim.elements.affine import Affine
-from camsim.engine.state import TIME_EPS, Guard, State, leaving_zero
+from camsim.engine.state import TIME_EPS, Guard, State, Stretch, leaving_zero
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
 
 def advance_linear(ctx: EngineContext, state: State, config, z0, guards, t_stop: float, record: bool):
     """Advance a linear configuration exactly from ``state`` until its first event or ``t_stop``.
 
-    Chunks of the grid are propagated by the cached step maps (modal recurrences), every
-    guard is screened on the chunk's nodes with its exact rate, and the first crossing is
-    located on the exact solution. Returns (the state at the end, the recorded stretch or
-    None, the guard that fired or None).
+    The cam's break times (segment joins, the inner kinks of a law) inside the stretch do
+    not end it (issue 42): each is a node pair — the state is continuous, the input's limits
+    from the left and from the right differ — at which the grid restarts as at a stretch's
+    start (no step carries the input across it; a guard that jumps below zero there fires
+    at that instant, one at its zero is lifted as just crossed). Between breaks, chunks of
+    the grid are propagated by the cached step maps (modal recurrences), every guard is
+    screened on the chunk's nodes with its exact rate, and the first crossing is located
+    on the exact solution. Returns (the state at the end, the stretch with every node when
+    ``record``, else None, the guard that fired or None).
     """
     maps = ctx.maps(config)
     h = ctx.h
     t0 = state.t
     chunk = ctx._chunk
-    collected_t, collected_z, collected_u = [], [], []
-    first_chunk = True
-    z_start = z0
-    t_start = t0
-    while True:
-        # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
-        # sample's time (and the cam input there) is the same whatever the history.
-        k_end = math.floor((t_start - ctx.t_ref) / h + GRID_SNAP) + chunk
-        t_chunk_end = min(t_stop, ctx.t_ref + k_end * h)
-        k0 = math.ceil((t_start - ctx.t_ref) / h - GRID_SNAP)
-        k1 = math.ceil((t_chunk_end - ctx.t_ref) / h - GRID_SNAP)
-        if k0 < k1 and ctx.t_ref + k0 * h <= t_start + TIME_EPS:
-            k0 += 1  # the start is that grid point: it is node 0 already
-        if k0 < k1 and ctx.t_ref + (k1 - 1) * h >= t_chunk_end - TIME_EPS:
-            k1 -= 1  # the end is that grid point: it is the last node
-        # Nodes: the start, the interior grid points, the end.
-        nodes = np.concatenate([[t_start], ctx.t_ref + np.arange(k0, k1) * h, [t_chunk_end]])
-        U = ctx.chunk_inputs(nodes, k0, k1)
-        steps = np.diff(nodes)
-        D = step_input_derivatives(U[:-1], U[1:], steps, h)
-        Z = np.empty((nodes.size, config.dim))
-        Z[0] = z_start
-        # A grid step's computed length differs from h by the rounding of t (an ulp of t
-        # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
-        # 7x slower; long runs, camsim.run.stream).
-        full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
-        # Steps are full except possibly the first and the last: runs of full steps go
-        # through the cached maps, the others through an exact map of their own length.
-        k = 0
-        for p in [*np.flatnonzero(~full).tolist(), steps.size]:
-            if p > k:
-                Z[k + 1 : p + 1] = maps.propagate(Z[k], D[k:p])
-            if p < steps.size:
-                Z[p + 1] = exact_partial(config, Z[p], forcing_coefficients(config, D[p : p + 1])[0], steps[p])
-            k = p + 1
-        hit = first_crossing(ctx, config, guards, nodes, Z, U, D, first_chunk)
-        if hit is not None:
-            ctx._chunk = 512  # events come in clusters: look ahead a little after one
-            t_event, z_event, guard, index = hit
-            ctx.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
-            keep = nodes[: index + 1]
-            mask = ctx._on_grid(keep)
+    parts: list[tuple] = []  # (nodes, Z, U, last node kept) per chunk, for the record
+    breaks = ctx.breaks_between(t0, t_stop)
+    ends = [*breaks, t_stop]
+    z_start, t_start = z0, t0
+    restart = True  # the chunk starts the stretch or follows a break
+    for seg_end in ends:
+        while True:
+            # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
+            # sample's time (and the cam input there) is the same whatever the history.
+            k_end = math.floor((t_start - ctx.t_ref) / h + GRID_SNAP) + chunk
+            t_chunk_end = min(seg_end, ctx.t_ref + k_end * h)
+            at_break = t_chunk_end == seg_end and seg_end != t_stop
+            k0 = math.ceil((t_start - ctx.t_ref) / h - GRID_SNAP)
+            k1 = math.ceil((t_chunk_end - ctx.t_ref) / h - GRID_SNAP)
+            if k0 < k1 and ctx.t_ref + k0 * h <= t_start + TIME_EPS:
+                k0 += 1  # the start is that grid point: it is node 0 already
+            if k0 < k1 and ctx.t_ref + (k1 - 1) * h >= t_chunk_end - TIME_EPS:
+                k1 -= 1  # the end is that grid point: it is the last node
+            # Nodes: the start, the interior grid points, the end.
+            nodes = np.concatenate([[t_start], ctx.t_ref + np.arange(k0, k1) * h, [t_chunk_end]])
+            U = ctx.chunk_inputs(nodes, k0, k1)
+            steps = np.diff(nodes)
+            D = step_input_derivatives(U[:-1], U[1:], steps, h)
+            Z = np.empty((nodes.size, config.dim))
+            Z[0] = z_start
+            # A grid step's computed length differs from h by the rounding of t (an ulp of t
+            # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
+            # 7x slower; long runs, camsim.run.stream).
+            full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
+            # Steps are full except possibly the first and the last: runs of full steps go
+            # through the cached maps, the others through an exact map of their own length.
+            k = 0
+            for p in [*np.flatnonzero(~full).tolist(), steps.size]:
+                if p > k:
+                    Z[k + 1 : p + 1] = maps.propagate(Z[k], D[k:p])
+                if p < steps.size:
+                    Z[p + 1] = exact_partial(config, Z[p], forcing_coefficients(config, D[p : p + 1])[0], steps[p])
+                k = p + 1
+            hit = first_crossing(ctx, config, guards, nodes, Z, U, D, restart)
+            if hit is not None:
+                ctx._chunk = 512  # events come in clusters: look ahead a little after one
+                t_event, z_event, guard, index = hit
+                ctx.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
+                end = ctx._state_from(config, z_event, t_event, state)
+                if record:
+                    parts.append((nodes[: index + 1], Z[: index + 1], U[: index + 1], _ALL))
+                    parts.append((np.array([t_event]), z_event[None, :], ctx.input_left(t_event)[None, :], _END))
+                return end, _full_stretch(ctx, state, config, parts) if record else None, guard
+            ctx.watch.linear_chunk(config, nodes, Z, U, D)
             if record:
-                collected_t.append(keep[mask])
-                collected_z.append(Z[: index + 1][mask])
-                collected_u.append(U[: index + 1][mask])
-            end = ctx._state_from(config, z_event, t_event, state)
-            return end, ctx._stretch(state, config, collected_t, collected_z, collected_u), guard
-        ctx.watch.linear_chunk(config, nodes, Z, U, D)
-        mask = ctx._on_grid(nodes[:-1])
-        if record:
-            collected_t.append(nodes[:-1][mask])
-            collected_z.append(Z[:-1][mask])
-            collected_u.append(U[:-1][mask])
-        t_start, z_start = nodes[-1], Z[-1]
-        first_chunk = False
-        if t_start >= t_stop - TIME_EPS:
-            end = ctx._state_from(config, z_start, t_stop, state)
-            return end, ctx._stretch(state, config, collected_t, collected_z, collected_u), None
-        chunk = min(chunk * 2, 16384)
-        ctx._chunk = chunk
+                parts.append((nodes, Z, U, _END if at_break else _CHUNK))
+            t_start, z_start = nodes[-1], Z[-1]
+            restart = False
+            if t_start >= seg_end - TIME_EPS:
+                break
+            chunk = min(chunk * 2, 16384)
+            ctx._chunk = chunk
+        restart = True
+    end = ctx._state_from(config, z_start, t_stop, state)
+    if record:
+        parts.append((np.array([t_stop]), z_start[None, :], ctx.input_left(t_stop)[None, :], _END))
+    return end, _full_stretch(ctx, state, config, parts) if record else None, None
 
+
+#: How a chunk's nodes enter a stretch's record (_full_stretch): all but its last (the next
+#: chunk's first); all (the nodes before an event); all, its last no sample (a break's left
+#: node, the stretch's end: the right node and the next stretch's start are those samples).
+_CHUNK, _ALL, _END = 0, 1, 2
+
+
+def _full_stretch(ctx: EngineContext, state: State, config, parts) -> Stretch:
+    """The stretch's record from its chunks (see :data:`_CHUNK`); the samples are the grid
+    points among the nodes."""
+    ts, zs, us, flags = [], [], [], []
+    for nodes, Z, U, kind in parts:
+        n = nodes.size - 1 if kind == _CHUNK else nodes.size
+        ts.append(nodes[:n])
+        zs.append(Z[:n])
+        us.append(U[:n])
+        f = np.ones(n, dtype=bool)
+        if kind == _END and n:
+            f[-1] = False
+        flags.append(f)
+    t = np.concatenate(ts)
+    z = np.concatenate(zs)
+    u = np.concatenate(us)
+    samples = np.concatenate(flags) & ctx._on_grid(t)
+    fn = np.zeros((t.size, 0))
+    return Stretch(state.branches, config, t, z, u, fn, dict(state.v_impacts), samples=samples, exact=True)
 
 
 def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chunk):
@@ -221,6 +253,7 @@ class LinearStepper:
     """The stepper of a linear configuration: :func:`advance_linear`."""
 
     exact = True
+    crosses_breaks = True
 
     def applies(self, ctx, config) -> bool:
         return config.linear

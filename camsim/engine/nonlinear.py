@@ -475,6 +475,7 @@ class ExponentialStepper:
     tangent (``nonlinear_tangent``): :func:`advance_power`."""
 
     exact = False
+    crosses_breaks = False
 
     def applies(self, ctx, config) -> bool:
         return bool(ENABLED and len(config.power_contacts) == 1 and config.dim

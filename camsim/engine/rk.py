@@ -59,6 +59,7 @@ class RungeKuttaStepper:
     configuration; the driver tries it last)."""
 
     exact = False
+    crosses_breaks = False
 
     def applies(self, ctx, config) -> bool:
         return True

@@ -51,11 +51,29 @@ class Guard:
 
 @dataclass
 class Stretch:
-    """Samples of one configuration on the internal grid, and its located extremes.
+    """One configuration between two events: its nodes, and which of them are output samples.
 
-    ``extremes`` (:class:`camsim.engine.extremes.StretchExtremes`, or None when nothing is
-    observed) covers the whole stretch in the recording window, also when no grid point
-    falls inside it (then ``t`` is empty).
+    A stretch from the engine's steppers holds **every node** of its solution: its start,
+    its grid points, the cam's break times inside it as node pairs (the limits from the
+    left and from the right: the cam's acceleration or jerk may jump there, the state does
+    not), and its end (an event, a stop). ``samples`` marks the nodes that are grid points
+    recorded as output samples (the stretch's end is the next one's start: never a sample
+    here). A stepper that only knows its grid points (``samples`` None) returns those alone;
+    the integrator adds the start and the end (:meth:`Integrator.advance`).
+
+    Attributes
+    ----------
+    t : ndarray (N,)
+        Node times [s], non-decreasing (a break is two nodes at one time).
+    z, u, fn : ndarray
+        States (N, m), cam inputs (N, 4·c) and nonlinear contact forces (N, p) there.
+    samples : ndarray (N,) of bool, or None
+        Output samples among the nodes (None: every node is one, a stepper's grid points).
+    exact : bool
+        A linear configuration (the state inside a step is its exact Taylor series); False:
+        a closed nonlinear contact (integrated again for states between nodes).
+    extremes : StretchExtremes or None
+        Its located extremes in the recording window (set by the run that observes it).
     """
 
     branches: tuple[Branch, ...]
@@ -66,6 +84,12 @@ class Stretch:
     fn: np.ndarray
     v_impacts: dict[int, float] = field(default_factory=dict)
     extremes: object = None
+    samples: np.ndarray | None = None
+    exact: bool = True
+
+    def sample_rows(self) -> np.ndarray | slice:
+        """Index of the nodes that are output samples (a slice when all are)."""
+        return slice(None) if self.samples is None else np.flatnonzero(self.samples)
 
 
 @dataclass

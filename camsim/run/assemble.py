@@ -15,7 +15,7 @@ from camsim.errors import SimulationError
 from camsim.elements.affine import N_INPUT
 from camsim.elements.events import Event, EventTable
 from camsim.engine.integrator import State, Stretch
-from camsim.run.extremes import ExtremesFolder, ingest_event, johnson_annotate  # noqa: F401 - johnson_annotate: also this module's
+from camsim.run.extremes import ExtremesFolder, digest, ingest_event, johnson_annotate  # noqa: F401 - johnson_annotate: also this module's
 from camsim.run.result import RunResult
 from camsim.run.samples import RunSetup, sample_traces, stretch_samples  # noqa: F401 - also this module's names
 
@@ -81,7 +81,7 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     t_rec, h_out = run.t_rec, run.h_out
     ts, xs, vs, as_, us, fs = [], [], [], [], [], []
     for st in stretches:
-        samples = stretch_samples(run, st)
+        _, samples = digest(run, st)
         if samples is None:
             continue
         for parts, arr in zip((ts, xs, vs, as_, us, fs), samples):
@@ -174,10 +174,9 @@ def fold_events_and_extremes(run: RunSetup, stretches: list[Stretch]) -> tuple[E
             k += 1
 
     for st in stretches:
-        if st.extremes is None:
-            continue
-        ingest(st.extremes.t1 + 1e-12)
-        folder.add(st.extremes)
+        for record in st.extremes or ():
+            ingest(record.t1 + 1e-12)
+            folder.add(record)
     ingest(np.inf)
     located = folder.finish() if folder is not None else None
     return events, located

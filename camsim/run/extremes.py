@@ -87,6 +87,12 @@ class Observables:
         x, v, a = config.x(Z, U, fn), config.v(Z, U, fn), config.a(Z, U, fn)
         lam = config.lam(Z, U, fn)
         forces = model.element_forces(branches, x, v, U[:, 0::N_INPUT], U[:, 1::N_INPUT], lam, config, v_impacts)
+        return self.columns(x, v, a, U, forces)
+
+    def columns(self, x, v, a, U: np.ndarray, forces) -> np.ndarray:
+        """The observables from the nodes' quantities (:func:`camsim.run.samples.node_quantities`)
+        and inputs: (N, len(paths))."""
+        run = self.run
         traces = derived_traces(run, x, v, a, U, forces)
         cols = [traces["masses"][name][q] for name in run.machine.node_names for q in MASS_QUANTITIES]
         cols += [forces[:, i] for i in self.elements]
@@ -103,7 +109,7 @@ class Observables:
             from camsim.cam.design import camshaft_torque
 
             cols.append(camshaft_torque(traces["cam_contact_force"], U[:, 1], self.torque_speed))
-        return np.column_stack(cols) if cols else np.zeros((Z.shape[0], 0))
+        return np.column_stack(cols) if cols else np.zeros((x.shape[0], 0))
 
     def _camshaft_columns(self, traces: dict, U: np.ndarray) -> list[np.ndarray]:
         """Each station's cam force, then the shaft's torque and each cam's (issue 38), by the
@@ -125,6 +131,23 @@ class Observables:
             if machine.multi_cam:
                 cols += torques
         return cols
+
+
+def digest(run: RunSetup, st):
+    """One recorded stretch's located-extremes records (one per smooth piece,
+    :func:`camsim.engine.extremes.stretch_extremes`) and its output samples, from one
+    evaluation of its nodes' quantities: ``(records, samples or None)``
+    (:func:`camsim.run.samples.stretch_samples`)."""
+    from camsim.engine.extremes import stretch_extremes
+    from camsim.run.samples import node_quantities, stretch_samples
+
+    quantities = node_quantities(run, st)
+    record = []
+    if run.observables is not None:
+        Q = run.observables.columns(*quantities[:3], st.u, quantities[3])
+        record = stretch_extremes(run.integrator, st, Q, run.observables, (run.t_rec, run.t_end))
+        st.extremes = record
+    return record, stretch_samples(run, st, quantities)
 
 
 def observable_units(path: str) -> str:
@@ -149,31 +172,76 @@ def magnitudes(records) -> np.ndarray:
 def fold_best(records, j: int, sense: int, heights: list[tuple[float, float]] | None,
               scale: float) -> list[tuple[float, float]]:
     """The located maximum (sense +1) or minimum (−1) of observable ``j`` over ``records``
-    and ``heights`` found before: the (value, time) pairs within the tie
-    (:data:`~camsim.engine.extremes.TIE` of ``scale``, the observable's magnitude over these
-    records and those before) of the best value, of which :func:`earliest` is the one
-    reported. The record with the best node value goes first; its located value then prunes
-    the others by their screening bounds (in time order, every record would be refined until
-    the best so far is high)."""
-    heights = list(heights or [])
-    tie = TIE * scale
-    nodes = [(sense * float(r.node_max[j] if sense > 0 else r.node_min[j]), r.t0) for r in records]
-    for k in sorted(range(len(records)), key=lambda k: (-nodes[k][0], nodes[k][1])):
-        r = records[k]
+    and ``heights`` found before (:func:`fold`, one query)."""
+    scales = np.zeros(int(j) + 1)
+    scales[j] = scale
+    return fold(records, [(j, sense)], {(j, sense): heights or []}, scales)[(j, sense)]
+
+
+def fold(records, queries, before: dict, scale: np.ndarray) -> dict:
+    """Located maxima (sense +1) and minima (−1) of observables over ``records`` and the
+    heights found before.
+
+    Values within the tie (:data:`~camsim.engine.extremes.TIE` of ``scale[j]``, the
+    observable's magnitude over these records and those before) of the best are one height,
+    of which :func:`earliest` is the one reported. A record is refined only where it can
+    reach that height: its bound (a loose one first, known without a screen; then its
+    screening bound) must come within the tie of the best node value there is. Every
+    record's refinement for every query is then one batch
+    (:func:`camsim.engine.extremes.refine_requests`).
+
+    Parameters
+    ----------
+    records : list of StretchExtremes
+    queries : list of (int, int)
+        (observable, sense) pairs.
+    before : dict
+        (observable, sense) → the (value, time) heights found before (may be absent).
+    scale : ndarray (n_obs,)
+        Each observable's magnitude.
+
+    Returns
+    -------
+    dict
+        (observable, sense) → the heights within the tie of the best (value, time).
+    """
+    requests, owner = [], []
+    if records:
+        node_max = np.array([r.node_max for r in records])
+        node_min = np.array([r.node_min for r in records])
+        upper = np.array([r.upper for r in records])
+        lower = np.array([r.lower for r in records])
+    for j, sense in queries:
+        tie = TIE * float(scale[j])
+        prior = [sense * v for v, _ in before.get((j, sense)) or []]
+        if not records:
+            continue
+        nodes = node_max[:, j] if sense > 0 else -node_min[:, j]
+        loose = upper[:, j] if sense > 0 else -lower[:, j]
+        best = max(float(np.max(nodes)), max(prior, default=-np.inf))
+        for k in np.flatnonzero(loose >= best - tie).tolist():
+            r = records[k]
+            if sense * r.bound(j, sense) >= best - tie:
+                requests.append((r, j, sense, tie))
+                owner.append((j, sense))
+    from camsim.engine.extremes import refine_requests
+
+    found: dict = {}
+    for key, value in zip(owner, refine_requests(requests)):
+        found.setdefault(key, []).append(value)
+    out = {}
+    for j, sense in queries:
+        tie = TIE * float(scale[j])
+        heights = list(before.get((j, sense)) or []) + found.get((j, sense), [])
         if heights:
             top = max(sense * v for v, _ in heights)
-            bound = sense * r.bound(j, sense)
-            # below the best by more than the tie, or no higher beyond the tie and later
-            if bound < top - tie or (bound <= top + tie and r.t0 >= earliest(heights)[1]):
-                continue
-        heights.append(r.extreme(j, sense, tie))
-        top = max(sense * v for v, _ in heights)
-        heights = [(v, t) for v, t in heights if sense * v >= top - tie]
-    return heights
+            heights = [(v, t) for v, t in heights if sense * v >= top - tie]
+        out[(j, sense)] = heights
+    return out
 
 
 def earliest(heights: list[tuple[float, float]]) -> tuple[float, float]:
-    """The first instant among values of one height (:func:`fold_best`)."""
+    """The first instant among values of one height (:func:`fold`)."""
     return min(heights, key=lambda h: h[1])
 
 
@@ -196,9 +264,8 @@ class _Window:
         an impact's force: :meth:`~camsim.elements.base.Element.impact_force`)."""
         if not self.records:
             return
-        scale = float(magnitudes(self.records)[self.column])
-        tops = fold_best(self.records, self.column, 1, None, scale)
-        bottoms = fold_best(self.records, self.column, -1, None, scale)
+        found = fold(self.records, [(self.column, 1), (self.column, -1)], {}, magnitudes(self.records))
+        tops, bottoms = found[(self.column, 1)], found[(self.column, -1)]
         self.records = []
         if not tops or not bottoms:
             return
@@ -229,7 +296,7 @@ class ExtremesFolder:
         self.observables = observables
         self.t_rec = t_rec
         n = len(observables.paths)
-        # per sense and observable: the located values of the best height (fold_best)
+        # per sense and observable: the located values of the best height (fold)
         self.best: dict[int, list[list[tuple[float, float]]]] = {1: [[] for _ in range(n)], -1: [[] for _ in range(n)]}
         self.scale = np.zeros(n)  # each observable's largest magnitude so far
         self.windows: list[_Window] = []
@@ -262,11 +329,16 @@ class ExtremesFolder:
                 w.t_open = t_open
                 w.event.contact_duration = t_open - w.t_close
 
-    def add(self, record: StretchExtremes | None) -> None:
-        """Fold one stretch's record (the run's extremes once :data:`BUFFER` records are
-        waiting, or at :meth:`finish`; the impact windows at once)."""
-        if record is None:
+    def add(self, records) -> None:
+        """Fold one stretch's records, a list or one (the run's extremes once :data:`BUFFER`
+        records are waiting, or at :meth:`finish`; the impact windows at once)."""
+        if records is None:
             return
+        if isinstance(records, list):
+            for record in records:
+                self.add(record)
+            return
+        record = records
         self._waiting.append(record)
         if len(self._waiting) >= BUFFER:
             self._fold_waiting()
@@ -280,15 +352,16 @@ class ExtremesFolder:
         self.windows = still
 
     def _fold_waiting(self) -> None:
-        """The waiting records into the run's extremes (:func:`fold_best`)."""
+        """The waiting records into the run's extremes (:func:`fold`)."""
         records, self._waiting = self._waiting, []
         if not records:
             return
         self.scale = np.maximum(self.scale, magnitudes(records))
-        for sense in (1, -1):
-            best = self.best[sense]
-            for j in range(len(best)):
-                best[j] = fold_best(records, j, sense, best[j], float(self.scale[j]))
+        n = len(self.best[1])
+        queries = [(j, sense) for sense in (1, -1) for j in range(n)]
+        found = fold(records, queries, {(j, sense): self.best[sense][j] for j, sense in queries}, self.scale)
+        for j, sense in queries:
+            self.best[sense][j] = found[(j, sense)]
 
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);

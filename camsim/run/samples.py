@@ -58,29 +58,46 @@ class RunSetup:
     observables: object = None
 
 
-def stretch_samples(run: RunSetup, st: Stretch):
-    """The output-grid samples of one stretch: ``(t, x, v, a, u, forces)`` or None.
-
-    ``t`` [s] on the simulation clock; x, v, a (N, n) of the free masses; u (N, 4·c) the
-    cam input (s, ṡ, s̈, s⃛ of every cam); forces (N, elements) [N]. Used by :func:`_assemble` and by the
-    streaming assembler alike, so both give the same bits.
-    """
-    t_rec, t_end, h_out = run.t_rec, run.t_end, run.h_out
-    k = (st.t - t_rec) / h_out
-    keep = (np.abs(k - np.round(k)) < 1e-6) & (st.t <= t_end + 1e-9 * h_out)
-    if not np.any(keep):
-        return None
-    if np.all(keep):  # the usual case: no copies
-        z, u, fn, t = st.z, st.u, st.fn, st.t
-    else:
-        z, u, fn, t = st.z[keep], st.u[keep], st.fn[keep], st.t[keep]
+def node_quantities(run: RunSetup, st: Stretch, rows=slice(None)):
+    """Positions, velocities, accelerations of the free masses and every element's force
+    at nodes ``rows`` of a stretch: ``(x, v, a, forces)``, each (N, ·) [SI]. The traces and
+    the located extremes both read these (one evaluation per node)."""
+    z, u, fn = st.z[rows], st.u[rows], st.fn[rows]
     config = st.config
     x = config.x(z, u, fn)
     v = config.v(z, u, fn)
     a = config.a(z, u, fn)
     lam = config.lam(z, u, fn)
     forces = run.model.element_forces(st.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, st.v_impacts)
-    return t, x, v, a, u, forces
+    return x, v, a, forces
+
+
+def sample_rows(run: RunSetup, st: Stretch) -> np.ndarray:
+    """The nodes of a stretch that are output samples: its samples on the output grid, up
+    to the end of the record."""
+    rows = np.arange(st.t.size) if st.samples is None else np.flatnonzero(st.samples)
+    t = st.t[rows]
+    k = (t - run.t_rec) / run.h_out
+    keep = (np.abs(k - np.round(k)) < 1e-6) & (t <= run.t_end + 1e-9 * run.h_out)
+    return rows[keep]
+
+
+def stretch_samples(run: RunSetup, st: Stretch, quantities=None):
+    """The output-grid samples of one stretch: ``(t, x, v, a, u, forces)`` or None.
+
+    ``t`` [s] on the simulation clock; x, v, a (N, n) of the free masses; u (N, 4·c) the
+    cam input (s, ṡ, s̈, s⃛ of every cam); forces (N, elements) [N]. ``quantities``: the
+    stretch's :func:`node_quantities` at every node, when the caller has them. Used by
+    :func:`_assemble` and by the streaming assembler alike, so both give the same bits.
+    """
+    rows = sample_rows(run, st)
+    if not rows.size:
+        return None
+    if quantities is None:
+        x, v, a, forces = node_quantities(run, st, rows)
+    else:
+        x, v, a, forces = (q[rows] for q in quantities)
+    return st.t[rows], x, v, a, st.u[rows], forces
 
 
 def derived_traces(run: RunSetup, x, v, a, u, forces) -> dict:

@@ -227,13 +227,12 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
             integrator.watch.last = warm_integrator.watch.last
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=0.0 if record_all else t_rec, stops=all_stops,
-                                          on_stop=on_stop, progress=report, observe=run.observables, record_to=t_end,
-                                          check=bounds.check)
+                                          on_stop=on_stop, progress=report, check=bounds.check)
             result = _assemble(run, stretches)
             peak = lambda name, quantity: result.extreme(f"masses/{name}/{quantity}", "abs")[0]  # noqa: E731 - located (spec §4)
         else:
             integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
-                           on_stretch=consumer.on_stretch, observe=run.observables, record_to=t_end, check=bounds.check)
+                           on_stretch=consumer.on_stretch, check=bounds.check)
             result = consumer.finish()
             peak = result.peak
     if t_period_end is not None and round(t_period_end, 9) in saved:

@@ -38,8 +38,8 @@ from camsim.errors import InputError, SimulationError
 from camsim.elements.events import EventTable
 from camsim.run.result import MASS_QUANTITIES, RunResult, scalar_columns
 from camsim.run.assemble import after_run_warnings, boundaries_deg, negative_cam_force_warning, recorded_event
-from camsim.run.extremes import ExtremesFolder, ingest_event
-from camsim.run.samples import RunSetup, sample_traces, stretch_samples
+from camsim.run.extremes import ExtremesFolder, digest, ingest_event
+from camsim.run.samples import RunSetup, sample_traces
 from camsim.run.simulation import _simulate
 
 __all__ = ["simulate_to_file", "StreamedRun", "trace_layout", "machine_trace_layout", "select_traces", "FLUSH"]
@@ -301,9 +301,9 @@ class StreamAssembler:
     def on_stretch(self, stretch, t_known: float) -> None:
         """Take one recorded stretch; every event before ``t_known`` [s] is recorded."""
         self._ingest_events()
+        record, samples = digest(self.run, stretch)
         if self._folder is not None:
-            self._folder.add(stretch.extremes)
-        samples = stretch_samples(self.run, stretch)
+            self._folder.add(record)
         if samples is not None:
             if self._pending is None:
                 self._pending = list(samples)

@@ -19,12 +19,6 @@ MACHINES = Path(__file__).parent / "machines"
 
 #: machine file → (the invariant it breaks, what is wrong, measured)
 KNOWN = {
-    "known-late-separation-500khz.toml": (
-        "a",
-        "a preloaded pair (k12) separating while an Adams IMPACT stop on the same masses is "
-        "closed is found 1.27e-5 s late at 500 kHz only (5, 50 and 200 kHz agree): a missed "
-        "crossing of the nonlinear stepper on the finest grid; present before this turn (1f6b19a)",
-    ),
     "known-multi-cam-warmup-chatter.toml": (
         "b",
         "a power-law roller's chatter against a rigid contact ends one impact earlier after a "
