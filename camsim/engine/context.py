@@ -154,6 +154,52 @@ class EngineContext:
                 out[mask] = self.cam.channels(t[mask], side=side)
         return out
 
+    def chunk_nodes(self, t_start: float, t_end: float) -> tuple[np.ndarray, np.ndarray, list[int], bool]:
+        """The nodes of a chunk of the grid and the cam input there.
+
+        Nodes: its start, the grid points strictly between, its end; each cam break
+        strictly between is a node pair (the limits from the left and from the right, a
+        step of length zero) that replaces a grid point within :data:`GRID_SNAP` of it.
+
+        Returns
+        -------
+        (ndarray, ndarray, list of int, bool)
+            Node times (N,), the cam input (N, 4·c), the index of each break's left node,
+            and whether the chunk ends on a break (its last input is then the limit from
+            the left, and the next chunk starts on the break's right side).
+        """
+        h = self.h
+        k0 = math.ceil((t_start - self.t_ref) / h - GRID_SNAP)
+        k1 = math.ceil((t_end - self.t_ref) / h - GRID_SNAP)
+        if k0 < k1 and self.t_ref + k0 * h <= t_start + TIME_EPS:
+            k0 += 1  # the start is that grid point: it is node 0 already
+        if k0 < k1 and self.t_ref + (k1 - 1) * h >= t_end - TIME_EPS:
+            k1 -= 1  # the end is that grid point: it is the last node
+        grid = self.t_ref + np.arange(k0, k1) * h
+        nodes = np.concatenate([[t_start], grid, [t_end]])
+        U = self.chunk_inputs(nodes, k0, k1)
+        at_break = t_end in self._joins
+        breaks = self.breaks_between(t_start, t_end)
+        if not breaks:
+            return nodes, U, [], at_break
+        # each break replaces the grid point it falls on (its right node is that sample)
+        for b in breaks:
+            near = np.flatnonzero(np.abs(nodes[1:-1] - b) <= GRID_SNAP * h) + 1
+            if near.size:
+                nodes = np.delete(nodes, near)
+                U = np.delete(U, near, axis=0)
+        at = np.searchsorted(nodes, breaks, side="left")
+        pair_u = [np.stack([self.cam.channels_at(b, side="left"), self.cam.channels_at(b, side="right")]) for b in breaks]
+        t_parts, u_parts, pairs, prev = [], [], [], 0
+        for b, i, uu in zip(breaks, at.tolist(), pair_u):
+            t_parts += [nodes[prev:i], np.array([b, b])]
+            u_parts += [U[prev:i], uu]
+            pairs.append(sum(part.size for part in t_parts) - 2)
+            prev = i
+        t_parts.append(nodes[prev:])
+        u_parts.append(U[prev:])
+        return np.concatenate(t_parts), np.concatenate(u_parts), pairs, at_break
+
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
         """Cam input at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
 

@@ -70,8 +70,13 @@ class DenseStretch:
         self.ctx, self.config, self.branches, self.v_impacts = ctx, config, branches, v_impacts
         self.exact, self.nodes, self.Z, self.U, self.observe = exact, nodes, Z, U, observe
         self.h = np.diff(nodes)
-        self.D = step_input_derivatives(U[:-1], U[1:], self.h, ctx.h)
         self._solutions: dict[int, object] = {}
+
+    def step_derivatives(self, steps: np.ndarray) -> np.ndarray:
+        """The Hermite derivatives of the cam input of ``steps`` (S, 8·c): only the steps a
+        refinement reads (a stretch has tens of thousands)."""
+        steps = np.asarray(steps, dtype=int)
+        return step_input_derivatives(self.U[steps], self.U[steps + 1], self.h[steps], self.ctx.h)
 
     def states(self, steps: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(S, P, m) states and (S, P, 4·c) inputs at fractions ``sigma`` ((P,) or (S, P)) of ``steps``."""
@@ -79,7 +84,7 @@ class DenseStretch:
         S = steps.size
         sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (S, np.shape(sigma)[-1]))
         h = self.h[steps]
-        D = self.D[steps]
+        D = self.step_derivatives(steps)
         # the cam input from its law: inside a short step, the step's degree-7 polynomial
         # carries the rounding of s amplified into s̈ (7.5e-7 m/s², 6e-8 of the CDTM cam's
         # peak acceleration, in a 20 µs step), and a driven mass's acceleration *is* s̈
@@ -106,7 +111,7 @@ class DenseStretch:
         sol = self._solutions.get(k)
         if sol is None:
             sol = self._solutions[k] = integrate_step(self.ctx, self.config, self.v_impacts, float(self.nodes[k]),
-                                                       float(self.h[k]), self.Z[k], self.D[k])
+                                                      float(self.h[k]), self.Z[k], self.step_derivatives([k])[0])
         return sol
 
 
@@ -198,7 +203,7 @@ def batch_values(items) -> list[np.ndarray]:
         first = items[idxs[0]][0]
         ctx, config = first.ctx, first.config
         z0 = np.concatenate([items[i][0].Z[items[i][1]] for i in idxs])
-        D = np.concatenate([items[i][0].D[items[i][1]] for i in idxs])
+        D = np.concatenate([items[i][0].step_derivatives(items[i][1]) for i in idxs])
         h = np.concatenate([items[i][0].h[items[i][1]] for i in idxs])
         t0 = np.concatenate([items[i][0].nodes[items[i][1]] for i in idxs])
         last = np.concatenate([items[i][1] == items[i][0].nodes.size - 2 for i in idxs])

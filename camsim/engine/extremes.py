@@ -1,40 +1,49 @@
 """Extremes located on the solution, not read off the samples (spec §4).
 
 Every peak or minimum camsim reports is found on the continuous solution, so it is the same
-at any sample rate. Between events the solution is smooth, and each stepper knows it at
-the nodes of its own internal grid (every grid point of a stretch, plus the stretch's two
-ends, which are events, stops or the recording window's edges). For each observable q
-(a mass's displacement, velocity or acceleration, an element's force, the cam force, the
-camshaft torque: whatever the caller's ``observe`` computes from the state — the very code
-that makes the traces, so a figure reported in two places is one number):
+at any sample rate. Between events the solution is smooth but for the cam's breaks (its
+joins and a law's inner kinks, where its acceleration or jerk may jump), and a stretch knows
+it at every node of its own (its start, its grid points, each break as a pair of nodes — the
+limits from the left and from the right — and its end). For each observable q (a mass's
+displacement, velocity or acceleration, an element's force, the cam force, the camshaft
+torque: whatever the caller's ``observe`` computes from the state — the very code that
+makes the traces, so a figure reported in two places is one number):
 
-1. **Screen** the nodes (:func:`_screen`): between two nodes a smooth q rises at most
-   h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided differences (the
-   internal grid has at least twelve steps per period of the highest natural frequency) and
-   taken :data:`SCREEN_SAFETY` times over; the steps whose bound exceeds the largest node
-   value, and the two beside that node, are the candidates; the stretch's ends are nodes
-   (its one-sided limits are candidates as they are).
-2. **Refine** only where asked (:meth:`StretchExtremes.extreme`, lazily: a stretch is refined
-   only when a bound could beat the best value found so far): on each candidate step the
-   exact state is evaluated at :data:`CHEBYSHEV_POINTS` Chebyshev–Lobatto points — for a
-   linear configuration from the Taylor series of its exact solution (z' = A·z + B·u + b with
-   the step's polynomial cam input), for a closed nonlinear contact by DOP853 at rtol 1e-13
-   from the step's start node — q is interpolated there (error far below 1e-12 of q's range
-   for steps of at most 1/12 period) and the interpolant's maximum located by Newton's
-   method on its derivative.
+1. **Screen** the nodes (:func:`_screen_column`): between two nodes a smooth q rises at
+   most h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided differences
+   (the internal grid has at least twelve steps per period of the highest natural
+   frequency) and taken :data:`SCREEN_SAFETY` times over; the steps whose bound exceeds the
+   largest node value, and the two beside that node, are the candidates; a stretch's ends
+   and a break's nodes are nodes (the one-sided limits there are candidates as they are).
+   The whole stretch is scanned three times for every observable at once
+   (:func:`_excess_bound`: the largest second difference bounds every step); only the
+   steps near the best node are bounded one by one, lazily, for the observables asked.
+2. **Refine** only where asked (:func:`refine_requests`: a stretch is refined only where its
+   bound can reach the best value there is): on each candidate step the exact state is
+   evaluated at :data:`~camsim.engine.dense.CHEBYSHEV_POINTS` Chebyshev–Lobatto points — for a
+   linear configuration from the Taylor series of its exact solution, for a closed nonlinear
+   contact by DOP853 at rtol 1e-13 from the step's start node — q is interpolated there and
+   the interpolant's maximum located by Newton's method on its derivative
+   (:mod:`camsim.engine.dense`), for every request of a fold in one batch.
 
 A maximum at a stretch end is the one-sided limit there: a damped contact's force jumps to
 c·v at the instant of impact, and that value is the peak of a damping-dominated impact.
+
+Values within a tie (:data:`TIE` of the quantity's scale) are one height, reported at its
+first instant. The smooth pieces of a stretch (between its breaks) are the units of that
+rule, as they are across stretches: a value repeated in two pieces (a cam's rise and its
+fall) is reported at the first, and a plateau that starts at a break is reported there,
+whatever the grid.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from camsim.engine.dense import _SIGMA, _TO_COEF, CHEBYSHEV_POINTS, DenseStretch, batch_values, chebval_rows, maximise  # noqa: F401
+from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise
 
 #: The bound of a smooth q between two nodes, h²/8·|q̈|, is taken this many times over
-#: (q̈ itself estimated from the nodes; see _screen).
+#: (q̈ itself estimated from the nodes; see _screen_column).
 SCREEN_SAFETY = 4.0
 #: A located value between nodes replaces the best node value only when it is larger by more
 #: than this fraction of the values interpolated (the interpolation's rounding).
@@ -43,8 +52,6 @@ ROUNDING = 64 * np.finfo(float).eps
 #: dwell's plateau, one peak repeated cycle after cycle): the earlier instant is reported, so
 #: the instant does not hang on the last bits of the arithmetic (library versions, platforms).
 TIE = 1e-12
-
-# ---------------------------------------------------------------------- the record of a stretch
 #: Zoom levels of a closed nonlinear contact's refinement, the width of each (a fraction of
 #: the previous interval) around the maximum found on the previous one: a contact's force
 #: is not smooth at its ends (F ∝ δ^a), where the interpolant of a whole step is rough.
@@ -64,28 +71,53 @@ class StretchExtremes:
     node_tmax, node_tmin : ndarray (n_obs,)
         Their times [s].
     upper, lower : ndarray (n_obs,)
-        Bounds no value between the nodes can exceed (screening; see module docstring).
+        Loose bounds no value between the nodes can exceed, for every observable at once
+        (the node extremes widened by the largest excess a step can have); :meth:`bound`
+        is the screened, tighter one.
     """
 
-    def __init__(self, dense: DenseStretch, Q: np.ndarray):
+    def __init__(self, dense: DenseStretch, QT: np.ndarray):
         nodes = dense.nodes
         self.t0, self.t1 = float(nodes[0]), float(nodes[-1])
-        n_obs = Q.shape[1]
-        cols = np.arange(n_obs)
-        kmax, kmin = np.argmax(Q, axis=0), np.argmin(Q, axis=0)
-        self.node_max, self.node_min = Q[kmax, cols], Q[kmin, cols]
+        self._QT = QT
+        self._dense = dense
+        n_obs, N = QT.shape
+        kmax, kmin = np.argmax(QT, axis=1), np.argmin(QT, axis=1)
+        rows = np.arange(n_obs)
+        self.node_max, self.node_min = QT[rows, kmax], QT[rows, kmin]
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
-        self._excess = _excess_bound(Q)
-        #: Loose bounds for every observable at once (the node extremes widened by the
-        #: largest excess a step can have, :func:`_excess_bound`); :meth:`bound` is tighter.
+        h = dense.h
+        moving = h > 0.0
+        #: first node of each smooth piece (a break's right node starts one)
+        self._starts = np.concatenate([[0], np.flatnonzero(~moving) + 1])
+        ends = np.concatenate([self._starts[1:] - 1, [N - 1]])  # last node of each piece
+        self._piece_ends = ends
+        # the node whose curvature each node takes (a piece's end node: its neighbour's),
+        # -1 where a piece has one step only (nothing bounds it: always refined)
+        cnode = np.arange(N)
+        cnode[self._starts] = self._starts + 1
+        cnode[ends] = ends - 1
+        single = ends - self._starts == 1
+        cnode[self._starts[single]] = -1
+        cnode[ends[single]] = -1
+        self._cnode = cnode
+        # the steps whose bound is taken one by one whatever q does: each piece's first two
+        # and last two (non-uniform lengths, one-sided curvatures)
+        self._forced = np.unique(np.concatenate([self._starts, self._starts + 1, ends - 1, ends - 2]))
+        self._forced = self._forced[(self._forced >= 0) & (self._forced < N - 1)]
+        self._forced = self._forced[moving[self._forced]]
+        #: steps that start or end a piece (their bound takes half their slope as well)
+        self._end_step = np.zeros(N - 1, dtype=bool)
+        self._end_step[self._starts[self._starts < N - 1]] = True
+        self._end_step[ends[ends > 0] - 1] = True
+        self._end_step &= moving
+        self._excess, self._d2 = _excess_bound(QT, moving, bool(np.any(single)))
         self.upper = self.node_max + self._excess
         self.lower = self.node_min - self._excess
         self._scale = np.maximum(np.abs(self.node_max), np.abs(self.node_min))
-        self._Q = Q
-        self._dense = dense
         self._screened: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
-        self._refined: dict[tuple[int, int], tuple[float, float]] = {}
+        self._refined: dict[tuple[int, int, float], tuple[float, float]] = {}
 
     def loose_bound(self, j: int, sense: int) -> float:
         """A bound of observable ``j`` here (largest value for ``sense`` +1, smallest for −1)
@@ -101,8 +133,8 @@ class StretchExtremes:
         key = (j, sense)
         hit = self._screened.get(key)
         if hit is None:
-            hit = self._screened[key] = _screen_column(self._dense.nodes, self._dense.h, sense * self._Q[:, j],
-                                                       float(self._excess[j]), 1e-13 * float(self._scale[j]))
+            hit = self._screened[key] = _screen_column(self, j, sense * self._QT[j], float(self._excess[j]),
+                                                       1e-13 * float(self._scale[j]))
         return hit
 
     def extreme(self, j: int, sense: int, tie: float = 0.0) -> tuple[float, float]:
@@ -111,23 +143,111 @@ class StretchExtremes:
         the earliest of them is returned (a plateau's first node)."""
         return refine_requests([(self, j, sense, tie)])[0]
 
-    def _node_best(self, j: int, sense: int, tie: float) -> tuple[float, float]:
-        """(value, time) of the first node of the best node value's height."""
-        q = sense * self._Q[:, j]
-        k = int(np.argmax(q >= q.max() - tie))
-        return float(self._Q[k, j]), float(self._dense.nodes[k])
+
+def _excess_bound(QT: np.ndarray, moving: np.ndarray, single: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Per observable, a bound of how far any step rises above its larger node:
+    SAFETY/8·h²·|q̈| ≤ SAFETY/8·max|Δ²q| over the uniform grid steps inside the pieces
+    (the steps next to a piece's ends, which :func:`_screen_column` bounds one by one, and
+    the breaks left out); infinite when a piece has a single step (two events with no grid
+    point between: nothing bounds it, a short contact's force is zero at both ends).
+
+    Returns the bounds (n_obs,) and |Δ²q| at the interior nodes 2 … N − 3 (n_obs, N − 4;
+    zero where the triplet is not of uniform steps inside a piece), or None."""
+    n_obs, N = QT.shape
+    if single:
+        return np.full(n_obs, np.inf), None
+    if N <= 4:
+        return np.zeros(n_obs), None
+    d2 = QT[:, 3:-1] - 2.0 * QT[:, 2:-2]
+    d2 += QT[:, 1:-3]  # interior nodes 2 … N − 3
+    np.abs(d2, out=d2)
+    if not np.all(moving):
+        # a triplet that straddles a break is no second difference of a smooth q
+        ok = moving[1:-2] & moving[2:-1] & moving[:-3] & moving[3:]
+        d2 *= ok[None, :]
+    return (SCREEN_SAFETY / 8.0) * np.max(d2, axis=1), d2
 
 
+#: Above this many nodes near the best value (a plateau), a column is screened in full
+#: from the stored second differences rather than step by step.
+NEAR_MAX = 256
+
+
+def _screen_column(rec: StretchExtremes, j: int, q: np.ndarray, excess: float, tol: float):
+    """The steps of one observable q (times its sense: the maximum is screened) that may
+    hold a value beyond its largest node value, and the bound of its values between nodes.
+
+    Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
+    estimated at each node by the divided second difference of its neighbours (exact to
+    about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
+    :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
+    node value by more than ``tol``, or when it ends at that node (the maximum may sit just
+    beside it). A piece's first and last steps (whose end node has no neighbour beyond it)
+    take the curvature of the node inside and half the slope across the step as well; a
+    piece of one step has no bound and is always a candidate. A break (a step of length
+    zero) is never one: both its nodes are nodes.
+
+    Only the steps that touch a node within ``excess`` (:func:`_excess_bound`) of the best,
+    and those next to a piece's ends, are bounded one by one: no other step can rise above it.
+
+    Returns
+    -------
+    (ndarray, float)
+        The candidate steps, ascending, and the bound of q over the record.
+    """
+    dense = rec._dense
+    h = dense.h
+    N = q.size
+    best = int(np.argmax(q))
+    q_best = float(q[best])
+    near = np.flatnonzero(q > q_best - excess - tol)
+    full = None
+    if near.size > NEAR_MAX and rec._d2 is not None:
+        # a plateau: every interior step's bound from the second differences at once
+        ad = rec._d2[j]  # |Δ²q| at nodes 2 … N − 3 (zero near a break: those steps are forced)
+        up = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
+        full = (np.flatnonzero(up > q_best + tol) + 2, float(np.max(up)) if up.size else -np.inf)
+        near = np.zeros(0, dtype=int)
+    steps = np.unique(np.concatenate([near - 1, near, rec._forced, [best - 1, best]]))
+    steps = steps[(steps >= 0) & (steps < N - 1)]
+    steps = steps[h[steps] > 0.0]
+    if not steps.size:
+        return (steps, q_best) if full is None else (full[0], max(q_best, full[1]))
+    a, b = rec._cnode[steps], rec._cnode[steps + 1]
+    unbounded = (a < 0) | (b < 0)
+
+    def curvature(k):
+        k = np.where(k < 0, 1, k)
+        k = np.clip(k, 1, N - 2)
+        left, right = q[k] - q[k - 1], q[k + 1] - q[k]
+        hl, hr = h[k - 1], h[k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.abs(right / hr - left / hl) * (2.0 / (hl + hr))
+        return np.where(np.isfinite(out), out, 0.0)
+
+    q0, q1 = q[steps], q[steps + 1]
+    local = (SCREEN_SAFETY / 8.0) * h[steps] ** 2 * np.maximum(curvature(a), curvature(b))
+    local = local + np.where(rec._end_step[steps], 0.5 * np.abs(q1 - q0), 0.0)
+    local = np.where(unbounded, np.inf, np.maximum(q0, q1) + local)
+    chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
+    if full is None:
+        return steps[chosen], max(q_best, float(np.max(local)))
+    return np.union1d(steps[chosen], full[0]), max(q_best, float(np.max(local)), full[1])
+
+
+# ---------------------------------------------------------------------- refinement
 def refine_requests(requests) -> list[tuple[float, float]]:
     """Located extremes of many (record, observable, sense, tie) requests at once.
 
-    Each request's candidate steps (:meth:`StretchExtremes._screen`) are evaluated at the
-    Chebyshev points — every linear record's steps in one batch (:func:`batch_values`), a
-    nonlinear one's from its DOP853 solution — and the interpolants' maxima located in one
-    call (:func:`maximise`; a nonlinear record's zoomed in twice around each). A value
-    between nodes replaces the best node value only when it beats it by more than the
-    interpolation's rounding and the tie (a dwell's plateau would otherwise read a few ulps
-    high, differently at each sample rate).
+    Each request's candidate steps (:func:`_screen_column`) are evaluated at the Chebyshev
+    points — every linear record's steps in one batch (:func:`~camsim.engine.dense.batch_values`),
+    a nonlinear one's from its DOP853 solution — and the interpolants' maxima located in one
+    call (:func:`~camsim.engine.dense.maximise`; a nonlinear record's zoomed in twice around
+    each). Within each smooth piece, a value between nodes replaces the piece's best node
+    value only when it beats it by more than the interpolation's rounding and the tie (a
+    dwell's plateau would otherwise read a few ulps high, differently at each sample rate);
+    the pieces' values within the tie of the best are one height, reported at its first
+    instant.
 
     Returns
     -------
@@ -143,7 +263,7 @@ def refine_requests(requests) -> list[tuple[float, float]]:
             continue
         steps = rec._screen(j, sense)[0]
         if steps.size == 0:
-            out[i] = rec._refined[(j, sense, tie)] = rec._node_best(j, sense, tie)
+            out[i] = rec._refined[(j, sense, tie)] = _settle((i, rec, j, sense, tie, steps), None, None, None, None, None)
             continue
         todo.append((i, rec, j, sense, tie, steps))
     if not todo:
@@ -166,8 +286,7 @@ def refine_requests(requests) -> list[tuple[float, float]]:
         k = 0
         for t, values in zip(exact, rows):
             n = values.shape[0]
-            lo, width = np.zeros(n), np.ones(n)
-            out[t[0]] = _settle(t, values, lo, width, xs[k : k + n], vals[k : k + n])
+            out[t[0]] = _settle(t, values, np.zeros(n), np.ones(n), xs[k : k + n], vals[k : k + n])
             k += n
     for t in todo:
         if not t[1]._dense.exact:
@@ -177,18 +296,37 @@ def refine_requests(requests) -> list[tuple[float, float]]:
 
 def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
     """A request's located extreme from its candidate steps' interpolated maxima (``x`` on
-    [−1, 1] of the sub-interval [lo, lo + width] of each step, ``vals`` there)."""
+    [−1, 1] of the sub-interval [lo, lo + width] of each step, ``vals`` there; None: no
+    candidate), piece by piece (see :func:`refine_requests`)."""
     i, rec, j, sense, tie, steps = request
-    best = rec._node_best(j, sense, tie)
     dense = rec._dense
-    sigma_at = lo + width * 0.5 * (x + 1.0)
-    times = dense.nodes[steps] + dense.h[steps] * sigma_at
-    noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
-    for r in np.argsort(times, kind="stable"):
-        if vals[r] > sense * best[0] + noise[r]:
-            best = (float(sense * vals[r]), float(times[r]))
-    rec._refined[(j, sense, tie)] = best
-    return best
+    q = sense * rec._QT[j]
+    starts, ends = rec._starts, rec._piece_ends
+    piece_max = np.maximum.reduceat(q, starts)
+    top_nodes = float(np.max(piece_max))
+    pid = np.searchsorted(starts, steps, side="right") - 1 if steps.size else np.zeros(0, dtype=int)
+    pieces = sorted(set(np.flatnonzero(piece_max >= top_nodes - tie).tolist()) | set(pid.tolist()))
+    if vals is not None:
+        sigma_at = lo + width * 0.5 * (x + 1.0)
+        times = dense.nodes[steps] + dense.h[steps] * sigma_at
+        noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
+    heights = []
+    for p in pieces:
+        a, b = int(starts[p]), int(ends[p]) + 1
+        seg = q[a:b]
+        k = a + int(np.argmax(seg >= piece_max[p] - tie))  # the first node of the piece's best height
+        best = (float(q[k]), float(dense.nodes[k]))
+        if vals is not None:
+            mine = np.flatnonzero(pid == p)
+            for r in mine[np.argsort(times[mine], kind="stable")]:
+                if vals[r] > best[0] + noise[r]:
+                    best = (float(vals[r]), float(times[r]))
+        heights.append(best)
+    top = max(v for v, _ in heights)
+    value, when = min(((v, t) for v, t in heights if v >= top - tie), key=lambda h: h[1])
+    result = (sense * value, when)
+    rec._refined[(j, sense, tie)] = result
+    return result
 
 
 def _refine_nonlinear(request) -> tuple[float, float]:
@@ -213,9 +351,8 @@ def _refine_nonlinear(request) -> tuple[float, float]:
 
 
 # ---------------------------------------------------------------------- building the record
-def stretch_extremes(ctx, stretch, Q: np.ndarray, observe, window: tuple[float, float]) -> list[StretchExtremes]:
-    """Screen a stretch's nodes and prepare the refinement of its extremes: one record per
-    smooth piece of it (between the cam's breaks).
+def stretch_extremes(ctx, stretch, QT: np.ndarray, observe, window: tuple[float, float]) -> StretchExtremes | None:
+    """Prepare the located extremes of a stretch (its screening is lazy: :class:`StretchExtremes`).
 
     Parameters
     ----------
@@ -224,8 +361,9 @@ def stretch_extremes(ctx, stretch, Q: np.ndarray, observe, window: tuple[float, 
         The stretch with every node of its solution (its start, grid points, break pairs,
         end); ``exact`` says how its states between nodes are found (the linear
         configuration's Taylor series, or DOP853 from the node before).
-    Q : ndarray (N, n_obs)
-        The observables at its nodes (the caller has them: they are the traces' columns).
+    QT : ndarray (n_obs, N)
+        The observables at its nodes, one row each (the caller has them: they are the
+        traces' columns).
     observe : callable
         ``observe(config, branches, v_impacts, Z, U) -> (N, n_obs)``: the observables at
         other states (the refinement's, the window's edges).
@@ -234,114 +372,47 @@ def stretch_extremes(ctx, stretch, Q: np.ndarray, observe, window: tuple[float, 
 
     Returns
     -------
-    list of StretchExtremes
-        In time order; empty when the stretch does not reach into the window. A piece is a
-        record of its own, as a stretch that ended at each break was: a value repeated in
-        two pieces (a cam's rise and its fall) is one height reported at its first instant
-        by the fold (:func:`camsim.run.extremes.fold`), and a plateau that starts at a
-        break is reported there, whatever the grid.
+    StretchExtremes or None
+        None when the stretch does not reach into the window.
     """
     lo, hi = window
     nodes = stretch.t
     t0, t1 = float(nodes[0]), float(nodes[-1])
     if t1 < lo or t0 > hi or nodes.size < 2 or t1 - t0 <= 0.0:
-        return []
+        return None
     config, branches, v_impacts, exact = stretch.config, stretch.branches, stretch.v_impacts, stretch.exact
-    cuts = np.flatnonzero(np.diff(nodes) <= 0.0) + 1  # a break: its right node starts a piece
-    out = []
-    for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), nodes.size]):
-        if b - a < 2 or nodes[b - 1] < lo or nodes[a] > hi:
-            continue
-        piece_nodes, Z, U, Qp = nodes[a:b], stretch.z[a:b], stretch.u[a:b], Q[a:b]
-        dense = DenseStretch(ctx, config, branches, v_impacts, exact, piece_nodes, Z, U, observe)
-        if piece_nodes[0] < lo or piece_nodes[-1] > hi:
-            # cut to the window: its edges become nodes (the exact states there)
-            piece_nodes, Z, U, Qp = _clip(dense, lo, hi, Qp)
-            if piece_nodes.size < 2 or piece_nodes[-1] <= piece_nodes[0]:
-                continue
-            dense = DenseStretch(ctx, config, branches, v_impacts, exact, piece_nodes, Z, U, observe)
-        out.append(StretchExtremes(dense, Qp))
-    return out
+    Z, U = stretch.z, stretch.u
+    dense = DenseStretch(ctx, config, branches, v_impacts, exact, nodes, Z, U, observe)
+    if t0 < lo or t1 > hi:
+        # cut to the window: its edges become nodes (the exact states there)
+        nodes, Z, U, QT = _clip(dense, lo, hi, QT)
+        if nodes.size < 2 or nodes[-1] <= nodes[0]:
+            return None
+        dense = DenseStretch(ctx, config, branches, v_impacts, exact, nodes, Z, U, observe)
+    return StretchExtremes(dense, QT)
 
 
-def _excess_bound(Q: np.ndarray) -> np.ndarray:
-    """Per observable, a bound of how far any step of a smooth piece rises above its larger
-    node: SAFETY/8·h²·|q̈| ≤ SAFETY/8·max|Δ²q| over the piece's uniform grid steps (every
-    step but the first and the last, which :func:`_screen_column` bounds one by one)."""
-    if Q.shape[0] == 2:
-        # one step and no node inside it: nothing bounds what happens between its ends (a
-        # short contact's force is zero at both and positive between): always refined
-        return np.full(Q.shape[1], np.inf)
-    if Q.shape[0] <= 4:
-        return np.zeros(Q.shape[1])
-    d2 = Q[3:-1] - 2.0 * Q[2:-2]
-    d2 += Q[1:-3]
-    return (SCREEN_SAFETY / 8.0) * np.max(np.abs(d2), axis=0)
-
-
-def _screen_column(nodes: np.ndarray, h: np.ndarray, q: np.ndarray, excess: float, tol: float):
-    """The steps of one observable q (times its sense: the maximum is screened) that may
-    hold a value beyond its largest node value, and the bound of its values between nodes.
-
-    Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
-    estimated at each node by the divided second difference of its neighbours (exact to
-    about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
-    :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
-    node value by more than ``tol``, or when it ends at that node (the maximum may sit just
-    beside it). The first and last steps (whose end node has no neighbour beyond it) take
-    the curvature of the node inside and half the slope across the step as well; a record
-    of one step (two events with no grid point between) has no bound and is always refined
-    (its span is none: a short contact's force is zero at both ends).
-
-    Only the steps that touch a node within ``excess`` (:func:`_excess_bound`) of the best
-    are bounded one by one: no other step can rise above it (issue 42: the nodes are
-    scanned three times for every observable at once, not thirty).
-
-    Returns
-    -------
-    (ndarray, float)
-        The candidate steps, ascending, and the bound of q over the record.
-    """
-    N = q.size
-    best = int(np.argmax(q))
-    q_best = float(q[best])
-    if N == 2:
-        return np.array([0]), np.inf  # see _excess_bound
-    near = np.flatnonzero(q > q_best - excess - tol)
-    rows = np.concatenate([near, [0, 1, N - 2, N - 1]])
-    steps = np.unique(np.concatenate([rows - 1, rows]))
-    steps = steps[(steps >= 0) & (steps < N - 1)]
-    k0, k1 = np.clip(steps, 1, N - 2), np.clip(steps + 1, 1, N - 2)  # a piece's end node: its neighbour's curvature
-
-    def curvature(k):
-        left, right = q[k] - q[k - 1], q[k + 1] - q[k]
-        hl, hr = h[k - 1], h[k]
-        return np.abs(right / hr - left / hl) * (2.0 / (hl + hr))
-
-    q0, q1 = q[steps], q[steps + 1]
-    local = (SCREEN_SAFETY / 8.0) * h[steps] ** 2 * np.maximum(curvature(k0), curvature(k1))
-    local = local + np.where((steps == 0) | (steps == N - 2), 0.5 * np.abs(q1 - q0), 0.0)
-    local = np.maximum(q0, q1) + local
-    chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
-    return steps[chosen], max(q_best, float(np.max(local)))
-
-
-def _clip(dense: DenseStretch, lo: float, hi: float, Q: np.ndarray):
+def _clip(dense: DenseStretch, lo: float, hi: float, QT: np.ndarray):
     """The stretch's nodes, states, inputs and observables inside [lo, hi], with the
-    window's edges as nodes where they fall between two (the exact states there)."""
+    window's edges as nodes where they fall between two (the exact states there); a node
+    pair of one time at either end (a break on the edge) keeps only its inner node."""
     nodes, Z, U = dense.nodes, dense.Z, dense.U
-    keep = (nodes >= lo) & (nodes <= hi)
-    ts, Zs, Us, Qs = [nodes[keep]], [Z[keep]], [U[keep]], [Q[keep]]
-    for edge in (lo, hi):
-        if nodes[0] < edge < nodes[-1] and not np.any(nodes == edge):
+    i0 = int(np.searchsorted(nodes, lo, side="left"))
+    i1 = int(np.searchsorted(nodes, hi, side="right"))
+    parts_t, parts_z, parts_u, parts_q = [nodes[i0:i1]], [Z[i0:i1]], [U[i0:i1]], [QT[:, i0:i1]]
+    for edge, where in ((lo, 0), (hi, 1)):
+        if nodes[0] < edge < nodes[-1] and not (i0 < i1 and nodes[i0 if where == 0 else i1 - 1] == edge):
             k = min(int(np.searchsorted(nodes, edge, side="right")) - 1, nodes.size - 2)
-            if nodes[k + 1] <= nodes[k]:
-                continue  # a break at the edge: its nodes are there already
             z_e, u_e = dense.states(np.array([k]), np.array([(edge - nodes[k]) / (nodes[k + 1] - nodes[k])]))
-            ts.append(np.array([edge]))
-            Zs.append(z_e[0])
-            Us.append(u_e[0])
-            Qs.append(dense.observe(dense.config, dense.branches, dense.v_impacts, z_e[0], u_e[0]))
-    t = np.concatenate(ts)
-    order = np.argsort(t, kind="stable")
-    return t[order], np.concatenate(Zs)[order], np.concatenate(Us)[order], np.concatenate(Qs)[order]
+            q_e = dense.observe(dense.config, dense.branches, dense.v_impacts, z_e[0], u_e[0]).T
+            for parts, value in ((parts_t, np.array([edge])), (parts_z, z_e[0]), (parts_u, u_e[0]), (parts_q, q_e)):
+                parts.insert(0 if where == 0 else len(parts), value)
+    t = np.concatenate(parts_t)
+    Z, U, Q = np.concatenate(parts_z), np.concatenate(parts_u), np.concatenate(parts_q, axis=1)
+    # a break on an edge: the node outside the window (its limit from beyond) goes
+    first, last = 0, t.size
+    if t.size > 2 and t[1] == t[0]:
+        first = 1
+    if t.size > 2 and t[-2] == t[-1]:
+        last = t.size - 1
+    return t[first:last], Z[first:last], U[first:last], np.ascontiguousarray(Q[:, first:last])

@@ -28,10 +28,11 @@ def advance_linear(ctx: EngineContext, state: State, config, z0, guards, t_stop:
     """Advance a linear configuration exactly from ``state`` until its first event or ``t_stop``.
 
     The cam's break times (segment joins, the inner kinks of a law) inside the stretch do
-    not end it (issue 42): each is a node pair — the state is continuous, the input's limits
-    from the left and from the right differ — at which the grid restarts as at a stretch's
-    start (no step carries the input across it; a guard that jumps below zero there fires
-    at that instant, one at its zero is lifted as just crossed). Between breaks, chunks of
+    not end it (issue 42): each is a node pair in the chunk that holds it — the state is
+    continuous, the input's limits from the left and from the right differ — joined by a
+    step of length zero, where the guard screen restarts as at a stretch's start (no step
+    carries the input across it; a guard that jumps below zero there fires at that
+    instant, one at its zero is lifted as just crossed: :func:`first_crossing`). Chunks of
     the grid are propagated by the cached step maps (modal recurrences), every guard is
     screened on the chunk's nodes with its exact rate, and the first crossing is located
     on the exact solution. Returns (the state at the end, the stretch with every node when
@@ -39,83 +40,76 @@ def advance_linear(ctx: EngineContext, state: State, config, z0, guards, t_stop:
     """
     maps = ctx.maps(config)
     h = ctx.h
-    t0 = state.t
     chunk = ctx._chunk
-    parts: list[tuple] = []  # (nodes, Z, U, last node kept) per chunk, for the record
-    breaks = ctx.breaks_between(t0, t_stop)
-    ends = [*breaks, t_stop]
-    z_start, t_start = z0, t0
-    restart = True  # the chunk starts the stretch or follows a break
-    for seg_end in ends:
-        while True:
-            # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
-            # sample's time (and the cam input there) is the same whatever the history.
-            k_end = math.floor((t_start - ctx.t_ref) / h + GRID_SNAP) + chunk
-            t_chunk_end = min(seg_end, ctx.t_ref + k_end * h)
-            at_break = t_chunk_end == seg_end and seg_end != t_stop
-            k0 = math.ceil((t_start - ctx.t_ref) / h - GRID_SNAP)
-            k1 = math.ceil((t_chunk_end - ctx.t_ref) / h - GRID_SNAP)
-            if k0 < k1 and ctx.t_ref + k0 * h <= t_start + TIME_EPS:
-                k0 += 1  # the start is that grid point: it is node 0 already
-            if k0 < k1 and ctx.t_ref + (k1 - 1) * h >= t_chunk_end - TIME_EPS:
-                k1 -= 1  # the end is that grid point: it is the last node
-            # Nodes: the start, the interior grid points, the end.
-            nodes = np.concatenate([[t_start], ctx.t_ref + np.arange(k0, k1) * h, [t_chunk_end]])
-            U = ctx.chunk_inputs(nodes, k0, k1)
-            steps = np.diff(nodes)
-            D = step_input_derivatives(U[:-1], U[1:], steps, h)
-            Z = np.empty((nodes.size, config.dim))
-            Z[0] = z_start
-            # A grid step's computed length differs from h by the rounding of t (an ulp of t
-            # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
-            # 7x slower; long runs, camsim.run.stream).
-            full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
-            # Steps are full except possibly the first and the last: runs of full steps go
-            # through the cached maps, the others through an exact map of their own length.
-            k = 0
-            for p in [*np.flatnonzero(~full).tolist(), steps.size]:
-                if p > k:
-                    Z[k + 1 : p + 1] = maps.propagate(Z[k], D[k:p])
-                if p < steps.size:
+    parts: list[tuple] = []  # (nodes, Z, U, kind) per chunk, for the record
+    z_start, t_start = z0, state.t
+    restart = True  # the chunk starts the stretch
+    while True:
+        # Chunk ends on a grid point computed from its index, t_ref + k·h, so that a
+        # sample's time (and the cam input there) is the same whatever the history.
+        k_end = math.floor((t_start - ctx.t_ref) / h + GRID_SNAP) + chunk
+        t_chunk_end = min(t_stop, ctx.t_ref + k_end * h)
+        nodes, U, pairs, at_break = ctx.chunk_nodes(t_start, t_chunk_end)
+        steps = np.diff(nodes)
+        D = step_input_derivatives(U[:-1], U[1:], steps, h)
+        Z = np.empty((nodes.size, config.dim))
+        Z[0] = z_start
+        # A grid step's computed length differs from h by the rounding of t (an ulp of t
+        # grows with it: beyond t ≈ 500 s, 1e-9·h alone sent every step through expm,
+        # 7x slower; long runs, camsim.run.stream).
+        full = np.abs(steps - h) <= max(1e-9 * h, 4.0 * float(np.spacing(abs(nodes[-1]))))
+        # Runs of full steps go through the cached maps, the others (a chunk's first and
+        # last, the two beside each break) through an exact map of their own length; a
+        # break's step of length zero carries the state over.
+        k = 0
+        for p in [*np.flatnonzero(~full).tolist(), steps.size]:
+            if p > k:
+                Z[k + 1 : p + 1] = maps.propagate(Z[k], D[k:p])
+            if p < steps.size:
+                if steps[p] > 0.0:
                     Z[p + 1] = exact_partial(config, Z[p], forcing_coefficients(config, D[p : p + 1])[0], steps[p])
-                k = p + 1
-            hit = first_crossing(ctx, config, guards, nodes, Z, U, D, restart)
-            if hit is not None:
-                ctx._chunk = 512  # events come in clusters: look ahead a little after one
-                t_event, z_event, guard, index = hit
-                ctx.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
-                end = ctx._state_from(config, z_event, t_event, state)
-                if record:
-                    parts.append((nodes[: index + 1], Z[: index + 1], U[: index + 1], _ALL))
-                    parts.append((np.array([t_event]), z_event[None, :], ctx.input_left(t_event)[None, :], _END))
-                return end, _full_stretch(ctx, state, config, parts) if record else None, guard
-            ctx.watch.linear_chunk(config, nodes, Z, U, D)
+                else:
+                    Z[p + 1] = Z[p]
+            k = p + 1
+        restarts = ([0] if restart else []) + [q + 1 for q in pairs]
+        hit = first_crossing(ctx, config, guards, nodes, Z, U, D, restarts)
+        if hit is not None:
+            ctx._chunk = 512  # events come in clusters: look ahead a little after one
+            t_event, z_event, guard, index = hit
+            ctx.watch.linear_chunk(config, nodes, Z, U, D, t_cut=t_event, z_cut=z_event, index=index)
+            end = ctx._state_from(config, z_event, t_event, state)
             if record:
-                parts.append((nodes, Z, U, _END if at_break else _CHUNK))
-            t_start, z_start = nodes[-1], Z[-1]
-            restart = False
-            if t_start >= seg_end - TIME_EPS:
-                break
-            chunk = min(chunk * 2, 16384)
-            ctx._chunk = chunk
-        restart = True
+                parts.append((nodes[: index + 1], Z[: index + 1], U[: index + 1], _ALL, pairs))
+                parts.append((np.array([t_event]), z_event[None, :], ctx.input_left(t_event)[None, :], _END, ()))
+            return end, _full_stretch(ctx, state, config, parts) if record else None, guard
+        ctx.watch.linear_chunk(config, nodes, Z, U, D)
+        if record:
+            # a chunk that ends on a break keeps its last node (the limit from the left);
+            # the next chunk's first node is the break's right node
+            parts.append((nodes, Z, U, _END if at_break else _CHUNK, pairs))
+        t_start, z_start = nodes[-1], Z[-1]
+        restart = at_break
+        if t_start >= t_stop - TIME_EPS:
+            break
+        chunk = min(chunk * 2, 16384)
+        ctx._chunk = chunk
     end = ctx._state_from(config, z_start, t_stop, state)
     if record:
-        parts.append((np.array([t_stop]), z_start[None, :], ctx.input_left(t_stop)[None, :], _END))
+        parts.append((np.array([t_stop]), z_start[None, :], ctx.input_left(t_stop)[None, :], _END, ()))
     return end, _full_stretch(ctx, state, config, parts) if record else None, None
 
 
 #: How a chunk's nodes enter a stretch's record (_full_stretch): all but its last (the next
-#: chunk's first); all (the nodes before an event); all, its last no sample (a break's left
-#: node, the stretch's end: the right node and the next stretch's start are those samples).
+#: chunk's first); all (the nodes before an event); all, its last no sample (the stretch's
+#: end: the next stretch's start is that sample).
 _CHUNK, _ALL, _END = 0, 1, 2
 
 
 def _full_stretch(ctx: EngineContext, state: State, config, parts) -> Stretch:
     """The stretch's record from its chunks (see :data:`_CHUNK`); the samples are the grid
-    points among the nodes."""
+    points among the nodes, a break's left node excepted (its right node is the sample)."""
     ts, zs, us, flags = [], [], [], []
-    for nodes, Z, U, kind in parts:
+    for nodes, Z, U, kind, pairs in parts:
         n = nodes.size - 1 if kind == _CHUNK else nodes.size
         ts.append(nodes[:n])
         zs.append(Z[:n])
@@ -123,6 +117,9 @@ def _full_stretch(ctx: EngineContext, state: State, config, parts) -> Stretch:
         f = np.ones(n, dtype=bool)
         if kind == _END and n:
             f[-1] = False
+        for q in pairs:
+            if q < n:
+                f[q] = False  # a break's left node
         flags.append(f)
     t = np.concatenate(ts)
     z = np.concatenate(zs)
@@ -132,8 +129,15 @@ def _full_stretch(ctx: EngineContext, state: State, config, parts) -> Stretch:
     return Stretch(state.branches, config, t, z, u, fn, dict(state.v_impacts), samples=samples, exact=True)
 
 
-def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chunk):
-    """Earliest guard crossing in the chunk: (t, z, guard, step index) or None."""
+def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, restarts):
+    """Earliest guard crossing in the chunk: (t, z, guard, step index) or None.
+
+    ``restarts`` are the nodes where the screen restarts as at a stretch's start: the
+    chunk's first when it starts the stretch, and a break's right node (the break's step,
+    of length zero, is never screened: the guards' jumps there are read at the restart).
+    At a restart a guard below −tol (and not leaving zero) fires at once; one at its zero
+    is the one just crossed, lifted until it has risen above its tolerance.
+    """
     if not guards:
         return None
     steps = np.diff(nodes)[:, None]
@@ -151,18 +155,23 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
     G = Z @ Cz + U @ Du + e
     Gd = Z @ Cz_d + U @ Du_d + e_d
     g0 = G[:-1].copy()
-    g1 = G[1:]
+    g1 = G[1:].copy()
+    n_steps = g0.shape[0]
     lift = None
-    if first_chunk:
+    now_at: dict[int, int] = {}  # restart node -> the guard that fires there at once
+    seg_of_restart = sorted(restarts)
+    bounds = seg_of_restart + [n_steps]
+    for r, r_next in zip(seg_of_restart, bounds[1:]):
         # A guard at its zero and leaving it on the valid side is the one just crossed (or
         # its mirror in the new branches: a released contact's lifted guard), whatever the
         # sign of its value there; state.leaving_zero.
-        leaving = leaving_zero(g0[0], Gd[0], tol)
-        now = np.flatnonzero((g0[0] < -tol) & ~leaving)
+        leaving = leaving_zero(G[r], Gd[r], tol)
+        now = np.flatnonzero((G[r] < -tol) & ~leaving)
         if now.size:
-            return nodes[0], Z[0], guards[int(now[0])], 0
-        just = (np.abs(g0[0]) <= tol) | leaving
-        if np.any(just):
+            now_at[r] = int(now[0])
+            continue
+        just = (np.abs(G[r]) <= tol) | leaving
+        if np.any(just) and r < n_steps:
             # The guard just crossed sits at its zero to rounding and may stay there for a
             # step or two (a rigid contact released with zero relative speed separates as
             # ½·a·t²: after a 1e-8 s step its gap is still −9e-19 m of rounding). Until it
@@ -170,24 +179,28 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
             # −tol (issue 34: a seat released, stuck and released again at one instant at
             # 200 kHz only; camsim.engine.span.dop853_span lifts such a guard for its whole
             # span, without the two limits below).
-            above = G[1:, just] > tol[just]
+            seg = slice(r, r_next)
+            above = G[r + 1 : r_next + 1, just] > tol[just]
             risen = np.where(above.any(axis=0), above.argmax(axis=0), above.shape[0])
-            lift = np.zeros_like(g0)
+            if lift is None:
+                lift = np.zeros_like(g0)
             # ... and only while it is not approaching: a step that ends with the guard
             # falling is a real return (a rigid bounce whose apex stays below the tolerance
             # lands after 2·v/a, as it would with no tolerance; lifted, it landed only at −tol,
             # and at a speed that no longer decayed: 38 bounces instead of 11 before sticking)
-            early = np.arange(g0.shape[0])[:, None] < risen[None, :]
-            lift[:, just] = np.where(early & (Gd[1:, just] >= 0.0), tol[just], 0.0)
-            g0 = g0 + lift
-            g1 = g1 + lift
-        g0[0, just] = np.maximum(g0[0, just], tol[just])  # just crossed: do not find it again
+            early = np.arange(r_next - r)[:, None] < risen[None, :]
+            lift[seg][:, just] = np.where(early & (Gd[r + 1 : r_next + 1, just] >= 0.0), tol[just], 0.0)
+            g0[seg] += lift[seg]
+            g1[seg] += lift[seg]
+        if r < n_steps:
+            g0[r, just] = np.maximum(g0[r, just], tol[just])  # just crossed: do not find it again
     d0 = Gd[:-1] * steps
     d1 = Gd[1:] * steps
-    crossing = (g1 <= 0.0) & (g0 > 0.0)
+    moving = steps[:, 0] > 0.0
+    crossing = (g1 <= 0.0) & (g0 > 0.0) & moving[:, None]
     # A cubic Hermite interpolant stays above min(g0, g1) − 4/27·(|d0| + |d1|): only
     # the steps where that bound is not positive can hide a dip below zero.
-    maybe = ~crossing & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
+    maybe = ~crossing & moving[:, None] & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
     dip = np.zeros_like(crossing)
     if np.any(maybe):
         k_idx, j_idx = np.nonzero(maybe)
@@ -205,10 +218,24 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
                 val = a0 + b0 * sig + c2 * sig**2 + c3 * sig**3
                 found |= ok & (val <= 0.0)
         dip[k_idx[found], j_idx[found]] = True
-    candidates = []
     hits = crossing | dip
+    restart_set = set(restarts)
+    seg_starts = sorted({0, *restarts})
+    for r, r_next in zip(seg_starts, [*seg_starts[1:], n_steps]):
+        if r in now_at:  # a guard below zero at a restart: the event is there, at once
+            return nodes[r], Z[r], guards[now_at[r]], r
+        best = _locate_in(ctx, config, guards, nodes, Z, D, steps, hits[r:r_next], r, lift, g0, g1, Gd, restart_set)
+        if best is not None:
+            return best
+    return None
+
+
+def _locate_in(ctx, config, guards, nodes, Z, D, steps, hits, offset, lift, g0, g1, Gd, restarts):
+    """The earliest located crossing among the screen's hits of one segment (steps
+    ``offset`` …): (t, z, guard, step) or None."""
+    candidates = []
     for j, guard in enumerate(guards):
-        for k in np.flatnonzero(hits[:, j])[:4]:  # the earliest few; false alarms are rare
+        for k in (np.flatnonzero(hits[:, j])[:4] + offset).tolist():  # the earliest few; false alarms are rare
             shift = float(lift[k, j]) if lift is not None else 0.0
             searched = guard if shift == 0.0 else lifted(guard, shift)
             candidates.append((nodes[k], int(k), searched, guard, (g0[k, j], g1[k, j], Gd[k, j], Gd[k + 1, j])))
@@ -224,7 +251,7 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, first_chu
         if best is not None and k != best[3]:
             break
         Ek = forcing_coefficients(config, D[k : k + 1])[0]
-        root = refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), first_chunk and k == 0, ends)
+        root = refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), k in restarts, ends)
         if root is not None:
             tau, z = root
             # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket; issue 25:

@@ -180,13 +180,22 @@ class CamForceWatch:
             g = G + FORCE_TOL
             steps = np.diff(nodes)
             g0, g1 = g[:-1], g[1:]
+            # a cam break is a step of length zero: F_c may jump there (s̈ does), and a drop
+            # below zero across it is a jump at that instant
+            moving = steps > 0.0
+            flagged = ~moving & (g0 > 0.0) & (g1 <= 0.0)
+            Gd = None
             if rate is not None:
                 Gd = (Z @ rate.Cz.T + U @ rate.Du.T + rate.e)[:, 0]
                 d0, d1 = Gd[:-1] * steps, Gd[1:] * steps
-                crossing = (g0 > 0.0) & (g1 <= 0.0)
-                maybe = ~crossing & (g0 > 0.0) & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
-                for k in np.flatnonzero(crossing | maybe).tolist():
+                crossing = (g0 > 0.0) & (g1 <= 0.0) & moving
+                maybe = ~crossing & moving & (g0 > 0.0) & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
+                flagged |= crossing | maybe
+            for k in np.flatnonzero(flagged).tolist():  # in time order
+                if moving[k]:
                     self._locate_linear(config, guard, value, nodes, Z, D, Gd, g, k, driven)
+                else:
+                    self._jump(float(nodes[k]), driven)
         self.last[driven] = (float(nodes[-1]), float(G[-1]))
 
     def _locate_linear(self, config, guard, value, nodes, Z, D, Gd, g, k, driven):

@@ -174,9 +174,10 @@ def fold_events_and_extremes(run: RunSetup, stretches: list[Stretch]) -> tuple[E
             k += 1
 
     for st in stretches:
-        for record in st.extremes or ():
-            ingest(record.t1 + 1e-12)
-            folder.add(record)
+        if st.extremes is None:
+            continue
+        ingest(st.extremes.t1 + 1e-12)
+        folder.add(st.extremes)
     ingest(np.inf)
     located = folder.finish() if folder is not None else None
     return events, located

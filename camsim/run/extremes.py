@@ -92,6 +92,15 @@ class Observables:
     def columns(self, x, v, a, U: np.ndarray, forces) -> np.ndarray:
         """The observables from the nodes' quantities (:func:`camsim.run.samples.node_quantities`)
         and inputs: (N, len(paths))."""
+        cols = self._columns(x, v, a, U, forces)
+        return np.column_stack(cols) if cols else np.zeros((x.shape[0], 0))
+
+    def rows(self, x, v, a, U: np.ndarray, forces) -> np.ndarray:
+        """:meth:`columns` transposed, one contiguous row per observable: (len(paths), N)."""
+        cols = self._columns(x, v, a, U, forces)
+        return np.stack(cols) if cols else np.zeros((0, x.shape[0]))
+
+    def _columns(self, x, v, a, U: np.ndarray, forces) -> list:
         run = self.run
         traces = derived_traces(run, x, v, a, U, forces)
         cols = [traces["masses"][name][q] for name in run.machine.node_names for q in MASS_QUANTITIES]
@@ -109,7 +118,7 @@ class Observables:
             from camsim.cam.design import camshaft_torque
 
             cols.append(camshaft_torque(traces["cam_contact_force"], U[:, 1], self.torque_speed))
-        return np.column_stack(cols) if cols else np.zeros((x.shape[0], 0))
+        return cols
 
     def _camshaft_columns(self, traces: dict, U: np.ndarray) -> list[np.ndarray]:
         """Each station's cam force, then the shaft's torque and each cam's (issue 38), by the
@@ -134,18 +143,18 @@ class Observables:
 
 
 def digest(run: RunSetup, st):
-    """One recorded stretch's located-extremes records (one per smooth piece,
-    :func:`camsim.engine.extremes.stretch_extremes`) and its output samples, from one
-    evaluation of its nodes' quantities: ``(records, samples or None)``
+    """One recorded stretch's located-extremes record
+    (:func:`camsim.engine.extremes.stretch_extremes`) and its output samples, from one
+    evaluation of its nodes' quantities: ``(record or None, samples or None)``
     (:func:`camsim.run.samples.stretch_samples`)."""
     from camsim.engine.extremes import stretch_extremes
     from camsim.run.samples import node_quantities, stretch_samples
 
     quantities = node_quantities(run, st)
-    record = []
+    record = None
     if run.observables is not None:
-        Q = run.observables.columns(*quantities[:3], st.u, quantities[3])
-        record = stretch_extremes(run.integrator, st, Q, run.observables, (run.t_rec, run.t_end))
+        QT = run.observables.rows(*quantities[:3], st.u, quantities[3])
+        record = stretch_extremes(run.integrator, st, QT, run.observables, (run.t_rec, run.t_end))
         st.extremes = record
     return record, stretch_samples(run, st, quantities)
 
@@ -329,16 +338,11 @@ class ExtremesFolder:
                 w.t_open = t_open
                 w.event.contact_duration = t_open - w.t_close
 
-    def add(self, records) -> None:
-        """Fold one stretch's records, a list or one (the run's extremes once :data:`BUFFER`
-        records are waiting, or at :meth:`finish`; the impact windows at once)."""
-        if records is None:
+    def add(self, record: StretchExtremes | None) -> None:
+        """Fold one stretch's record (the run's extremes once :data:`BUFFER` records are
+        waiting, or at :meth:`finish`; the impact windows at once)."""
+        if record is None:
             return
-        if isinstance(records, list):
-            for record in records:
-                self.add(record)
-            return
-        record = records
         self._waiting.append(record)
         if len(self._waiting) >= BUFFER:
             self._fold_waiting()
