@@ -112,6 +112,9 @@ class StretchExtremes:
         self._end_step[ends[ends > 0] - 1] = True
         self._end_step &= moving
         self._excess, self._d2 = _excess_bound(QT, moving, bool(np.any(single)))
+        # each piece's largest and smallest node value, every observable (n_obs, pieces)
+        self._piece_max = np.maximum.reduceat(QT, self._starts, axis=1)
+        self._piece_min = np.minimum.reduceat(QT, self._starts, axis=1)
         self.upper = self.node_max + self._excess
         self.lower = self.node_min - self._excess
         self._scale = np.maximum(np.abs(self.node_max), np.abs(self.node_min))
@@ -158,13 +161,15 @@ def _excess_bound(QT: np.ndarray, moving: np.ndarray, single: bool) -> tuple[np.
         return np.full(n_obs, np.inf), None
     if N <= 4:
         return np.zeros(n_obs), None
-    d2 = QT[:, 3:-1] - 2.0 * QT[:, 2:-2]
-    d2 += QT[:, 1:-3]  # interior nodes 2 … N − 3
+    d2 = QT[:, 3:-1] + QT[:, 1:-3]  # interior nodes 2 … N − 3
+    middle = QT[:, 2:-2]
+    d2 -= middle
+    d2 -= middle
     np.abs(d2, out=d2)
     if not np.all(moving):
         # a triplet that straddles a break is no second difference of a smooth q
         ok = moving[1:-2] & moving[2:-1] & moving[:-3] & moving[3:]
-        d2 *= ok[None, :]
+        d2[:, ~ok] = 0.0
     return (SCREEN_SAFETY / 8.0) * np.max(d2, axis=1), d2
 
 
@@ -300,9 +305,9 @@ def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
     candidate), piece by piece (see :func:`refine_requests`)."""
     i, rec, j, sense, tie, steps = request
     dense = rec._dense
-    q = sense * rec._QT[j]
+    qj = rec._QT[j]
     starts, ends = rec._starts, rec._piece_ends
-    piece_max = np.maximum.reduceat(q, starts)
+    piece_max = rec._piece_max[j] if sense > 0 else -rec._piece_min[j]
     top_nodes = float(np.max(piece_max))
     pid = np.searchsorted(starts, steps, side="right") - 1 if steps.size else np.zeros(0, dtype=int)
     pieces = sorted(set(np.flatnonzero(piece_max >= top_nodes - tie).tolist()) | set(pid.tolist()))
@@ -313,9 +318,9 @@ def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
     heights = []
     for p in pieces:
         a, b = int(starts[p]), int(ends[p]) + 1
-        seg = q[a:b]
+        seg = sense * qj[a:b]
         k = a + int(np.argmax(seg >= piece_max[p] - tie))  # the first node of the piece's best height
-        best = (float(q[k]), float(dense.nodes[k]))
+        best = (float(sense * qj[k]), float(dense.nodes[k]))
         if vals is not None:
             mine = np.flatnonzero(pid == p)
             for r in mine[np.argsort(times[mine], kind="stable")]:
@@ -407,12 +412,15 @@ def _clip(dense: DenseStretch, lo: float, hi: float, QT: np.ndarray):
             q_e = dense.observe(dense.config, dense.branches, dense.v_impacts, z_e[0], u_e[0]).T
             for parts, value in ((parts_t, np.array([edge])), (parts_z, z_e[0]), (parts_u, u_e[0]), (parts_q, q_e)):
                 parts.insert(0 if where == 0 else len(parts), value)
-    t = np.concatenate(parts_t)
-    Z, U, Q = np.concatenate(parts_z), np.concatenate(parts_u), np.concatenate(parts_q, axis=1)
+    if len(parts_t) == 1:  # no edge node added: views, no copies
+        t, Z, U, Q = parts_t[0], parts_z[0], parts_u[0], parts_q[0]
+    else:
+        t = np.concatenate(parts_t)
+        Z, U, Q = np.concatenate(parts_z), np.concatenate(parts_u), np.concatenate(parts_q, axis=1)
     # a break on an edge: the node outside the window (its limit from beyond) goes
     first, last = 0, t.size
     if t.size > 2 and t[1] == t[0]:
         first = 1
     if t.size > 2 and t[-2] == t[-1]:
         last = t.size - 1
-    return t[first:last], Z[first:last], U[first:last], np.ascontiguousarray(Q[:, first:last])
+    return t[first:last], Z[first:last], U[first:last], Q[:, first:last]

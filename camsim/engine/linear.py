@@ -154,8 +154,10 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, restarts)
     _, Cz, Du, e, Cz_d, Du_d, e_d, tol = ctx._stacked
     G = Z @ Cz + U @ Du + e
     Gd = Z @ Cz_d + U @ Du_d + e_d
-    g0 = G[:-1].copy()
-    g1 = G[1:].copy()
+    g0 = G[:-1]
+    g1 = G[1:]
+    if restarts:
+        g0, g1 = g0.copy(), g1.copy()  # the restarts raise some of them
     n_steps = g0.shape[0]
     lift = None
     now_at: dict[int, int] = {}  # restart node -> the guard that fires there at once
@@ -194,31 +196,7 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, restarts)
             g1[seg] += lift[seg]
         if r < n_steps:
             g0[r, just] = np.maximum(g0[r, just], tol[just])  # just crossed: do not find it again
-    d0 = Gd[:-1] * steps
-    d1 = Gd[1:] * steps
-    moving = steps[:, 0] > 0.0
-    crossing = (g1 <= 0.0) & (g0 > 0.0) & moving[:, None]
-    # A cubic Hermite interpolant stays above min(g0, g1) − 4/27·(|d0| + |d1|): only
-    # the steps where that bound is not positive can hide a dip below zero.
-    maybe = ~crossing & moving[:, None] & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
-    dip = np.zeros_like(crossing)
-    if np.any(maybe):
-        k_idx, j_idx = np.nonzero(maybe)
-        a0, a1, b0, b1 = g0[k_idx, j_idx], g1[k_idx, j_idx], d0[k_idx, j_idx], d1[k_idx, j_idx]
-        c2 = 3 * (a1 - a0) - 2 * b0 - b1
-        c3 = 2 * (a0 - a1) + b0 + b1
-        qa, qb, qc = 3 * c3, 2 * c2, b0
-        disc = qb * qb - 4 * qa * qc
-        found = np.zeros(k_idx.size, dtype=bool)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            sq = np.sqrt(np.maximum(disc, 0.0))
-            for sign in (-1.0, 1.0):
-                sig = np.where(np.abs(qa) > 1e-300, (-qb + sign * sq) / (2 * qa), -qc / qb)
-                ok = (disc >= 0) & (sig > 0) & (sig < 1) & np.isfinite(sig)
-                val = a0 + b0 * sig + c2 * sig**2 + c3 * sig**3
-                found |= ok & (val <= 0.0)
-        dip[k_idx[found], j_idx[found]] = True
-    hits = crossing | dip
+    hits = screen_steps(g0, g1, Gd, steps[:, 0])
     restart_set = set(restarts)
     seg_starts = sorted({0, *restarts})
     for r, r_next in zip(seg_starts, [*seg_starts[1:], n_steps]):
@@ -228,6 +206,47 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, restarts)
         if best is not None:
             return best
     return None
+
+
+def screen_steps(g0: np.ndarray, g1: np.ndarray, Gd: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """The steps where guards may reach zero: (N − 1, n_guards) flags.
+
+    ``g0``, ``g1`` are each guard's values at the steps' starts and ends, ``Gd`` its exact
+    rates at every node, ``steps`` the step lengths (a break's, zero, is never flagged). A
+    cubic Hermite interpolant stays above min(g0, g1) − 4/27·(|ġ0| + |ġ1|)·h: only the steps
+    where that bound is not positive can hold a crossing (g0 > 0 ≥ g1) or hide a dip below
+    zero, and only those are looked at further (a sign change, or the cubic's interior
+    minimum at or below zero).
+    """
+    rates = np.abs(Gd)
+    reach = rates[:-1] + rates[1:]
+    reach *= ((4.0 / 27.0) * steps)[:, None]
+    low = np.minimum(g0, g1)
+    low -= reach
+    maybe = low <= 0.0
+    maybe &= (steps > 0.0)[:, None]
+    hits = np.zeros(maybe.shape, dtype=bool)
+    if not maybe.any():
+        return hits
+    k_idx, j_idx = np.nonzero(maybe)
+    h = steps[k_idx]
+    a0, a1 = g0[k_idx, j_idx], g1[k_idx, j_idx]
+    b0, b1 = Gd[k_idx, j_idx] * h, Gd[k_idx + 1, j_idx] * h
+    crossing = (a1 <= 0.0) & (a0 > 0.0)
+    c2 = 3 * (a1 - a0) - 2 * b0 - b1
+    c3 = 2 * (a0 - a1) + b0 + b1
+    qa, qb, qc = 3 * c3, 2 * c2, b0
+    disc = qb * qb - 4 * qa * qc
+    found = crossing.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        for sign in (-1.0, 1.0):
+            sig = np.where(np.abs(qa) > 1e-300, (-qb + sign * sq) / (2 * qa), -qc / qb)
+            ok = (disc >= 0) & (sig > 0) & (sig < 1) & np.isfinite(sig)
+            val = a0 + b0 * sig + c2 * sig**2 + c3 * sig**3
+            found |= ok & (val <= 0.0)
+    hits[k_idx[found], j_idx[found]] = True
+    return hits
 
 
 def _locate_in(ctx, config, guards, nodes, Z, D, steps, hits, offset, lift, g0, g1, Gd, restarts):

@@ -27,7 +27,7 @@ from scipy.linalg.lapack import dgebal as _dgebal
 
 from camsim.elements.affine import N_INPUT, n_cams
 from camsim.model.assembly import Configuration
-from camsim.engine.recurrence import linear_recurrence
+from camsim.engine.recurrence import linear_recurrences
 
 #: Degree of the per-step Hermite representation of the cam input.
 HERMITE_DEGREE = 7
@@ -379,9 +379,7 @@ class StepMaps:
             keep = self.keep
             gm = g @ self.Vinv[keep].T  # (K, modes kept) modal forcing
             w0 = self.Vinv[keep] @ z0
-            W = np.empty((K, keep.size), dtype=complex)
-            for col, i in enumerate(keep):
-                W[:, col] = linear_recurrence(self.mu[i], gm[:, col], w0[col])
+            W = linear_recurrences(self.mu[keep], gm, w0)  # every mode at once (issue 42)
             return np.real(W @ (self.V[:, keep] * self.weights[keep]).T)
         out = np.empty((K, m))
         z = z0

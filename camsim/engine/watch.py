@@ -187,10 +187,10 @@ class CamForceWatch:
             Gd = None
             if rate is not None:
                 Gd = (Z @ rate.Cz.T + U @ rate.Du.T + rate.e)[:, 0]
-                d0, d1 = Gd[:-1] * steps, Gd[1:] * steps
-                crossing = (g0 > 0.0) & (g1 <= 0.0) & moving
-                maybe = ~crossing & moving & (g0 > 0.0) & (np.minimum(g0, g1) - (4.0 / 27.0) * (np.abs(d0) + np.abs(d1)) <= 0.0)
-                flagged |= crossing | maybe
+                # a crossing, or a step whose cubic bound reaches zero (engine.linear.screen_steps)
+                rates = np.abs(Gd)
+                low = np.minimum(g0, g1) - (4.0 / 27.0) * steps * (rates[:-1] + rates[1:])
+                flagged |= moving & (g0 > 0.0) & (low <= 0.0)
             for k in np.flatnonzero(flagged).tolist():  # in time order
                 if moving[k]:
                     self._locate_linear(config, guard, value, nodes, Z, D, Gd, g, k, driven)

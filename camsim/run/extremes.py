@@ -178,26 +178,9 @@ def magnitudes(records) -> np.ndarray:
     return np.max(np.abs([(r.node_max, r.node_min) for r in records]), axis=(0, 1))
 
 
-def fold_best(records, j: int, sense: int, heights: list[tuple[float, float]] | None,
-              scale: float) -> list[tuple[float, float]]:
-    """The located maximum (sense +1) or minimum (−1) of observable ``j`` over ``records``
-    and ``heights`` found before (:func:`fold`, one query)."""
-    scales = np.zeros(int(j) + 1)
-    scales[j] = scale
-    return fold(records, [(j, sense)], {(j, sense): heights or []}, scales)[(j, sense)]
-
-
 def fold(records, queries, before: dict, scale: np.ndarray) -> dict:
     """Located maxima (sense +1) and minima (−1) of observables over ``records`` and the
-    heights found before.
-
-    Values within the tie (:data:`~camsim.engine.extremes.TIE` of ``scale[j]``, the
-    observable's magnitude over these records and those before) of the best are one height,
-    of which :func:`earliest` is the one reported. A record is refined only where it can
-    reach that height: its bound (a loose one first, known without a screen; then its
-    screening bound) must come within the tie of the best node value there is. Every
-    record's refinement for every query is then one batch
-    (:func:`camsim.engine.extremes.refine_requests`).
+    heights found before (:func:`fold_jobs`, one job).
 
     Parameters
     ----------
@@ -214,39 +197,58 @@ def fold(records, queries, before: dict, scale: np.ndarray) -> dict:
     dict
         (observable, sense) → the heights within the tie of the best (value, time).
     """
+    return fold_jobs([(records, queries, before, scale)])[0]
+
+
+def fold_jobs(jobs) -> list[dict]:
+    """Several folds (``(records, queries, before, scale)`` each, as :func:`fold`) with one
+    batched refinement for all of them.
+
+    Values within the tie (:data:`~camsim.engine.extremes.TIE` of ``scale[j]``, the
+    observable's magnitude over these records and those before) of the best are one height,
+    of which :func:`earliest` is the one reported. A record is refined only where it can
+    reach that height: its bound (a loose one first, known without a screen; then its
+    screening bound) must come within the tie of the best node value there is. Every
+    record's refinement for every query of every job is one batch
+    (:func:`camsim.engine.extremes.refine_requests`): the run's extremes and the peaks of
+    the impacts that ended meanwhile.
+    """
     requests, owner = [], []
-    if records:
+    for n, (records, queries, before, scale) in enumerate(jobs):
+        if not records:
+            continue
         node_max = np.array([r.node_max for r in records])
         node_min = np.array([r.node_min for r in records])
         upper = np.array([r.upper for r in records])
         lower = np.array([r.lower for r in records])
-    for j, sense in queries:
-        tie = TIE * float(scale[j])
-        prior = [sense * v for v, _ in before.get((j, sense)) or []]
-        if not records:
-            continue
-        nodes = node_max[:, j] if sense > 0 else -node_min[:, j]
-        loose = upper[:, j] if sense > 0 else -lower[:, j]
-        best = max(float(np.max(nodes)), max(prior, default=-np.inf))
-        for k in np.flatnonzero(loose >= best - tie).tolist():
-            r = records[k]
-            if sense * r.bound(j, sense) >= best - tie:
-                requests.append((r, j, sense, tie))
-                owner.append((j, sense))
+        for j, sense in queries:
+            tie = TIE * float(scale[j])
+            prior = [sense * v for v, _ in before.get((j, sense)) or []]
+            nodes = node_max[:, j] if sense > 0 else -node_min[:, j]
+            loose = upper[:, j] if sense > 0 else -lower[:, j]
+            best = max(float(np.max(nodes)), max(prior, default=-np.inf))
+            for k in np.flatnonzero(loose >= best - tie).tolist():
+                r = records[k]
+                if sense * r.bound(j, sense) >= best - tie:
+                    requests.append((r, j, sense, tie))
+                    owner.append((n, j, sense))
     from camsim.engine.extremes import refine_requests
 
     found: dict = {}
     for key, value in zip(owner, refine_requests(requests)):
         found.setdefault(key, []).append(value)
-    out = {}
-    for j, sense in queries:
-        tie = TIE * float(scale[j])
-        heights = list(before.get((j, sense)) or []) + found.get((j, sense), [])
-        if heights:
-            top = max(sense * v for v, _ in heights)
-            heights = [(v, t) for v, t in heights if sense * v >= top - tie]
-        out[(j, sense)] = heights
-    return out
+    results = []
+    for n, (records, queries, before, scale) in enumerate(jobs):
+        out = {}
+        for j, sense in queries:
+            tie = TIE * float(scale[j])
+            heights = list(before.get((j, sense)) or []) + found.get((n, j, sense), [])
+            if heights:
+                top = max(sense * v for v, _ in heights)
+                heights = [(v, t) for v, t in heights if sense * v >= top - tie]
+            out[(j, sense)] = heights
+        results.append(out)
+    return results
 
 
 def earliest(heights: list[tuple[float, float]]) -> tuple[float, float]:
@@ -268,12 +270,20 @@ class _Window:
             return
         self.records.append(record)
 
-    def finish(self, t_rec: float) -> None:
+    def job(self):
+        """The fold of its records (:func:`fold_jobs`), or None without a record."""
+        if not self.records:
+            return None
+        return self.records, [(self.column, 1), (self.column, -1)], {}, magnitudes(self.records)
+
+    def finish(self, t_rec: float, found: dict | None = None) -> None:
         """Set the event's located peak force and its instant (the element's own measure of
-        an impact's force: :meth:`~camsim.elements.base.Element.impact_force`)."""
+        an impact's force: :meth:`~camsim.elements.base.Element.impact_force`), from its
+        fold's result ``found`` (folded here when not given)."""
         if not self.records:
             return
-        found = fold(self.records, [(self.column, 1), (self.column, -1)], {}, magnitudes(self.records))
+        if found is None:
+            found = fold(*self.job())
         tops, bottoms = found[(self.column, 1)], found[(self.column, -1)]
         self.records = []
         if not tops or not bottoms:
@@ -309,6 +319,7 @@ class ExtremesFolder:
         self.best: dict[int, list[list[tuple[float, float]]]] = {1: [[] for _ in range(n)], -1: [[] for _ in range(n)]}
         self.scale = np.zeros(n)  # each observable's largest magnitude so far
         self.windows: list[_Window] = []
+        self._closed: list[_Window] = []  # windows whose contact ended, folded with the run's next batch
         self._waiting: list[StretchExtremes] = []
 
     def open_impact(self, event, element, t_close: float) -> None:
@@ -324,7 +335,7 @@ class ExtremesFolder:
         still = []
         for w in self.windows:
             if w.element.name == element.name:
-                w.finish(self.t_rec)
+                self._closed.append(w)
             else:
                 still.append(w)
         self.windows = [*still, _Window(event, element, column, t_close)]
@@ -344,36 +355,49 @@ class ExtremesFolder:
         if record is None:
             return
         self._waiting.append(record)
-        if len(self._waiting) >= BUFFER:
-            self._fold_waiting()
         still = []
         for w in self.windows:
             w.add(record)
             if record.t1 >= w.t_open - 1e-12:
-                w.finish(self.t_rec)
+                self._closed.append(w)
             else:
                 still.append(w)
         self.windows = still
+        if len(self._waiting) >= BUFFER:
+            self._fold_waiting()
 
     def _fold_waiting(self) -> None:
-        """The waiting records into the run's extremes (:func:`fold`)."""
+        """The waiting records into the run's extremes, and the impact windows closed
+        meanwhile into their peaks: one batch (:func:`fold_jobs`)."""
         records, self._waiting = self._waiting, []
-        if not records:
+        closed, self._closed = self._closed, []
+        jobs, windows = [], []
+        if records:
+            self.scale = np.maximum(self.scale, magnitudes(records))
+            n = len(self.best[1])
+            queries = [(j, sense) for sense in (1, -1) for j in range(n)]
+            jobs.append((records, queries, {(j, sense): self.best[sense][j] for j, sense in queries}, self.scale))
+        for w in closed:
+            job = w.job()
+            if job is not None:
+                jobs.append(job)
+                windows.append(w)
+        if not jobs:
             return
-        self.scale = np.maximum(self.scale, magnitudes(records))
-        n = len(self.best[1])
-        queries = [(j, sense) for sense in (1, -1) for j in range(n)]
-        found = fold(records, queries, {(j, sense): self.best[sense][j] for j, sense in queries}, self.scale)
-        for j, sense in queries:
-            self.best[sense][j] = found[(j, sense)]
+        results = fold_jobs(jobs)
+        if records:
+            found = results.pop(0)
+            for j, sense in queries:
+                self.best[sense][j] = found[(j, sense)]
+        for w, found in zip(windows, results):
+            w.finish(self.t_rec, found)
 
     def finish(self) -> dict[str, dict[str, Extreme]]:
         """The run's located extremes: path → {"max": Extreme, "min": Extreme} (recorded clock);
         windows still open (the contact outlasts the record) are closed at its end."""
-        self._fold_waiting()
-        for w in self.windows:
-            w.finish(self.t_rec)
+        self._closed.extend(self.windows)
         self.windows = []
+        self._fold_waiting()
         out = {}
         for j, path in enumerate(self.observables.paths):
             if not self.best[1][j] or not self.best[-1][j]:

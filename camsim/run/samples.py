@@ -76,10 +76,31 @@ def sample_rows(run: RunSetup, st: Stretch) -> np.ndarray:
     """The nodes of a stretch that are output samples: its samples on the output grid, up
     to the end of the record."""
     rows = np.arange(st.t.size) if st.samples is None else np.flatnonzero(st.samples)
+    integ = run.integrator
+    if rows.size and integ is not None and integ.t_ref == run.t_rec and abs(integ.h - run.h_out) <= 1e-12 * run.h_out:
+        # the grid is the output grid (one step per sample): every sample is one, to the end
+        stop = int(np.searchsorted(st.t[rows], run.t_end + 1e-9 * run.h_out, side="right"))
+        return rows[:stop]
     t = st.t[rows]
     k = (t - run.t_rec) / run.h_out
     keep = (np.abs(k - np.round(k)) < 1e-6) & (t <= run.t_end + 1e-9 * run.h_out)
     return rows[keep]
+
+
+def take_rows(arr: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``arr[rows]`` for ascending rows, by contiguous runs where there are few (a stretch's
+    samples are all its nodes but the few at its breaks and its end: copies of slices, not
+    a gather)."""
+    if rows.size < 64:
+        return arr[rows]
+    cuts = np.flatnonzero(np.diff(rows) != 1) + 1
+    if cuts.size > 32:
+        return arr[rows]
+    starts = np.concatenate([[0], cuts])
+    ends = np.concatenate([cuts, [rows.size]])
+    if starts.size == 1:
+        return arr[rows[0] : rows[-1] + 1]
+    return np.concatenate([arr[rows[a] : rows[b - 1] + 1] for a, b in zip(starts.tolist(), ends.tolist())])
 
 
 def stretch_samples(run: RunSetup, st: Stretch, quantities=None):
@@ -96,8 +117,8 @@ def stretch_samples(run: RunSetup, st: Stretch, quantities=None):
     if quantities is None:
         x, v, a, forces = node_quantities(run, st, rows)
     else:
-        x, v, a, forces = (q[rows] for q in quantities)
-    return st.t[rows], x, v, a, st.u[rows], forces
+        x, v, a, forces = (take_rows(q, rows) for q in quantities)
+    return take_rows(st.t, rows), x, v, a, take_rows(st.u, rows), forces
 
 
 def derived_traces(run: RunSetup, x, v, a, u, forces) -> dict:
