@@ -338,6 +338,13 @@ class Element:
         """Guards keeping the branch valid while > 0: (kind, Affine, tolerance)."""
         return []
 
+    def guard_key(self, branch: Branch, ctx) -> Any:
+        """What, besides the configuration, this element's :meth:`guards` depend on: a
+        hashable (the engine keeps the guards of each configuration and key, issue 42). The
+        default is the element's impact speed (a power law's damping reads it); an element
+        whose guards read the state (``ctx.now``) says what they read of it."""
+        return ctx.v_impact
+
     def outcome(self, kind: GuardKind, rate: float) -> Outcome:
         """What crossing a guard of ``kind`` does; ``rate`` is δ̇ = −ḋ at the crossing [m/s]."""
         return Outcome()

@@ -89,6 +89,12 @@ class Contact(Element):
             return [*self.lifted_guards(ctx), (GuardKind.UNLIFT, delta, LENGTH_TOL)]
         return self.closed_guards(branch, ctx)
 
+    def guard_key(self, branch, ctx):
+        if branch == Branch.OPEN:  # approaching, or lifted off while penetrating
+            delta, _ = ctx.penetration()
+            return ctx.v_impact, ctx.now(delta) <= LENGTH_TOL
+        return ctx.v_impact
+
     @staticmethod
     def _approach_guard(delta):
         from camsim.elements.affine import Affine

@@ -200,6 +200,13 @@ class Lash(Element):
         # Open: each side's guards as an open contact's (approach, or lifted and closing again).
         return [*self.contact.guards(Branch.OPEN, low), *self.contact.guards(Branch.OPEN, high)]
 
+    def guard_key(self, branch, ctx):
+        low, high = self._sides(ctx)
+        sign = self.side_of(branch)
+        if sign:
+            return self.contact.guard_key(self.contact.closed_branch, low if sign > 0 else high)
+        return self.contact.guard_key(Branch.OPEN, low), self.contact.guard_key(Branch.OPEN, high)
+
     def outcome_at(self, kind, rate, d):
         # rate = −ḋ: the lower side's δ̇; the upper side's is −rate.
         if kind == GuardKind.UNLIFT:

@@ -105,6 +105,7 @@ class EngineContext:
         self._join_array: list[float] | None = None  # sorted cam joins of the current run
         self._joins: set[float] = set()  # cam segment joins of the current run
         self._stacked = None  # the current stretch's guards stacked into matrices
+        self._guard_cache: dict = {}  # (branches, guard keys) -> the guards (EngineContext.guards)
 
     # ------------------------------------------------------------------ inputs
     def inputs(self, t: np.ndarray) -> np.ndarray:
@@ -278,17 +279,41 @@ class EngineContext:
         return hit
 
     def guards(self, state: State, config: Configuration) -> list[Guard]:
-        """Guards of the configuration at ``state``, as each element declares them."""
+        """Guards of the configuration at ``state``, as each element declares them; kept per
+        configuration and what else they read (:meth:`~camsim.elements.base.Element.guard_key`),
+        so a configuration entered again reuses its guards and their stacked matrices."""
         model = self.model
+        contexts = [_GuardContext(self, config, state, i) for i in model.switching]
+        key = (config.branches, tuple(model.elements[i].guard_key(state.branches[pos], c)
+                                      for pos, (i, c) in enumerate(zip(model.switching, contexts))))
+        hit = self._guard_cache.get(key)
+        if hit is not None:
+            return hit
         out: list[Guard] = []
-        for pos, i in enumerate(model.switching):
-            context = _GuardContext(self, config, state, i)
+        for pos, (i, context) in enumerate(zip(model.switching, contexts)):
             for kind, value, tol in model.elements[i].guards(state.branches[pos], context):
                 out.append(Guard(i, kind, value, tol))
         if config.linear:
             for guard in out:
                 guard.rate = self._rate(config, guard.value)
+        if len(self._guard_cache) > 4096:
+            self._guard_cache.clear()
+        self._guard_cache[key] = out
         return out
+
+    def stacked_guards(self, guards: list[Guard]):
+        """Every guard's value and rate as one matrix each: (Cz (m, g), Du (4·c, g), e (g,),
+        the rate's, tolerances (g,)); kept with the guard list (linear configurations)."""
+        if self._stacked is None or self._stacked[0] is not guards:
+            self._stacked = (
+                guards,
+                np.vstack([g.value.Cz for g in guards]).T, np.vstack([g.value.Du for g in guards]).T,
+                np.concatenate([g.value.e for g in guards]),
+                np.vstack([g.rate.Cz for g in guards]).T, np.vstack([g.rate.Du for g in guards]).T,
+                np.concatenate([g.rate.e for g in guards]),
+                np.array([g.tol for g in guards]),
+            )
+        return self._stacked[1:]
 
     @staticmethod
     def guard_rate(config: Configuration, guard: Guard, z: np.ndarray, u: np.ndarray, fn: np.ndarray) -> float:

@@ -119,6 +119,9 @@ class StretchExtremes:
         self.lower = self.node_min - self._excess
         self._scale = np.maximum(np.abs(self.node_max), np.abs(self.node_min))
         self._screened: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
+        self._forced_cache = None
+        self._near_cache: dict[int, list[np.ndarray]] = {}
+        self._kmax, self._kmin = kmax, kmin
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
         self._refined: dict[tuple[int, int, float], tuple[float, float]] = {}
 
@@ -136,8 +139,35 @@ class StretchExtremes:
         key = (j, sense)
         hit = self._screened.get(key)
         if hit is None:
-            hit = self._screened[key] = _screen_column(self, j, sense * self._QT[j], float(self._excess[j]),
+            hit = self._screened[key] = _screen_column(self, j, sense, float(self._excess[j]),
                                                        1e-13 * float(self._scale[j]))
+        return hit
+
+    def _near(self, sense: int) -> list[np.ndarray]:
+        """Per observable, the nodes within its excess bound of its best node value (sense +1:
+        the largest, −1: the smallest), for every observable in one pass; cached."""
+        hit = self._near_cache.get(sense)
+        if hit is None:
+            tol = 1e-13 * self._scale
+            if sense > 0:
+                mask = self._QT > (self.node_max - self._excess - tol)[:, None]
+            else:
+                mask = self._QT < (self.node_min + self._excess + tol)[:, None]
+            js, rows = np.nonzero(mask)
+            cuts = np.searchsorted(js, np.arange(1, self._QT.shape[0]))
+            hit = self._near_cache[sense] = np.split(rows, cuts)
+        return hit
+
+    def _forced_bounds(self):
+        """(steps, upper, lower): the steps next to each piece's ends and, for every
+        observable at once, the largest and smallest value each may reach (n_obs, steps);
+        computed once per record."""
+        hit = self._forced_cache
+        if hit is None:
+            steps = self._forced
+            exc = _step_excess(self, self._QT, steps)
+            q0, q1 = self._QT[:, steps], self._QT[:, steps + 1]
+            hit = self._forced_cache = (steps, np.maximum(q0, q1) + exc, np.minimum(q0, q1) - exc)
         return hit
 
     def extreme(self, j: int, sense: int, tie: float = 0.0) -> tuple[float, float]:
@@ -178,7 +208,7 @@ def _excess_bound(QT: np.ndarray, moving: np.ndarray, single: bool) -> tuple[np.
 NEAR_MAX = 256
 
 
-def _screen_column(rec: StretchExtremes, j: int, q: np.ndarray, excess: float, tol: float):
+def _screen_column(rec: StretchExtremes, j: int, sense: int, excess: float, tol: float):
     """The steps of one observable q (times its sense: the maximum is screened) that may
     hold a value beyond its largest node value, and the bound of its values between nodes.
 
@@ -193,51 +223,69 @@ def _screen_column(rec: StretchExtremes, j: int, q: np.ndarray, excess: float, t
     zero) is never one: both its nodes are nodes.
 
     Only the steps that touch a node within ``excess`` (:func:`_excess_bound`) of the best,
-    and those next to a piece's ends, are bounded one by one: no other step can rise above it.
+    and those next to a piece's ends (:meth:`StretchExtremes._forced_bounds`, every
+    observable at once), are bounded one by one: no other step can rise above it.
 
     Returns
     -------
     (ndarray, float)
-        The candidate steps, ascending, and the bound of q over the record.
+        The candidate steps, ascending, and the bound of sense·q over the record.
     """
-    dense = rec._dense
-    h = dense.h
-    N = q.size
-    best = int(np.argmax(q))
-    q_best = float(q[best])
-    near = np.flatnonzero(q > q_best - excess - tol)
+    col = rec._QT[j]
+    N = col.size
+    best = int(rec._kmax[j] if sense > 0 else rec._kmin[j])
+    q_best = sense * float(col[best])
+    near = rec._near(sense)[j]
+    forced, hi, lo = rec._forced_bounds()
+    f_local = hi[j] if sense > 0 else -lo[j]
+    parts_steps, parts_local = [forced], [f_local]
     full = None
     if near.size > NEAR_MAX and rec._d2 is not None:
         # a plateau: every interior step's bound from the second differences at once
+        q = sense * col
         ad = rec._d2[j]  # |Δ²q| at nodes 2 … N − 3 (zero near a break: those steps are forced)
         up = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
         full = (np.flatnonzero(up > q_best + tol) + 2, float(np.max(up)) if up.size else -np.inf)
         near = np.zeros(0, dtype=int)
-    steps = np.unique(np.concatenate([near - 1, near, rec._forced, [best - 1, best]]))
-    steps = steps[(steps >= 0) & (steps < N - 1)]
-    steps = steps[h[steps] > 0.0]
-    if not steps.size:
-        return (steps, q_best) if full is None else (full[0], max(q_best, full[1]))
+    extra = np.setdiff1d(np.concatenate([near - 1, near, [best - 1, best]]), forced, assume_unique=False)
+    extra = extra[(extra >= 0) & (extra < N - 1)]
+    extra = extra[rec._dense.h[extra] > 0.0]
+    if extra.size:
+        exc = _step_excess(rec, col, extra)
+        q0, q1 = sense * col[extra], sense * col[extra + 1]
+        parts_steps.append(extra)
+        parts_local.append(np.maximum(q0, q1) + exc)
+    steps = np.concatenate(parts_steps)
+    local = np.concatenate(parts_local)
+    chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
+    limit = max(q_best, float(np.max(local)) if local.size else -np.inf)
+    cands = np.sort(steps[chosen])
+    if full is None:
+        return cands, limit
+    return np.union1d(cands, full[0]), max(limit, full[1])
+
+
+def _step_excess(rec: StretchExtremes, Q: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """How far q may rise above the larger node of each step (independent of the sense):
+    SAFETY/8·h²·|q̈| at the step's ends (a piece's end node takes its neighbour's), plus half
+    the slope across a piece's first or last step; infinite for a piece of one step. ``Q``
+    is one observable's node values (N,) or every observable's (n_obs, N)."""
+    h = rec._dense.h
+    N = Q.shape[-1]
     a, b = rec._cnode[steps], rec._cnode[steps + 1]
     unbounded = (a < 0) | (b < 0)
 
     def curvature(k):
-        k = np.where(k < 0, 1, k)
-        k = np.clip(k, 1, N - 2)
-        left, right = q[k] - q[k - 1], q[k + 1] - q[k]
+        k = np.clip(np.where(k < 0, 1, k), 1, N - 2)
+        left, right = Q[..., k] - Q[..., k - 1], Q[..., k + 1] - Q[..., k]
         hl, hr = h[k - 1], h[k]
         with np.errstate(divide="ignore", invalid="ignore"):
             out = np.abs(right / hr - left / hl) * (2.0 / (hl + hr))
         return np.where(np.isfinite(out), out, 0.0)
 
-    q0, q1 = q[steps], q[steps + 1]
-    local = (SCREEN_SAFETY / 8.0) * h[steps] ** 2 * np.maximum(curvature(a), curvature(b))
-    local = local + np.where(rec._end_step[steps], 0.5 * np.abs(q1 - q0), 0.0)
-    local = np.where(unbounded, np.inf, np.maximum(q0, q1) + local)
-    chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
-    if full is None:
-        return steps[chosen], max(q_best, float(np.max(local)))
-    return np.union1d(steps[chosen], full[0]), max(q_best, float(np.max(local)), full[1])
+    exc = (SCREEN_SAFETY / 8.0) * h[steps] ** 2 * np.maximum(curvature(a), curvature(b))
+    exc = exc + np.where(rec._end_step[steps], 0.5 * np.abs(Q[..., steps + 1] - Q[..., steps]), 0.0)
+    return np.where(unbounded, np.inf, exc)
 
 
 # ---------------------------------------------------------------------- refinement

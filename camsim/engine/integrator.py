@@ -169,12 +169,28 @@ class Integrator(EngineContext):
         return State(state.t, state.x.copy(), state.v.copy(), tuple(branches), v_imp)
 
     def violated(self, state: State) -> Guard | None:
-        """A guard of the state's configuration that is already violated, if any."""
+        """A guard of the state's configuration that is already violated, if any (the first
+        in the elements' order)."""
         config = self.model.configuration(state.branches)
         u = self.inputs(np.array([state.t]))
         z = config.state_from_input(state.x, state.v, u[0])
+        guards = self.guards(state, config)
+        if not guards:
+            return None
+        if config.linear:
+            # every guard at once (the stacked matrices the linear stepper screens with)
+            Cz, Du, e, Cz_d, Du_d, e_d, tol = self.stacked_guards(guards)
+            values = z @ Cz + u[0] @ Du + e
+            low = np.flatnonzero(values < -tol)
+            if not low.size:
+                return None
+            rates = z @ Cz_d + u[0] @ Du_d + e_d
+            for k in low.tolist():
+                if guards[k].kind != GuardKind.UNLIFT and not leaving_zero(values[k], rates[k], tol[k]):
+                    return guards[k]
+            return None
         fn = self.nonlinear_forces(config, z[None, :], u, state.v_impacts)
-        for guard in self.guards(state, config):
+        for guard in guards:
             if guard.kind == GuardKind.UNLIFT:
                 continue
             value = guard.value(z[None, :], u, fn)[0, 0]

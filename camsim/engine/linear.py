@@ -142,16 +142,7 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, restarts)
         return None
     steps = np.diff(nodes)[:, None]
     # All guards at once: values and exact time derivatives at every node.
-    if ctx._stacked is None or ctx._stacked[0] is not guards:
-        ctx._stacked = (
-            guards,
-            np.vstack([g.value.Cz for g in guards]).T, np.vstack([g.value.Du for g in guards]).T,
-            np.concatenate([g.value.e for g in guards]),
-            np.vstack([g.rate.Cz for g in guards]).T, np.vstack([g.rate.Du for g in guards]).T,
-            np.concatenate([g.rate.e for g in guards]),
-            np.array([g.tol for g in guards]),
-        )
-    _, Cz, Du, e, Cz_d, Du_d, e_d, tol = ctx._stacked
+    Cz, Du, e, Cz_d, Du_d, e_d, tol = ctx.stacked_guards(guards)
     G = Z @ Cz + U @ Du + e
     Gd = Z @ Cz_d + U @ Du_d + e_d
     g0 = G[:-1]

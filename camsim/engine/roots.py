@@ -25,6 +25,14 @@ DIP_RESOLUTION = 1e-10
 #: Points of a step at which a guard's polynomial is screened for its first crossing.
 SCREEN_POINTS = 65
 _SCREEN = np.linspace(0.0, 1.0, SCREEN_POINTS)
+#: Powers of the screen's points (enough for any Taylor polynomial of a step): a polynomial's
+#: values on the screen are one product with its coefficients.
+_SCREEN_POWERS = _SCREEN[:, None] ** np.arange(96)[None, :]
+
+
+def _derivative(coef: np.ndarray) -> np.ndarray:
+    """The coefficients (low to high) of a polynomial's derivative."""
+    return coef[1:] * np.arange(1, coef.size) if coef.size > 1 else np.zeros(1)
 
 
 def refine(config, guard, z0, Dk, Ek, hk, just_started, ends=None):
@@ -42,7 +50,8 @@ def refine(config, guard, z0, Dk, Ek, hk, just_started, ends=None):
     if not poly.ok:
         return refine_expm(config, guard, z0, Dk, Ek, hk, just_started, ends)
     coef = poly.affine(guard.value)
-    values = np.polynomial.polynomial.polyval(_SCREEN, coef)
+    values = (_SCREEN_POWERS[:, : coef.size] @ coef) if coef.size <= _SCREEN_POWERS.shape[1] else \
+        np.polynomial.polynomial.polyval(_SCREEN, coef)
     if just_started:
         values[0] = max(values[0], guard.tol)
     if values[0] <= 0.0:
@@ -62,8 +71,8 @@ def refine(config, guard, z0, Dk, Ek, hk, just_started, ends=None):
 def _polynomial_dip(coef, values):
     """(a, b) with p(a) > 0 ≥ p(b) at the earliest local minimum of the screen (all its
     points positive) that Newton's method on p′ takes to or below zero, or None."""
-    d1 = np.polynomial.polynomial.polyder(coef)
-    d2 = np.polynomial.polynomial.polyder(d1)
+    d1 = _derivative(coef)
+    d2 = _derivative(d1)
     inner = np.flatnonzero((values[1:-1] <= values[:-2]) & (values[1:-1] <= values[2:]) & (values[1:-1] > 0.0)) + 1
     for k in inner.tolist():
         a, b = float(_SCREEN[k - 1]), float(_SCREEN[k + 1])

@@ -56,18 +56,21 @@ def taylor_coefficients(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray) ->
     h = np.asarray(h, dtype=float)
     terms = _terms(float(np.max(h)) * norm_a if h.size else 0.0)
     rows = taylor_rows(D)  # (S, 4·c, 8): row 4q + d gives channel d of cam q
-    rows = np.concatenate([rows, np.zeros((*rows.shape[:2], terms + 1))], axis=2)
+    n_in = rows.shape[2]
     out = np.empty((S, terms + 1, z0.shape[1]))
     e = z0 / T  # e_0 = w0
     out[:, 0] = e
-    hk = np.ones_like(h)  # h^k / k!
+    # the input's terms B_b·û_k·h^k/k!, all at once (zero beyond the input's degree)
+    hk = np.cumprod(np.concatenate([np.ones((S, 1)), h[:, None] / np.arange(1, n_in)[None, :]], axis=1), axis=1)
+    forcing = np.einsum("sck,sk,mc->skm", rows, hk, Bb)  # (S, n_in, m)
+    forcing[:, 0] += bb
+    AbT = Ab.T
     for k in range(terms):
-        forcing = (rows[:, :, k] * hk[:, None]) @ Bb.T  # B_b·û_k·h^k/k!
-        if k == 0:
-            forcing = forcing + bb
-        e = (h / (k + 1))[:, None] * (e @ Ab.T + forcing)
+        e = e @ AbT
+        if k < n_in:
+            e += forcing[:, k]
+        e *= (h / (k + 1))[:, None]
         out[:, k + 1] = e
-        hk = hk * h / (k + 1)
     return out * T
 
 

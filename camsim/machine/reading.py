@@ -44,11 +44,23 @@ def _has_unit(value: Any) -> bool:
     """True if ``value`` is a string that carries a unit (``"4.4 deg"``; not ``"50"``)."""
     if not isinstance(value, str):
         return False
-    try:
-        quantity = ureg.Quantity(value.strip())
-    except Exception:  # not parsable: let to_si produce the message
-        return True
-    return not getattr(quantity, "unitless", True)
+    text = value.strip()
+    hit = _UNIT_SEEN.get(text)
+    if hit is None:
+        try:
+            quantity = ureg.Quantity(text)
+        except Exception:  # not parsable: let to_si produce the message
+            return True
+        hit = not getattr(quantity, "unitless", True)
+        if len(_UNIT_SEEN) >= 4096:
+            _UNIT_SEEN.clear()
+        _UNIT_SEEN[text] = hit
+    return hit
+
+
+#: Texts seen by :func:`_has_unit` (an analysis loads one machine file thousands of times;
+#: pint's parse is the cost, camsim.units keeps its conversions alike).
+_UNIT_SEEN: dict[str, bool] = {}
 
 
 def _is_angular(value: str) -> bool:

@@ -100,25 +100,10 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
         t, x, v, a, u, forces, grid_index = (arr[keep] for arr in (t, x, v, a, u, forces, grid_index))
     time = grid_index * h_out
     traces = sample_traces(run, time, x, v, a, u, forces)
-    machine, model, warnings = run.machine, run.model, run.warnings
-    cam_force = traces["cam_contact_force"]
+    machine, warnings = run.machine, run.warnings
     events, located = fold_events_and_extremes(run, stretches)
     warnings += after_run_warnings(machine, events)  # issue 39: rods vs impacts, contacts vs yield
-    # the cam contact force of every driven mass (several cams: each its own, issue 38)
-    forces_by_mass = ({model.driven: ("cam_contact/force", cam_force)} if cam_force is not None else
-                      {m: (f"cams/{model.cam_names[q]}/contact_force", traces["cam_contact_forces"][model.cam_names[q]])
-                       for m, q in model.drives.items()} if machine.multi_cam else {})
-    if forces_by_mass:
-        # jump rows are events of the integrator (camsim.engine.watch), located on the
-        # exact solution like every other; here only the warning of the located minimum
-        events.sort(key=lambda e: e.time)
-        for driven, (path, force) in forces_by_mass.items():
-            low = located.get(path, {}).get("min") if located else None
-            if low is not None and low.value < 0:
-                warnings.append(negative_cam_force_warning(driven, low.value, low.time))
-            elif low is None and force.size and np.min(force) < 0:
-                k = int(np.argmin(force))
-                warnings.append(negative_cam_force_warning(driven, force[k], time[k]))
+    cam_force_warnings(run, events, located, traces, time)
     result = RunResult(
         machine=machine, **traces, events=events,
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
@@ -131,6 +116,44 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
         probe.add(result)
         warnings.extend(probe.warnings())
     return result
+
+
+def assemble_summary(run: RunSetup, stretches: list[Stretch]) -> RunResult:
+    """A result that holds the run's summary without its traces: the events, the located
+    extremes and what follows from them (:func:`_assemble` without the samples; the
+    scalars-only evaluation, camsim.run.evaluation)."""
+    from camsim.run.samples import empty_traces
+
+    for st in stretches:
+        digest(run, st, samples=False)
+    events, located = fold_events_and_extremes(run, stretches)
+    run.warnings.extend(after_run_warnings(run.machine, events))
+    traces = empty_traces(run)
+    cam_force_warnings(run, events, located, traces, traces["time"])
+    return RunResult(machine=run.machine, **traces, events=events, periodicity_residual=float("nan"),
+                     warnings=run.warnings, no_impact=run.no_impact, boundaries_deg=boundaries_deg(run), located=located)
+
+
+def cam_force_warnings(run: RunSetup, events, located, traces: dict, time: np.ndarray) -> None:
+    """The warning of every driven mass whose cam contact force goes negative (several cams:
+    each its own, issue 38), from its located minimum (its samples where it was not
+    located); the events sorted by time (the jump rows come with the integrator's events,
+    camsim.engine.watch, located on the exact solution like every other)."""
+    model, machine = run.model, run.machine
+    cam_force = traces["cam_contact_force"]
+    forces_by_mass = ({model.driven: ("cam_contact/force", cam_force)} if cam_force is not None else
+                      {m: (f"cams/{model.cam_names[q]}/contact_force", traces["cam_contact_forces"][model.cam_names[q]])
+                       for m, q in model.drives.items()} if machine.multi_cam else {})
+    if not forces_by_mass:
+        return
+    events.sort(key=lambda e: e.time)
+    for driven, (path, force) in forces_by_mass.items():
+        low = located.get(path, {}).get("min") if located else None
+        if low is not None and low.value < 0:
+            run.warnings.append(negative_cam_force_warning(driven, low.value, low.time))
+        elif low is None and force.size and np.min(force) < 0:
+            k = int(np.argmin(force))
+            run.warnings.append(negative_cam_force_warning(driven, force[k], time[k]))
 
 
 def recorded_event(run: RunSetup, raw: Event) -> Event:

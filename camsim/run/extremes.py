@@ -142,7 +142,7 @@ class Observables:
         return cols
 
 
-def digest(run: RunSetup, st):
+def digest(run: RunSetup, st, samples: bool = True):
     """One recorded stretch's located-extremes record
     (:func:`camsim.engine.extremes.stretch_extremes`) and its output samples, from one
     evaluation of its nodes' quantities: ``(record or None, samples or None)``
@@ -156,7 +156,7 @@ def digest(run: RunSetup, st):
         QT = run.observables.rows(*quantities[:3], st.u, quantities[3])
         record = stretch_extremes(run.integrator, st, QT, run.observables, (run.t_rec, run.t_end))
         st.extremes = record
-    return record, stretch_samples(run, st, quantities)
+    return record, stretch_samples(run, st, quantities) if samples else None
 
 
 def observable_units(path: str) -> str:

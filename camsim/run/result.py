@@ -366,6 +366,12 @@ class RunResult:
         """
         return dict(self._scalars)
 
+    def peak(self, name: str, quantity: str) -> float:
+        """The largest |value| of a mass's ``quantity`` (``displacement``...) [SI], located on
+        the solution (spec §4); NaN when the run has neither located it nor sampled it."""
+        hit = self.extreme(f"masses/{name}/{quantity}", "abs")
+        return hit[0] if hit is not None else float("nan")
+
     def extreme(self, path: str, which: str) -> tuple[float, float] | None:
         """(value, time) of the largest (``which = "max"``), smallest (``"min"``) or largest
         absolute (``"abs"``) value of a quantity: located on the solution (spec §4) when the

@@ -165,6 +165,14 @@ def sample_traces(run: RunSetup, time, x, v, a, u, forces) -> dict:
     return {"time": time, **camshaft_traces(run, time, u), **derived_traces(run, x, v, a, u, forces)}
 
 
+def empty_traces(run: RunSetup) -> dict:
+    """:func:`sample_traces` of no samples: every trace of the run, empty (a result that
+    holds its summary only)."""
+    n, n_el = run.model.n, len(run.model.elements)
+    z = np.zeros((0, n))
+    return sample_traces(run, np.zeros(0), z, z, z, np.zeros((0, run.model.n_input)), np.zeros((0, n_el)))
+
+
 def camshaft_traces(run: RunSetup, time, u) -> dict:
     """Several cams, or a dynamic camshaft (issue 38): every cam's traces (``cam`` the first's,
     ``cams`` all of them), the shaft's angle, and a dynamic shaft's speeds and drive torque.

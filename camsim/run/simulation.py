@@ -107,7 +107,7 @@ def simulate(
 
 
 def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None, shaft=None,
-              record_all=False, rigid_shaft=False) -> RunResult:
+              record_all=False, rigid_shaft=False, assemble=None) -> RunResult:
     """The run; ``stream(run)`` (camsim.run.stream), when given, makes the consumer of the
     stretches (see :class:`RunSetup`) and its ``finish()`` returns the result instead.
     ``shaft``: a dynamic camshaft's solution (camsim.run.shaft.ShaftSolution; None: the
@@ -228,8 +228,8 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=0.0 if record_all else t_rec, stops=all_stops,
                                           on_stop=on_stop, progress=report, check=bounds.check)
-            result = _assemble(run, stretches)
-            peak = lambda name, quantity: result.extreme(f"masses/{name}/{quantity}", "abs")[0]  # noqa: E731 - located (spec §4)
+            result = (assemble or _assemble)(run, stretches)
+            peak = result.peak
         else:
             integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
                            on_stretch=consumer.on_stretch, check=bounds.check)

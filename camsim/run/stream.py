@@ -39,7 +39,7 @@ from camsim.elements.events import EventTable
 from camsim.run.result import MASS_QUANTITIES, RunResult, scalar_columns
 from camsim.run.assemble import after_run_warnings, boundaries_deg, negative_cam_force_warning, recorded_event
 from camsim.run.extremes import ExtremesFolder, digest, ingest_event
-from camsim.run.samples import RunSetup, sample_traces
+from camsim.run.samples import RunSetup, empty_traces, sample_traces
 from camsim.run.simulation import _simulate
 
 __all__ = ["simulate_to_file", "StreamedRun", "trace_layout", "machine_trace_layout", "select_traces", "FLUSH"]
@@ -55,15 +55,9 @@ def _margin(h_out: float) -> float:
 
 
 # ---------------------------------------------------------------------- layout and selection
-def _empty_traces(run: RunSetup) -> dict:
-    n, n_el = run.model.n, len(run.model.elements)
-    z = np.zeros((0, n))
-    return sample_traces(run, np.zeros(0), z, z, z, np.zeros((0, run.model.n_input)), np.zeros((0, n_el)))
-
-
 def _empty_result(run: RunSetup, events=None, located=None) -> RunResult:
     return RunResult(
-        machine=run.machine, **_empty_traces(run), events=EventTable(events or []),
+        machine=run.machine, **empty_traces(run), events=EventTable(events or []),
         periodicity_residual=float("nan"), warnings=[], no_impact=run.no_impact, located=located,
     )
 
