@@ -206,14 +206,11 @@ def rank_materials(machine: Machine, contact: str | None = None, pairs: list[tup
             raise InputError(f"{machine.source}: materials {pair[0]},{pair[1]} for {contact}: {why}") from None
 
     tasks = [(machine.text, machine.source, machine.base_dir, contact, pair) for pair in pairs]
-    executor = make_executor(workers, len(tasks), None, None)
     rows: list[PairResult | None] = [None] * len(tasks)
-    try:
+    with make_executor(workers, len(tasks), None, None) as executor:  # Ctrl-C: the workers are stopped
         for done, (i, row) in enumerate(executor.run(tasks, _pair_run), 1):
             rows[i] = row if isinstance(row, PairResult) else PairResult(materials=pairs[i], status=str(row))
             if progress is not None:
                 progress(done, len(tasks))
-    finally:
-        executor.close()
     ranked = sorted(rows, key=PairResult.sort_key)
     return MaterialRanking(machine=machine.name, contact=contact, geometry=machine.element(contact).geometry, rows=ranked)
