@@ -156,7 +156,7 @@ def _target(c, w, paths: dict[str, Path], inputs: dict[str, Path]) -> Path:
 
 def _args(c, paths: dict[str, Path], inputs: dict[str, Path], keep: str | None, example=None) -> list[str]:
     """The example with its placeholders filled; optional outputs other than ``keep`` left out."""
-    optional = {w.option for w in c.writes if w.optional and w.option != keep}
+    optional = set() if keep == "*" else {w.option for w in c.writes if w.optional and w.option != keep}
     tokens = list(example or c.example)
     out: list[str] = []
     i = 0
@@ -261,6 +261,41 @@ def test_the_examples_run(files, tmp_path):
                 assert _target(c, w, paths, inputs).exists() != w.transient, (name, w.option, w.beside)
         _no_temps(d)
         assert not list(d.rglob(".*.lock")) and not list(d.rglob("*.journal")), name
+
+
+def _claims_params():
+    fast = {"run", "sweep", "export", "optimize"}
+    return [pytest.param(name, id=name, marks=() if name in fast else (pytest.mark.slow,))
+            for name, c in sorted(CONTRACTS.items()) if c.writes and c.example and not c.slow]
+
+
+@pytest.mark.parametrize("name", _claims_params())
+def test_every_output_is_locked_from_the_check(name, files, tmp_path, monkeypatch):
+    """Issue 45: every file a command writes (companions, journals, figures included) is locked
+    when the command checks its outputs, before anything is computed, not when it is written:
+    each write finds its output already claimed by the command's checks (a journal or a row
+    store's view: its job's output). Before, an output that did not exist yet was never
+    claimed: two `optimize -o o.toml` at once both wrote o.toml."""
+    import camsim.io.atomic as atomic
+    import camsim.io.outputs as outputs
+
+    c = CONTRACTS[name]
+    inputs = _inputs(c, tmp_path, files)
+    paths = _paths(c, tmp_path, files)
+    late: list[str] = []
+    real = atomic.Target.__init__
+
+    def target_init(self, final, *args, **kwargs):
+        key = os.path.realpath(final)
+        owners = {key, key.removesuffix(".journal")}
+        if not owners & set(outputs._CLAIMS):
+            late.append(str(final))
+        real(self, final, *args, **kwargs)
+
+    monkeypatch.setattr(atomic.Target, "__init__", target_init)
+    r = _invoke(_args(c, paths, inputs, "*"))
+    assert r.exit_code == 0, r.stderr
+    assert not late, f"{name}: written without a claim from the command's checks: {late}"
 
 
 # ------------------------------------------------------------------------------ outputs
