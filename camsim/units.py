@@ -172,6 +172,22 @@ def dimension_text(dimension: str) -> str:
     return _DIMENSION_TEXT.get(dimension, dimension)
 
 
+#: The range of magnitudes camsim computes with (issue 45): a value read (in SI) or a trace
+#: written beyond ``LARGEST`` or, when not zero, below ``1 / LARGEST`` is refused. Products and
+#: powers of a few such values stay far from float64's overflow (1.8e308): 1e300 for a speed or
+#: a gap overflowed inside numpy and printed its warnings, or ran to a peak of 1.2e299 m.
+LARGEST = 1e30
+
+
+def check_range(number: float, shown: str, value: object) -> float:
+    """``number`` when its magnitude is within camsim's range (:data:`LARGEST`), else QuantityError."""
+    size = abs(number)
+    if size > LARGEST or 0.0 < size < 1.0 / LARGEST:
+        raise QuantityError(f"{value!r} ({number:.3g} in SI units) is outside the range camsim computes with "
+                            f"(a {shown} of magnitude {1.0 / LARGEST:g} to {LARGEST:g} in SI units, or 0)")
+    return number
+
+
 def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> float:
     """Convert a machine-file value to an SI float.
 
@@ -209,8 +225,8 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
         if not math.isfinite(number):
             raise QuantityError(f"expected a finite {shown}, got {value!r}")
         if bare_unit is None:
-            return number
-        return float(registry().Quantity(number, bare_unit).to(target).magnitude)
+            return check_range(number, shown, value)
+        return check_range(float(registry().Quantity(number, bare_unit).to(target).magnitude), shown, value)
     ureg = registry()
     import pint  # loaded by registry()
 
@@ -233,7 +249,7 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
         raise QuantityError(f'expected {shown}, got "{value}"') from None
     if not math.isfinite(number):
         raise QuantityError(f'expected a finite {shown}, got "{value}"')
-    return number
+    return check_range(number, shown, value)
 
 
 #: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²), for human tables.

@@ -55,8 +55,13 @@ class _OneLineErrors(typer.core.TyperGroup):
         from camsim.io.outputs import output_session
 
         reset_error_units()
+        import warnings
+
         try:
-            with output_session():
+            with output_session(), warnings.catch_warnings():
+                # numpy's floating-point warnings are never the user's message (issue 45): a value
+                # that would overflow is refused when the machine is loaded (camsim.units.LARGEST)
+                warnings.simplefilter("ignore", RuntimeWarning)
                 rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except getattr(click_exceptions, "NoArgsIsHelpError", ()) as exc:
             exc.show()  # a bare ``camsim``: the help, as before

@@ -50,7 +50,10 @@ CI = os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get(
 runner = CliRunner()
 
 OUT_CASES = ("input", "other_kind", "foreign", "readonly", "locked", "full_disk", "sigkill", "sigint")
-IN_CASES = ("truncated", "empty", "foreign_hdf5", "csv", "attributes_only", "missing_dataset")
+IN_CASES = ("truncated", "empty", "foreign_hdf5", "csv", "attributes_only", "missing_dataset", "flipped", "nonfinite",
+            "reversed_time")
+#: Damage only an HDF5 result can have (issue 45: readers that distrust).
+RESULT_CASES = ("attributes_only", "missing_dataset", "flipped", "nonfinite", "reversed_time")
 #: Cases that refuse before anything is computed (fast, in-process).
 REFUSALS = ("input", "other_kind", "foreign", "readonly", "locked")
 #: (command, option, case) of the default run beyond the refusals of each main output.
@@ -122,7 +125,7 @@ def _in_params():
     for name, c in sorted(CONTRACTS.items()):
         for k, r in enumerate(c.reads):
             for case in IN_CASES:
-                if case in ("attributes_only", "missing_dataset") and r.kind != "result":
+                if case in RESULT_CASES and r.kind != "result":
                     continue  # HDF5 layouts: only results have them
                 marks = (pytest.mark.slow,) if c.slow else ()
                 params.append(pytest.param(name, k, case, id=f"{name}:{r.param}{'' if k == 0 or r.param != c.reads[0].param else '#' + str(k)}:{case}", marks=marks))
@@ -490,6 +493,25 @@ def _damage(case: str, src: Path, dst: Path, kind: str) -> str | None:
             mass = next(iter(f["masses"]))
             del f[f"masses/{mass}/velocity"]
         return f"masses/{mass}/velocity"
+    elif case == "flipped":  # 16 bytes of the event table's object header (its checksum fails)
+        with h5py.File(src, "r") as f:
+            addr = h5py.h5o.get_info(f["events"].id).addr
+        damaged = bytearray(data)
+        for i in range(addr + 16, addr + 32):
+            damaged[i] ^= 0xFF
+        dst.write_bytes(bytes(damaged))
+        return "events"
+    elif case == "nonfinite":  # NaN in a trace the layout holds finite
+        shutil.copy(src, dst)
+        with h5py.File(dst, "r+") as f:
+            mass = next(iter(f["masses"]))
+            f[f"masses/{mass}/velocity"][1] = np.nan
+        return f"masses/{mass}/velocity"
+    elif case == "reversed_time":
+        shutil.copy(src, dst)
+        with h5py.File(dst, "r+") as f:
+            f["time"][...] = f["time"][()][::-1]
+        return "time"
     return None
 
 
