@@ -9,6 +9,12 @@ import sys
 
 def main() -> None:
     """Console entry point: run the command line; Ctrl-C before it is up exits 130 quietly."""
+    import signal
+
+    # SIGTERM (a batch system's stop, `kill PID`) takes Ctrl-C's orderly way out everywhere,
+    # from start-up to exit, in every command (issue 45): it killed a command outright, with
+    # its temporary files, wherever a command had not asked for it.
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         from camsim.cli import main as cli_main
     except KeyboardInterrupt:
@@ -24,9 +30,8 @@ def main() -> None:
         code = exc.code
     except KeyboardInterrupt:  # before a command took over (typer building the command line)
         _exit_interrupted("camsim: interrupted; nothing was written\n")
-    import signal
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the command is over: a late Ctrl-C changes nothing
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     if code == 130:
         _exit_interrupted()
     if code is None:
@@ -35,6 +40,10 @@ def main() -> None:
         sys.stderr.write(f"{code}\n")
         code = 1
     _exit(code)
+
+
+def _terminate(signum, frame) -> None:  # noqa: ARG001
+    raise KeyboardInterrupt
 
 
 def _keep_interrupts() -> None:

@@ -62,6 +62,7 @@ def _worker_main(conn, parent_pid: int) -> None:  # pragma: no cover - runs in t
     """A worker: run each task the parent sends, send back ``(True, value)`` or ``(False, error)``."""
     from camsim.run.lifecycle import guard_worker
 
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent's SIGTERM-as-Ctrl-C is not the worker's
     guard_worker(parent_pid)
     while True:
         try:

@@ -4,9 +4,11 @@ Every command declares its inputs and outputs next to its definition
 (:mod:`camsim.cli.contracts`). From those declarations this module builds, for
 
 * every output × {onto an input, over a file of another kind, over a file camsim did not
-  write, in a read-only folder, onto a full disk, beside a concurrent writer, SIGKILL and
-  SIGINT at a random moment}, and
-* every input × {truncated, empty, foreign HDF5, a CSV, attributes only, a missing dataset},
+  write, in a read-only folder, onto a full disk, beside a concurrent writer, SIGKILL,
+  SIGINT and SIGTERM at a random moment}, every output locked from the command's checks
+  (issue 45), and
+* every input × {truncated, empty, foreign HDF5, a CSV, attributes only, a missing dataset,
+  flipped metadata bytes, a non-finite trace, a reversed time base},
 
 the documented outcome (the table in :mod:`camsim.cli.contracts`, docs/results.md "Output
 policy", "Locks", "Environment errors"). A command, or a file parameter of one, that
@@ -49,7 +51,7 @@ ROOT = Path(__file__).resolve().parents[2]
 CI = os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get("CAMSIM_SLOW") == "1"
 runner = CliRunner()
 
-OUT_CASES = ("input", "other_kind", "foreign", "readonly", "locked", "full_disk", "sigkill", "sigint")
+OUT_CASES = ("input", "other_kind", "foreign", "readonly", "locked", "full_disk", "sigkill", "sigint", "sigterm")
 IN_CASES = ("truncated", "empty", "foreign_hdf5", "csv", "attributes_only", "missing_dataset", "flipped", "nonfinite",
             "reversed_time")
 #: Damage only an HDF5 result can have (issue 45: readers that distrust).
@@ -311,7 +313,8 @@ def test_output(name, k, case, files, tmp_path, monkeypatch):
     paths = _paths(c, tmp_path, files)
     target = _target(c, w, paths, inputs)
     run = {"input": _case_input, "other_kind": _case_other_kind, "foreign": _case_foreign, "readonly": _case_readonly,
-           "locked": _case_locked, "full_disk": _case_full_disk, "sigkill": _case_signal, "sigint": _case_signal}[case]
+           "locked": _case_locked, "full_disk": _case_full_disk, "sigkill": _case_signal, "sigint": _case_signal,
+           "sigterm": _case_signal}[case]
     run(c, w, keep, inputs, paths, target, tmp_path, monkeypatch=monkeypatch, case=case)
 
 
@@ -424,8 +427,8 @@ def _case_full_disk(c, w, keep, inputs, paths, target, tmp, monkeypatch, **_):
 
 
 def _case_signal(c, w, keep, inputs, paths, target, tmp, case, **_):
-    """SIGKILL or SIGINT at a random moment: the output absent or complete; SIGINT exits 130 (or
-    0 when the command finished first) leaving no temporary file; after SIGKILL the same
+    """SIGKILL, SIGINT or SIGTERM at a random moment: the output absent or complete; SIGINT and SIGTERM
+    exit 130 (or 0 when the command finished first) leaving no temporary file; after SIGKILL the same
     command (with --resume when it left a journal) completes and cleans up."""
     args = _args(c, paths, inputs, keep)
     rng = random.Random(f"{c.command}{w.option}{case}")
@@ -435,10 +438,10 @@ def _case_signal(c, w, keep, inputs, paths, target, tmp, case, **_):
         proc = subprocess.Popen([sys.executable, "-m", "camsim", *args], cwd=tmp, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE)
         time.sleep(rng.uniform(0.3, 2.5))
-        proc.send_signal(signal.SIGKILL if case == "sigkill" else signal.SIGINT)
+        proc.send_signal({"sigkill": signal.SIGKILL, "sigint": signal.SIGINT, "sigterm": signal.SIGTERM}[case])
         out, err = proc.communicate(timeout=120)
         text = err.decode(errors="replace")
-        if case == "sigint":
+        if case in ("sigint", "sigterm"):  # issue 45: SIGTERM takes Ctrl-C's orderly way out
             assert proc.returncode in (0, 130, 1), (proc.returncode, text)
             assert "Traceback" not in text and "internal error" not in text, text
             _no_temps(tmp)
