@@ -172,19 +172,19 @@ def dimension_text(dimension: str) -> str:
     return _DIMENSION_TEXT.get(dimension, dimension)
 
 
-#: The range of magnitudes camsim computes with (issue 45): a value read (in SI) or a trace
-#: written beyond ``LARGEST`` or, when not zero, below ``1 / LARGEST`` is refused. Products and
-#: powers of a few such values stay far from float64's overflow (1.8e308): 1e300 for a speed or
-#: a gap overflowed inside numpy and printed its warnings, or ran to a peak of 1.2e299 m.
+#: The largest magnitude camsim computes with (issue 45): a value read (in SI) or a trace
+#: written beyond it is refused. Products and powers of a few such values stay far from
+#: float64's overflow (1.8e308): 1e300 for a speed or a gap overflowed inside numpy and printed
+#: its warnings, or ran to a peak of 1.2e299 m. (Tiny values are kept: a vanishing damping of
+#: 1e-57 is a machine the engine must integrate, tests/invariants.)
 LARGEST = 1e30
 
 
 def check_range(number: float, shown: str, value: object) -> float:
     """``number`` when its magnitude is within camsim's range (:data:`LARGEST`), else QuantityError."""
-    size = abs(number)
-    if size > LARGEST or 0.0 < size < 1.0 / LARGEST:
-        raise QuantityError(f"{value!r} ({number:.3g} in SI units) is outside the range camsim computes with "
-                            f"(a {shown} of magnitude {1.0 / LARGEST:g} to {LARGEST:g} in SI units, or 0)")
+    if abs(number) > LARGEST:
+        raise QuantityError(f"{value!r} ({number:.3g} in SI units) is beyond the range camsim computes with "
+                            f"(a {shown} of magnitude at most {LARGEST:g} in SI units)")
     return number
 
 

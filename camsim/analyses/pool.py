@@ -172,10 +172,13 @@ class WorkerPool:
                         k = pending.popleft()
                         try:
                             w.conn.send((fn, tasks[k]))
-                        except (OSError, EOFError, ValueError):
+                        except (OSError, EOFError):
                             pending.appendleft(k)
                             self._break(w)
                             break
+                        except Exception as exc:  # noqa: BLE001 - a task that does not pickle: its failed row
+                            yield k, failed_value(tasks[k], exc, failed)
+                            continue
                         w.task = k
                         busy[w.conn] = w
                         busy[w.process.sentinel] = w

@@ -329,7 +329,7 @@ def _job(group: str, table: str, columns: tuple[str, ...], attributes: tuple[str
 LAYOUTS = {
     "run": lambda f, values: _check_run(f, f, values),
     "compare": _check_compare,
-    "sweep": _job("sweep", "summary", ("status",), ("varied_keys",), "a sweep holds its table, docs/sweeps.md"),
+    "sweep": _job("sweep", "summary", ("status",), (), "a sweep holds its table, docs/sweeps.md"),
     "study": _job("study", "rows", ("run", "status"), ("summary_json", "n_samples", "n_runs", "method", "seed"),
                   "a study holds its rows and their statistics, docs/tolerance.md"),
     "optimize": _job("optimize", "runs", ("run", "status"), ("status", "method", "json"),
