@@ -89,3 +89,24 @@ def test_signal_to_a_pooled_job_stops_it_within_5_s(name, sig, tmp_path):
     left = [p for p in kids if alive(p)]
     assert not left, f"processes left after {sig}: {left}"
     assert not list(tmp_path.rglob("*.tmp")), list(tmp_path.rglob("*"))
+
+
+def test_an_interrupt_wrapped_by_python_is_an_interrupt(monkeypatch):
+    """Ctrl-C inside a class's ``__set_name__`` (Bokeh's import: the conformance suite's SIGINT
+    at a random moment) reaches camsim as "RuntimeError: Error calling __set_name__": exit 130 and
+    one line, not "internal error"."""
+    from typer.testing import CliRunner
+
+    from camsim.cli import app
+
+    def interrupted(*args, **kwargs):
+        class Field:
+            def __set_name__(self, owner, name):
+                raise KeyboardInterrupt
+
+        type("Serialized", (), {"buffers": Field()})
+
+    monkeypatch.setattr("camsim.machine.loader.load_machine", interrupted)
+    r = CliRunner().invoke(app, ["validate", CDTM])
+    assert r.exit_code == 130, r.output
+    assert r.stderr.strip() == "camsim: interrupted; nothing was written", r.stderr
