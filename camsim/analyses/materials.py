@@ -178,6 +178,9 @@ def rank_materials(machine: Machine, contact: str | None = None, pairs: list[tup
     InputError
         No such contact, or a contact whose law takes no materials.
     """
+    from camsim.run.budget import check_in_memory
+
+    check_in_memory(machine, str(machine.source))  # each pair's run is held in memory (issue 45)
     candidates = material_contacts(machine)
     if contact is None:
         if len(candidates) != 1:
