@@ -9,11 +9,20 @@ import sys
 
 def main() -> None:
     """Console entry point: run the command line; Ctrl-C before it is up exits 130 quietly."""
+    import signal
+
+    # SIGTERM (a batch system's stop, `kill PID`) takes Ctrl-C's orderly way out everywhere,
+    # from start-up to exit, in every command (issue 45): it killed a command outright, with
+    # its temporary files, wherever a command had not asked for it.
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         from camsim.cli import main as cli_main
     except KeyboardInterrupt:
         _exit_interrupted("camsim: interrupted; nothing was written\n")
     _keep_interrupts()
+    from camsim.io.outputs import hold_until_exit
+
+    hold_until_exit()  # the outputs stay locked to the very end of the process (issue 45)
     code: object = 0
     try:
         cli_main()
@@ -21,12 +30,20 @@ def main() -> None:
         code = exc.code
     except KeyboardInterrupt:  # before a command took over (typer building the command line)
         _exit_interrupted("camsim: interrupted; nothing was written\n")
-    import signal
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the command is over: a late Ctrl-C changes nothing
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     if code == 130:
         _exit_interrupted()
-    sys.exit(code)
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):
+        sys.stderr.write(f"{code}\n")
+        code = 1
+    _exit(code)
+
+
+def _terminate(signum, frame) -> None:  # noqa: ARG001
+    raise KeyboardInterrupt
 
 
 def _keep_interrupts() -> None:
@@ -58,10 +75,22 @@ def _exit_interrupted(message: str = "") -> None:
     it arrived inside an import evaluated by ``PyRun_String`` -- by killing itself with
     SIGINT at exit; camsim's Ctrl-C is a handled, orderly exit 130 (docs/results.md).
     """
-    import atexit
-
     if message:
         sys.stderr.write(message)
+    _exit(130)
+
+
+def _exit(code: int) -> None:
+    """End the process: the exit handlers, the streams, then the output locks, then the process.
+
+    The locks of the outputs are released last, a moment before the process ends (issue 45):
+    a second writer can never find them free while this one is still running. The
+    interpreter's own finalisation (collecting modules, about a second with h5py, matplotlib
+    and Dask loaded) is skipped: every file was closed when its write ended.
+    """
+    import atexit
+    import os
+
     try:
         atexit._run_exitfuncs()
     finally:
@@ -70,9 +99,12 @@ def _exit_interrupted(message: str = "") -> None:
                 stream.flush()
             except (OSError, ValueError):
                 pass
-        import os
+        try:
+            from camsim.io.outputs import release_claims
 
-        os._exit(130)
+            release_claims()
+        finally:
+            os._exit(code)
 
 
 if __name__ == "__main__":

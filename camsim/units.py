@@ -172,6 +172,22 @@ def dimension_text(dimension: str) -> str:
     return _DIMENSION_TEXT.get(dimension, dimension)
 
 
+#: The largest magnitude camsim computes with (issue 45): a value read (in SI) or a trace
+#: written beyond it is refused. Products and powers of a few such values stay far from
+#: float64's overflow (1.8e308): 1e300 for a speed or a gap overflowed inside numpy and printed
+#: its warnings, or ran to a peak of 1.2e299 m. (Tiny values are kept: a vanishing damping of
+#: 1e-57 is a machine the engine must integrate, tests/invariants.)
+LARGEST = 1e30
+
+
+def check_range(number: float, shown: str, value: object) -> float:
+    """``number`` when its magnitude is within camsim's range (:data:`LARGEST`), else QuantityError."""
+    if abs(number) > LARGEST:
+        raise QuantityError(f"{value!r} ({number:.3g} in SI units) is beyond the range camsim computes with "
+                            f"(a {shown} of magnitude at most {LARGEST:g} in SI units)")
+    return number
+
+
 def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> float:
     """Convert a machine-file value to an SI float.
 
@@ -209,8 +225,8 @@ def to_si(value: object, dimension: str, *, bare_unit: str | None = None) -> flo
         if not math.isfinite(number):
             raise QuantityError(f"expected a finite {shown}, got {value!r}")
         if bare_unit is None:
-            return number
-        return float(registry().Quantity(number, bare_unit).to(target).magnitude)
+            return check_range(number, shown, value)
+        return check_range(float(registry().Quantity(number, bare_unit).to(target).magnitude), shown, value)
     text = value.strip()
     hit = _CONVERTED.get((text, target, bare_unit))
     if hit is not None:
@@ -252,7 +268,7 @@ def _text_to_si(text: str, value: str, dimension: str, target: str, shown: str, 
         raise QuantityError(f'expected {shown}, got "{value}"') from None
     if not math.isfinite(number):
         raise QuantityError(f'expected a finite {shown}, got "{value}"')
-    return number
+    return check_range(number, shown, value)
 
 
 #: One pound-force in newtons (exact: 0.45359237 kg × 9.80665 m/s²), for human tables.

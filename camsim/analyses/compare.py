@@ -134,8 +134,11 @@ def compare_machine(machine, **run_options) -> Comparison:
     **run_options
         Passed to :func:`camsim.run.simulation.simulate` (cycles, warmup_cycles, sample_rate, progress).
     """
+    from camsim.run.budget import check_in_memory
     from camsim.run.simulation import simulate
 
+    sizes = {k: run_options.get(k) for k in ("cycles", "warmup_cycles", "sample_rate")}
+    check_in_memory(machine, str(machine.source or "compare"), **sizes)  # both runs are held in memory
     with_impact = simulate(machine, **run_options)
     without = simulate(machine, no_impact=True, **run_options)
     if with_impact.time.shape != without.time.shape or not np.array_equal(with_impact.time, without.time):

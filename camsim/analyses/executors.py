@@ -11,27 +11,18 @@ from __future__ import annotations
 
 import os
 
+from camsim.analyses.pool import EXECUTOR_ERROR, WorkerPool, failed_value, one_line
 from camsim.errors import InputError
+
+__all__ = ["EXECUTOR_ERROR", "one_line", "default_workers", "Serial", "ProcessPool", "DaskCluster", "make_executor"]
 
 #: Seconds to wait for a Dask scheduler before giving up.
 SCHEDULER_TIMEOUT_S = 5.0
 
 
-def one_line(exc: BaseException) -> str:
-    """An exception as one line: ``"SimulationError: message"``."""
-    text = str(exc).strip().splitlines()
-    message = text[0] if text else ""
-    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
-
-
 def default_workers() -> int:
     """Worker processes by default: every core."""
     return os.cpu_count() or 1
-
-
-def _failed(args, exc: BaseException) -> dict:
-    """The row of a task whose worker failed, when the caller gives no ``failed`` of its own."""
-    return {"status": one_line(exc)}
 
 
 class Serial:
@@ -47,49 +38,36 @@ class Serial:
     def close(self):
         pass
 
+    def __enter__(self):
+        return self
 
-class ProcessPool:
-    """A ProcessPoolExecutor whose workers ignore SIGINT (Ctrl-C is the parent's)."""
-
-    name = "process pool"
-
-    def __init__(self, workers: int):
-        from concurrent.futures import ProcessPoolExecutor
-
-        self.workers = workers
-        from camsim.run.lifecycle import guard_worker
-
-        # issue 16: workers ignore Ctrl-C and die with this process (even on SIGKILL)
-        self.executor = ProcessPoolExecutor(max_workers=workers, initializer=guard_worker, initargs=(os.getpid(),))
-        self.futures: list = []
-
-    def run(self, tasks, fn, failed=None):
-        from concurrent.futures import as_completed
-
-        self.futures = [self.executor.submit(fn, *args) for args in tasks]
-        index = {f: i for i, f in enumerate(self.futures)}
-        for fut in as_completed(self.futures):
-            yield index[fut], future_value(fut, tasks[index[fut]], failed)
-
-    def abort(self):
-        for fut in self.futures:
-            fut.cancel()
-        self.executor.shutdown(wait=False, cancel_futures=True)
-        # Stop the variants in flight now rather than wait for them.
-        for proc in list((getattr(self.executor, "_processes", None) or {}).values()):
-            if proc.is_alive():
-                proc.terminate()
-
-    def close(self):
-        self.executor.shutdown(wait=True)
+    def __exit__(self, exc_type, exc, tb):
+        _leave(self, exc_type)
 
 
-#: Key marking a row that an executor failure (a killed worker) produced, not the variant.
-EXECUTOR_ERROR = "_executor_error"
+class ProcessPool(WorkerPool):
+    """Local worker processes that ignore Ctrl-C, die with this process and can always be
+    stopped (:mod:`camsim.analyses.pool`)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        _leave(self, exc_type)
+
+
+def _leave(executor, exc_type) -> None:
+    """The end of an executor's ``with`` block: abort on an exception (Ctrl-C), close otherwise."""
+    if exc_type is not None:
+        try:
+            executor.abort()
+        except Exception:  # noqa: BLE001 - on the way out
+            pass
+    executor.close()
 
 
 def future_value(fut, args, failed=None):
-    """The result of a finished future; an executor failure becomes a failed row.
+    """The result of a finished Dask future; an executor failure becomes a failed row.
 
     ``failed(args, exc)`` gives that row (the task's parameters and the error); the caller
     knows its tasks' arguments, the executor does not.
@@ -97,8 +75,7 @@ def future_value(fut, args, failed=None):
     try:
         return fut.result()
     except Exception as exc:  # noqa: BLE001 - e.g. a worker process killed
-        # Marked so that it is not stored as the task's result (--resume reruns it).
-        return {**(failed or _failed)(args, exc), EXECUTOR_ERROR: True}, None
+        return failed_value(args, exc, failed)
 
 
 def _import_distributed():
@@ -160,6 +137,7 @@ class DaskCluster:
         distributed = _import_distributed()
         self.cluster = None
         self.futures: list = []
+        self.pids: list[int] = []
         if scheduler is not None:
             self.name = f"Dask scheduler {scheduler}"
             _probe_scheduler(scheduler, SCHEDULER_TIMEOUT_S)
@@ -184,6 +162,8 @@ class DaskCluster:
             from camsim.run.lifecycle import guard_worker
 
             self.client.run(guard_worker, None, False)
+            # issue 45: their process ids, so that Ctrl-C and SIGTERM stop them at once
+            self.pids = [int(p) for p in self.client.run(os.getpid).values()]
 
     def run(self, tasks, fn, failed=None):
         import uuid
@@ -200,17 +180,36 @@ class DaskCluster:
             yield i, future_value(fut, tasks[i], failed)
 
     def abort(self):
+        """Stop now: the local cluster's workers are killed (their nannies are closed with the
+        cluster); on an external scheduler the tasks are cancelled."""
+        import logging
+        import signal
+
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)  # its complaints about the stopped tasks
         try:
-            self.client.cancel(self.futures)
+            self.client.cancel(self.futures, force=True)
         except Exception:  # noqa: BLE001 - best effort on the way out
             pass
+        for pid in self.pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
 
     def close(self):
         try:
-            self.client.close()
+            self.client.close(timeout=2)
+        except Exception:  # noqa: BLE001 - a client of killed workers: the cluster is closed next
+            pass
         finally:
             if self.cluster is not None:
-                self.cluster.close()
+                self.cluster.close(timeout=3)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        _leave(self, exc_type)
 
 
 def make_executor(workers: int, n_tasks: int, scheduler: str | None, dask_local: int | None):

@@ -178,6 +178,9 @@ def rank_materials(machine: Machine, contact: str | None = None, pairs: list[tup
     InputError
         No such contact, or a contact whose law takes no materials.
     """
+    from camsim.run.budget import check_in_memory
+
+    check_in_memory(machine, str(machine.source))  # each pair's run is held in memory (issue 45)
     candidates = material_contacts(machine)
     if contact is None:
         if len(candidates) != 1:
@@ -206,14 +209,11 @@ def rank_materials(machine: Machine, contact: str | None = None, pairs: list[tup
             raise InputError(f"{machine.source}: materials {pair[0]},{pair[1]} for {contact}: {why}") from None
 
     tasks = [(machine.text, machine.source, machine.base_dir, contact, pair) for pair in pairs]
-    executor = make_executor(workers, len(tasks), None, None)
     rows: list[PairResult | None] = [None] * len(tasks)
-    try:
+    with make_executor(workers, len(tasks), None, None) as executor:  # Ctrl-C: the workers are stopped
         for done, (i, row) in enumerate(executor.run(tasks, _pair_run), 1):
             rows[i] = row if isinstance(row, PairResult) else PairResult(materials=pairs[i], status=str(row))
             if progress is not None:
                 progress(done, len(tasks))
-    finally:
-        executor.close()
     ranked = sorted(rows, key=PairResult.sort_key)
     return MaterialRanking(machine=machine.name, contact=contact, geometry=machine.element(contact).geometry, rows=ranked)

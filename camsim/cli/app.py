@@ -55,8 +55,13 @@ class _OneLineErrors(typer.core.TyperGroup):
         from camsim.io.outputs import output_session
 
         reset_error_units()
+        import warnings
+
         try:
-            with output_session():
+            with output_session(), warnings.catch_warnings():
+                # numpy's floating-point warnings are never the user's message (issue 45): a value
+                # that would overflow is refused when the machine is loaded (camsim.units.LARGEST)
+                warnings.simplefilter("ignore", RuntimeWarning)
                 rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except getattr(click_exceptions, "NoArgsIsHelpError", ()) as exc:
             exc.show()  # a bare ``camsim``: the help, as before
@@ -76,19 +81,22 @@ class _OneLineErrors(typer.core.TyperGroup):
             err_console.print(f"camsim: error: {exc}", markup=False, highlight=False)
             rv = 1
         except Exception as exc:  # noqa: BLE001 - the last guard: no traceback reaches the user
-            if os.environ.get("CAMSIM_TRACEBACK"):
-                raise
-            if FileSystemError.applies(exc):  # the environment's, wherever it surfaced
-                err_console.print(f"camsim: error: {_environment(exc)}", markup=False, highlight=False)
+            if _interrupted(exc):  # Ctrl-C or SIGTERM wrapped by Python (an import's __set_name__...)
+                rv = 130
+            else:
+                if os.environ.get("CAMSIM_TRACEBACK"):
+                    raise
+                if FileSystemError.applies(exc):  # the environment's, wherever it surfaced
+                    err_console.print(f"camsim: error: {_environment(exc)}", markup=False, highlight=False)
+                    rv = 1
+                    if not standalone_mode:
+                        return rv
+                    sys.exit(rv)
+                text = " ".join(str(exc).split()) or type(exc).__name__
+                err_console.print(f"camsim: error: internal error ({type(exc).__name__}: {text}); this is a bug in "
+                                  "camsim, please report it with the command line (CAMSIM_TRACEBACK=1 shows the "
+                                  "traceback)", markup=False, highlight=False)
                 rv = 1
-                if not standalone_mode:
-                    return rv
-                sys.exit(rv)
-            text = " ".join(str(exc).split()) or type(exc).__name__
-            err_console.print(f"camsim: error: internal error ({type(exc).__name__}: {text}); this is a bug in camsim, "
-                              "please report it with the command line (CAMSIM_TRACEBACK=1 shows the traceback)",
-                              markup=False, highlight=False)
-            rv = 1
         if rv == 130 and not _INTERRUPT_REPORTED[0]:  # Ctrl-C outside a command's user_errors: typer's silent 130
             err_console.print("camsim: interrupted; nothing was written", markup=False)
         _INTERRUPT_REPORTED[0] = False
@@ -99,6 +107,18 @@ class _OneLineErrors(typer.core.TyperGroup):
 
 #: Set when a command said why it stops after Ctrl-C (the group says it otherwise).
 _INTERRUPT_REPORTED = [False]
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """True when ``exc`` wraps a KeyboardInterrupt (Python turns one raised inside a class's
+    ``__set_name__`` -- Ctrl-C or SIGTERM while a library is imported -- into a RuntimeError)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _environment(exc: OSError) -> str:

@@ -205,14 +205,16 @@ def fit_command(
     does not match (a --target missed by more than its sigma, a residual variance above
     2 for traces; unless --accept-misfit): nothing written then; 2 on bad input.
     """
-    from camsim.analyses.fit import fit, write_fitted
+    from camsim.analyses.fit import fit as _fit, write_fitted
     from camsim.io.atomic import check_writable
 
     rate = parse_sample_rate(sample_rate)
     from camsim.cli.progress import Lines
 
     show = Lines(quiet)
-    with user_errors():
+    from camsim.run.lifecycle import sigterm_as_interrupt
+
+    with user_errors(), sigterm_as_interrupt():  # issue 45: SIGTERM stops the workers as Ctrl-C does
         check_units(units)
         target_path = output if output is not None else _default_output(machine)
         from camsim.io.outputs import FIGURES, HDF5, TOML, check_journal, check_output, output_format
@@ -232,29 +234,35 @@ def fit_command(
         elif report is not None:
             check_output(report, output_format(report, {**FIGURES, ".html": "html"}, "--report"), owner="figure",
                          inputs=inputs, option="--report")
-        result = fit(
-            machine,
-            measured,
-            param,
-            targets=target,
-            sigma=sigma,
-            log=log,
-            fixed=set_,
-            align=align,
-            max_shift=max_shift,
-            window=window,
-            drop_nan=drop_nan,
-            cycles=cycles,
-            warmup_cycles=warmup,
-            sample_rate=rate,
-            workers=workers,
-            starts=starts,
-            seed=seed,
-            max_evaluations=max_evaluations,
-            progress=show,
-            evaluations=evaluation_store_for(target_path),
-            resume=resume,
-        )
+        try:
+            result = _fit(
+                machine,
+                measured,
+                param,
+                targets=target,
+                sigma=sigma,
+                log=log,
+                fixed=set_,
+                align=align,
+                max_shift=max_shift,
+                window=window,
+                drop_nan=drop_nan,
+                cycles=cycles,
+                warmup_cycles=warmup,
+                sample_rate=rate,
+                workers=workers,
+                starts=starts,
+                seed=seed,
+                max_evaluations=max_evaluations,
+                progress=show,
+                evaluations=evaluation_store_for(target_path),
+                resume=resume,
+            )
+        except KeyboardInterrupt:
+            kept = journal_path_for(store).exists()
+            raise fail(f"interrupted: the finished simulations are kept in {store} (and its .journal); run the same "
+                       "command with --resume to continue" if kept else "interrupted before any simulation finished: "
+                       "nothing was kept", 130) from None
         written_in = written_units(param, target)
         from camsim.machine.loader import load_machine
 

@@ -215,7 +215,9 @@ def impact_command(
         extra = [name for name, value in given.items() if value != _CALCULATOR_DEFAULTS[name]]
         if extra:
             raise fail(f"--{extra[0].replace('_', '-')} is a calculator option; --materials takes a machine file")
-        with user_errors():
+        from camsim.run.lifecycle import sigterm_as_interrupt
+
+        with user_errors(), sigterm_as_interrupt():  # issue 45: SIGTERM stops the pairs as Ctrl-C does
             materials_command(machine, contact, pair, candidates, set_, workers, json_out)
         return
     if any((machine, contact, pair, candidates, set_)):

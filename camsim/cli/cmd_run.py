@@ -38,6 +38,8 @@ def run_command(
     summary_only: bool = typer.Option(False, "--summary-only", help="Store no traces: the event table and the summary (/summary) only."),
     compress: bool = typer.Option(False, "--compress", help="gzip the stored traces (smaller file, more CPU)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress (a bar on a terminal, a line every 10 s elsewhere)."),
+    max_nodes: int = typer.Option(None, "--max-nodes", min=1, metavar="N", help="Refuse (exit 2, when the machine is loaded) a model of more nodes -- masses and rod interior nodes -- than this; default 500 (docs/results.md, \"Sizes\")."),
+    max_cams: int = typer.Option(None, "--max-cams", min=1, metavar="N", help="Refuse a machine of more [[cam]] tables than this; default 100."),
     units: str = units_option(),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
@@ -69,7 +71,9 @@ def run_command(
 
     rate = parse_sample_rate(sample_rate)
     patterns = [p.strip() for item in record for p in item.split(",") if p.strip()]
-    with user_errors(), sigterm_as_interrupt():
+    from camsim.machine.limits import raised
+
+    with user_errors(), sigterm_as_interrupt(), raised(nodes=max_nodes, cams=max_cams):
         check_units(units)
         limit = parse_size(max_output)
         if summary_only and (patterns or record_last is not None):

@@ -225,7 +225,7 @@ def sweep_command(
                     "csv": str(csv_path),
                 }
             )
-        else:
+        elif not result.interrupted:  # interrupted: one line, below (issue 45)
             if result.resumed:
                 err_console.print(f"resumed: {result.resumed} of {len(result.rows)} variants were in {result.journal}", markup=False)
             shown = machine_units(units, result.machine, [*vary, *values, *set_])

@@ -40,6 +40,8 @@ def validate(
     json_output: bool = typer.Option(
         False, "--json", help="Print only the machine in SI as JSON on stdout (units in its 'units' map)."
     ),
+    max_nodes: int = typer.Option(None, "--max-nodes", min=1, metavar="N", help="Refuse (exit 2, when the machine is loaded) a model of more nodes -- masses and rod interior nodes -- than this; default 500 (docs/results.md, \"Sizes\")."),
+    max_cams: int = typer.Option(None, "--max-cams", min=1, metavar="N", help="Refuse a machine of more [[cam]] tables than this; default 100."),
     units: str = units_option(),
 ) -> None:
     """Check a machine file and print the machine as loaded (in the file's units; --units si for SI).
@@ -49,7 +51,9 @@ def validate(
     """
     from camsim.machine.loader import load_machine, machine_to_dict
 
-    with user_errors():
+    from camsim.machine.limits import raised
+
+    with user_errors(), raised(nodes=max_nodes, cams=max_cams):
         check_units(units)
         machine = load_machine(machine_file, overrides=overrides)
         shown = machine_units(units, machine)

@@ -4,10 +4,11 @@ Every command declares, next to its definition, the files it reads (:class:`Read
 the files it writes (:class:`Writes`) with :func:`declare`. The declarations are data,
 not documentation: ``tests/cli/test_conformance.py`` builds its cases from them (every
 output × {onto an input, over a file of another kind, over a file camsim did not write, in
-a read-only folder, onto a full disk, beside a concurrent writer, SIGKILL and SIGINT at a
-random moment}; every input × {truncated, empty, foreign HDF5, a CSV, attributes only, a
-missing dataset}) and fails for a command, or a file parameter of one, that declares
-nothing. The outcomes it checks are the output policy's (docs/results.md):
+a read-only folder, onto a full disk, beside a concurrent writer, SIGKILL, SIGINT and SIGTERM
+at a random moment, locked from the command's checks}; every input × {truncated, empty,
+foreign HDF5, a CSV, attributes only, a missing dataset, flipped metadata bytes, a non-finite
+trace, a reversed time base}) and fails for a command, or a file parameter of one, that
+declares nothing. The outcomes it checks are the output policy's (docs/results.md):
 
 =========================  =================================================================
 case                       outcome
@@ -20,8 +21,10 @@ read-only folder           exit 2 before anything is computed
 full disk                  exit 1, one line naming the file and the cause, nothing under the
                            output's name (or its previous content), no temporary file
 concurrent writer          exit 2 naming the other writer's process id
+locked from the checks     every file written was locked by the command's checks, before
+                           anything was computed (a journal or view: with its job's output)
 SIGKILL                    the output absent, previous or complete; the next run succeeds
-SIGINT                     exit 130 (or 0 when it finished first), no temporary file left
+SIGINT, SIGTERM            exit 130 (or 0 when it finished first), no temporary file left
 damaged input              exit 2, one line naming the file (and the dataset), nothing written
 =========================  =================================================================
 """

@@ -12,7 +12,7 @@ from pathlib import Path
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import err_console, print_json
+from camsim.cli.app import err_console, fail, print_json
 from camsim.errors import InputError
 
 __all__ = ["materials_command"]
@@ -49,9 +49,20 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
                          "(e.g. machines/ball-drop-hertz.toml)")
     loaded = load_machine(machine, overrides=overrides)
     pairs = _pairs(pair, candidates)
+    finished = [0]
+
     with Bar("materials", "pairs", quiet=json_out) as bar:
         bar.start(len(pairs) if pairs else 0)
-        ranking = rank_materials(loaded, contact, pairs, workers=workers, progress=bar)
+
+        def progress(done, total):
+            finished[0] = done
+            bar(done, total)
+
+        try:
+            ranking = rank_materials(loaded, contact, pairs, workers=workers, progress=progress)
+        except KeyboardInterrupt:  # the workers are stopped (issue 45)
+            raise fail(f"interrupted after {finished[0]} finished pairs: no ranking is drawn from part of them; "
+                       "nothing was written", 130) from None
     if json_out:
         print_json(ranking.to_dict())
         return

@@ -77,12 +77,18 @@ class Bar:
         self.total = 0.0
         self.detail = ""
         self.note = ""
+        self.done = 0.0
+        self._ticker: Any = None
+        import threading
+
+        self._lock = threading.RLock()  # re-entered by the run watchdog's tick (a signal handler)
 
     def start(self, total: float, detail: str = "", note: str = "") -> None:
         """Begin counting to ``total`` units (``detail`` is appended to the label)."""
         self.total, self.detail, self.note = total, detail, note
         if self.lines and self.clock is None:
             self.clock = _Clock()
+            self._start_ticker()
         if not self.enabled or self.progress is not None:
             return
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
@@ -115,12 +121,36 @@ class Bar:
             self.note = note
         if total is not None:
             self.total = total
+        self.done = done
         if self.progress is not None:
             self.progress.update(self.task, completed=done, total=self.total, note=self.note)
         elif self.clock is not None:
-            elapsed = self.clock.due()
+            self._line_if_due()
+
+    def _line_if_due(self) -> None:
+        with self._lock:
+            clock = self.clock
+            elapsed = clock.due() if clock is not None else None
             if elapsed is not None:
-                err_console.print(self.line(done, elapsed), markup=False, highlight=False)
+                err_console.print(self.line(self.done, elapsed), markup=False, highlight=False)
+
+    def _start_ticker(self) -> None:
+        """Off a terminal, a line every :data:`LINE_INTERVAL` even while nothing finishes (issue 45:
+        a sweep's slow variant in a worker process, a study's first runs): from a daemon thread."""
+        import threading
+
+        if LINE_INTERVAL <= 0:  # a line at every call already
+            return
+        stop = threading.Event()
+        period = min(1.0, LINE_INTERVAL / 2)
+
+        def tick() -> None:
+            while not stop.wait(period):
+                self._line_if_due()
+
+        thread = threading.Thread(target=tick, name="camsim-progress-lines", daemon=True)
+        self._ticker = (stop, thread)
+        thread.start()
 
     def line(self, done: float, elapsed: float) -> str:
         """The plain progress line after ``elapsed`` seconds with ``done`` units done."""
@@ -140,10 +170,16 @@ class Bar:
 
     def close(self) -> None:
         """Remove the bar (plain lines stop)."""
+        if self._ticker is not None:
+            stop, thread = self._ticker
+            stop.set()
+            thread.join(2.0)
+            self._ticker = None
         if self.progress is not None:
             self.progress.stop()
             self.progress = None
-        self.clock = None
+        with self._lock:
+            self.clock = None
 
     def __enter__(self) -> Bar:
         return self

@@ -47,6 +47,7 @@ import math
 import numpy as np
 
 from camsim.elements.affine import input_rate, times_rate
+from camsim.heartbeat import beat
 from camsim.engine.bounce import COLLOC_STEPS, _releasing, bounce_span
 from camsim.engine.collocation import Collocation, collocation_steps
 from camsim.engine.remainder import _Anderson, _LinearLaw, _propagate, _RemainderResponse, _step_affine
@@ -250,6 +251,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
         return t_end, z_end, fired, end
 
     while True:
+        beat(t)  # issue 45: the run's progress channel and stall watchdog (camsim.run.watchdog)
         if t >= t_stop - TIME_EPS:
             stepper.resume = (t_stop, window)
             return finish(integ._state_from(config, z, t_stop, cur), None)
@@ -264,6 +266,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             # collocation would refuse its singular end, so DOP853 goes on at once
             releasing = _releasing(d_now[0], dd_now[0], h)
             while not releasing:
+                beat(t)
                 t_c, z_c, taken, hit, calm = collocate(t, z, COLLOC_STEPS * 2 ** min(fails, 3), first)
                 if taken is None:
                     break

@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from camsim.errors import SimulationError
+from camsim.heartbeat import beat
 from camsim.elements.affine import reads_acceleration, times_rate
 from camsim.engine.context import EngineContext
 from camsim.engine.crossing import analytic_input, root_near
@@ -130,6 +131,7 @@ def dop853_span(ctx: EngineContext, rhs, z0, t0: float, t_stop: float, guards, c
     eps = np.finfo(float).eps
     analytic = ctx.cam if ctx.cam is not None and hasattr(ctx.cam, "channels") else None
     while True:
+        beat(solver.t)  # issue 45: the run's progress channel and stall watchdog
         message = solver.step()
         if solver.status == "failed":
             raise SimulationError(f"nonlinear contact phase failed at t = {solver.t:.9g} s: {message}")

@@ -68,6 +68,8 @@ __all__ = [
     "beside",
     "writing",
     "output_session",
+    "hold_until_exit",
+    "release_claims",
     "PDF",
     "DXF",
 ]
@@ -276,6 +278,9 @@ def check_output(
         if source is not None and same_file(target, source):
             raise InputError(f"{target}: {option} would write over the {label} {source}; choose another output name")
     check_writable(target)
+    # Locked first (issue 45): a file that does not exist yet is claimed too, so that a second
+    # writer is refused from the moment this command checks it, not when it writes.
+    _claim(target)
     kind = sniff_kind(target)
     if kind is None:
         return target
@@ -295,7 +300,6 @@ def check_output(
             if fmt == "html" and found is None:
                 what = "an HTML page not written by camsim"
             raise InputError(f"{target}: {option}: the file exists and is {what}; pass --force to replace it")
-    _claim(target)
     return target
 
 
@@ -305,6 +309,8 @@ def check_output(
 #: Depth of nested output sessions, and the outputs locked in them (real path -> lock).
 _SESSIONS = [0]
 _CLAIMS: dict[str, locks.OutputLock] = {}
+#: True when the claims outlive the session, to the process's exit (:func:`hold_until_exit`).
+_UNTIL_EXIT = [False]
 
 
 @contextmanager
@@ -319,10 +325,26 @@ def output_session() -> Iterator[None]:
         yield
     finally:
         _SESSIONS[0] -= 1
-        if _SESSIONS[0] == 0:
-            while _CLAIMS:
-                _, lock = _CLAIMS.popitem()
-                lock.release()
+        if _SESSIONS[0] == 0 and not _UNTIL_EXIT[0]:
+            release_claims()
+
+
+def hold_until_exit() -> None:
+    """Keep the outputs a command checked locked after its session, until :func:`release_claims`.
+
+    The ``camsim`` process calls it before the command and releases the claims as the last
+    thing before it exits (issue 45): the lock used to be released when the command returned,
+    about a second before the process ended, and a second run started in that second replaced
+    the result while both printed "wrote".
+    """
+    _UNTIL_EXIT[0] = True
+
+
+def release_claims() -> None:
+    """Release every output this process claimed (the lock files are removed)."""
+    while _CLAIMS:
+        _, lock = _CLAIMS.popitem()
+        lock.release()
 
 
 def _claim(path: Path) -> None:

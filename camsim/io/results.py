@@ -32,6 +32,7 @@ import numpy as np
 from camsim.errors import ResultFileError
 from camsim.display import DisplayUnits
 from camsim.io.hdf5 import read_table
+from camsim.units import LARGEST
 
 #: Result-file schema versions this version of camsim reads.
 SUPPORTED_SCHEMAS = (1,)
@@ -92,10 +93,104 @@ def open_h5(path: str | os.PathLike[str], *, validate: bool = True) -> h5py.File
             )
         if validate:
             check_layout(f, p)
+    except H5_ERRORS as exc:  # the root group's own metadata is damaged
+        f.close()
+        raise ResultFileError(f"{p}: /: damaged: HDF5 cannot read the root group's attributes "
+                              f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
     except BaseException:
         f.close()
         raise
     return f
+
+
+#: Errors h5py raises for damaged metadata or data ("incorrect metadata checksum", "wrong
+#: B-tree signature", a bad heap...): bad input, never "internal error".
+H5_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError, IndexError, SystemError)
+#: Samples read at once when the values of a dataset are checked (bounded memory).
+CHUNK = 1 << 20
+
+
+def _damaged(f: h5py.File, where: str, exc: BaseException) -> ResultFileError:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return ResultFileError(f"{f.filename}: {where}: damaged: HDF5 cannot read it ({type(exc).__name__}: {text})")
+
+
+class _Values:
+    """What the layout requires of the values of some datasets (by full name): finite and within
+    camsim's range (:data:`camsim.units.LARGEST`), and for a time base strictly increasing."""
+
+    def __init__(self) -> None:
+        self.finite: dict[str, str] = {}
+        self.increasing: set[str] = set()
+        self.columns: dict[str, tuple[str, ...]] = {}
+
+    def check(self, f: h5py.File, dset: h5py.Dataset) -> None:
+        """Read ``dset`` whole, in pieces, raising ResultFileError for values the layout refuses."""
+        name = dset.name
+        if dset.shape == () or dset.size == 0:
+            dset[()]
+            return
+        previous = None
+        for start in range(0, dset.shape[0], CHUNK):
+            block = dset[start:start + CHUNK]
+            if name in self.columns and block.dtype.names is not None:
+                for column in self.columns[name]:
+                    if column in block.dtype.names:
+                        _finite(f, f"{name} column {column}", np.asarray(block[column], dtype=float), start)
+            if name in self.finite:
+                _finite(f, name, np.asarray(block, dtype=float), start)
+            if name in self.increasing:
+                values = np.asarray(block, dtype=float).reshape(-1)
+                joined = values if previous is None else np.concatenate(([previous], values))
+                bad = np.flatnonzero(~(np.diff(joined) > 0.0))
+                if bad.size:
+                    i = int(bad[0]) + 1 + start - (0 if previous is None else 1)
+                    raise ResultFileError(f"{f.filename}: {name}: not increasing at sample {i} ({float(joined[bad[0] + 1])!r} "
+                                          f"after {float(joined[bad[0]])!r}); the layout holds a strictly increasing time base")
+                if values.size:
+                    previous = values[-1]
+
+
+def _finite(f: h5py.File, name: str, values: np.ndarray, start: int) -> None:
+    bad = ~np.isfinite(values) | (np.abs(np.nan_to_num(values, nan=0.0, posinf=np.inf, neginf=np.inf)) > LARGEST)
+    if bad.any():
+        i = int(np.flatnonzero(bad.reshape(values.shape[0], -1).any(axis=1))[0])
+        value = values.reshape(values.shape[0], -1)[i][bad.reshape(values.shape[0], -1)[i]][0]
+        raise ResultFileError(f"{f.filename}: {name}: {float(value)!r} at sample {start + i}; the layout holds finite values "
+                              f"within {LARGEST:g} (no value camsim writes is NaN, infinite or beyond it)")
+
+
+def _read_all(f: h5py.File, values: _Values) -> None:
+    """Read every attribute and every dataset of the file once, checking the values ``values``
+    names: damaged HDF5 metadata or data is a ResultFileError naming the object (issue 45)."""
+    where = ["/"]
+
+    def attributes(obj, name: str) -> None:
+        where[0] = f"{name}@ (its attributes)"
+        for key in obj.attrs.keys():
+            where[0] = f"{name}@{key}"
+            obj.attrs[key]
+
+    def walk(group: h5py.Group, prefix: str) -> None:
+        where[0] = f"{prefix or '/'} (its members)"
+        for key in list(group.keys()):
+            name = f"{prefix}/{key}"
+            where[0] = name
+            item = group[key]
+            attributes(item, name)
+            where[0] = name
+            if isinstance(item, h5py.Group):
+                walk(item, name)
+            elif isinstance(item, h5py.Dataset):
+                values.check(f, item)
+
+    try:
+        attributes(f, "/")
+        walk(f, "")
+    except ResultFileError:
+        raise
+    except H5_ERRORS as exc:
+        raise _damaged(f, where[0], exc) from None
 
 
 # --------------------------------------------------------------------------------------
@@ -142,9 +237,21 @@ def _trace(f: h5py.File, group: h5py.Group, path: str, n: int | None, why: str) 
     return dset.shape[0]
 
 
-def _check_run(f: h5py.File, group: h5py.Group) -> None:
+#: Traces of a run that may hold infinite or undefined values (the cam's shape: a flat
+#: profile's radius of curvature is infinite; the contact quantities of [cam.geometry]).
+MAY_BE_NONFINITE = ("cam/pressure_angle", "cam/pitch_radius_of_curvature", "cam/surface_radius_of_curvature",
+                    "cam/pitch_curve", "cam/surface", "cam_contact/normal_force", "cam_contact/side_load",
+                    "cam_contact/hertz_stress", "camshaft/")
+
+
+def _full(group: h5py.Group, path: str) -> str:
+    return f"{group.name.rstrip('/')}/{path}"
+
+
+def _check_run(f: h5py.File, group: h5py.Group, values: _Values) -> None:
     """The run layout at ``group`` (a file root or a comparison's side)."""
     _table(f, group, "events", EVENT_COLUMNS, "a run result holds its event table, spec §7")
+    values.columns[_full(group, "events")] = ("time",)
     recorded = None
     if "summary" in group:
         summary = group["summary"]
@@ -167,38 +274,66 @@ def _check_run(f: h5py.File, group: h5py.Group) -> None:
     if not recorded:
         return  # --summary-only: events and summary, no traces
     n = _trace(f, group, "time", None, why)
+    values.increasing.add(_full(group, "time"))
     for path in recorded:
         if path != "time":
             _trace(f, group, path, n, why)
+        if not path.startswith(MAY_BE_NONFINITE):
+            values.finite[_full(group, path)] = path
 
 
-def _check_compare(f: h5py.File) -> None:
+def _check_compare(f: h5py.File, values: _Values) -> None:
     for side in ("impact", "no_impact"):
         if side not in f or not isinstance(f[side], h5py.Group):
             raise _missing(f, f"/{side}", "a comparison holds both runs, spec §7")
-        _check_run(f, f[side])
+        _check_run(f, f[side], values)
     if "difference" not in f:
         raise _missing(f, "/difference", "a comparison holds the percent differences, spec §7")
     diff = f["difference"]
     n = _trace(f, diff, "time", None, "the differences' time base")
+    values.increasing.add("/difference/time")
+    values.finite["/difference/time"] = "time"
     for mass in names_under(diff, "masses"):
         for q in MASS_QUANTITIES:
             _trace(f, diff, f"masses/{mass}/{q}", n, "a difference per mass and quantity")
 
 
-def _check_cam(f: h5py.File) -> None:
+def _check_cam(f: h5py.File, values: _Values) -> None:
     n = _trace(f, f, "time", None, "a cam file holds one revolution, docs/cam-design.md")
+    values.increasing.add("/time")
+    values.finite["/time"] = "time"
     for q in ("angle", "displacement", "velocity", "acceleration", "jerk"):
         _trace(f, f, f"cam/{q}", n, "a cam file holds s, v, a, j against the cam angle")
+        values.finite[f"/cam/{q}"] = q
+
+
+def _job(group: str, table: str, columns: tuple[str, ...], attributes: tuple[str, ...], why: str):
+    """The layout of a job's file (sweep, study, optimisation): its table, and the attributes of
+    its group that the readers show -- unless the group says the job was interrupted (the view a
+    running or stopped job leaves holds its rows only)."""
+
+    def check(f: h5py.File, values: _Values) -> None:
+        _table(f, f, f"{group}/{table}", columns, why)
+        g = f[group]
+        if bool(np.asarray(g.attrs.get("interrupted", False)).item()):
+            return
+        lacking = [a for a in attributes if a not in g.attrs]
+        if lacking:
+            raise ResultFileError(f"{f.filename}: /{group}: attribute {', '.join(lacking)} missing ({why}; a file "
+                                  "written by camsim has it)")
+
+    return check
 
 
 #: file_kind -> the check of its layout.
 LAYOUTS = {
-    "run": lambda f: _check_run(f, f),
+    "run": lambda f, values: _check_run(f, f, values),
     "compare": _check_compare,
-    "sweep": lambda f: _table(f, f, "sweep/summary", ("status",), "a sweep holds its table, docs/sweeps.md"),
-    "study": lambda f: _table(f, f, "study/rows", ("run", "status"), "a study holds its rows, docs/tolerance.md"),
-    "optimize": lambda f: _table(f, f, "optimize/runs", ("run", "status"), "an optimisation history holds its runs, docs/optimize.md"),
+    "sweep": _job("sweep", "summary", ("status",), (), "a sweep holds its table, docs/sweeps.md"),
+    "study": _job("study", "rows", ("run", "status"), ("summary_json", "n_samples", "n_runs", "method", "seed"),
+                  "a study holds its rows and their statistics, docs/tolerance.md"),
+    "optimize": _job("optimize", "runs", ("run", "status"), ("status", "method", "json"),
+                     "an optimisation history holds its runs and its result, docs/optimize.md"),
     "cam": _check_cam,
 }
 
@@ -211,18 +346,25 @@ def check_layout(f: h5py.File, path: str | os.PathLike[str] | None = None) -> st
     ResultFileError
         Naming the file and the first dataset that is missing or malformed (exit 2).
     """
-    kind = attr_text(f, "file_kind")
-    if not kind:
-        kind = file_kind(f)
-    check = LAYOUTS.get(kind)
-    if check is None:
-        return kind  # a kind this version does not know: its reader says so
     try:
-        check(f)
+        kind = attr_text(f, "file_kind")
+        if not kind:
+            kind = file_kind(f)
     except ResultFileError:
         raise
-    except (OSError, KeyError, ValueError, TypeError) as exc:  # damaged metadata
-        raise ResultFileError(f"{f.filename}: damaged ({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    except H5_ERRORS as exc:
+        raise _damaged(f, "/@file_kind", exc) from None
+    check = LAYOUTS.get(kind)
+    values = _Values()
+    if check is not None:
+        try:
+            check(f, values)
+        except ResultFileError:
+            raise
+        except H5_ERRORS as exc:  # damaged metadata: named with the object below, else here
+            _read_all(f, _Values())
+            raise _damaged(f, "the layout", exc) from None
+    _read_all(f, values)  # every object read once: damaged HDF5 or values the layout refuses (issue 45)
     return kind
 
 

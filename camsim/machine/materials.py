@@ -79,6 +79,33 @@ class MaterialKeys:
                 raise self.error(where, f'unknown material "{name}"; {_suggest(name, known)}') from None
         return found[0] if p.dimension == "material" else tuple(found)
 
+    def check_sizes(self, elements: list[Element], masses: list[Mass], cams=()) -> None:
+        """Refuse a machine beyond the limits of :mod:`camsim.machine.limits`, naming the key and
+        the estimate, before anything of its size is allocated."""
+        from camsim.machine.limits import current
+
+        limits = current()
+        interior = {i: max(0, int(e.segments or 1) - 1) for i, e in enumerate(elements) if e.compound}
+        nodes = len(masses) + sum(interior.values())
+        if nodes > limits.nodes:
+            if interior and max(interior.values()) >= len(masses):
+                i = max(interior, key=interior.get)
+                e = elements[i]
+                given = "(given)" in e.segments_reason
+                why = (f"segments = {e.segments}" if given else
+                       f"its default of {e.segments:.4g} segments, from its modulus, density and length "
+                       f"({e.segments_reason.split(':', 1)[-1].split(' [')[0].strip()})")
+                raise self.error(f"element[{i}].segments", f"the rod {e.name}: {why} makes a model of {nodes:.4g} "
+                                 f"nodes, above the limit of {limits.nodes} (--max-nodes)"
+                                 + ("" if given else "; check its modulus, density and length, or give segments"))
+            raise self.error("mass", f"{len(masses)} masses and {sum(interior.values())} rod nodes make a model of "
+                             f"{nodes} nodes, above the limit of {limits.nodes} (--max-nodes)")
+        traces = 1 + 5 * max(1, len(cams)) + 3 * nodes + sum(3 if e.compound else 1 for e in elements) + 2
+        if traces > limits.traces:
+            raise self.error("cam" if 5 * len(cams) > 3 * nodes else "mass",
+                             f"the result would hold {traces} traces ({len(cams)} cams, {nodes} nodes, {len(elements)} "
+                             f"elements), above the {limits.traces} that one HDF5 time base can carry")
+
     def distributed(self, elements: list[Element], masses: list[Mass], cam: Cam | None, simulation: Simulation,
                     initial: list[InitialCondition], cams=()) -> list[Element]:
         """Rods: their default segments resolved; interior node names free; 0 kg only at rod ends.
@@ -86,6 +113,7 @@ class MaterialKeys:
         from camsim.machine.rods import resolve_segments
 
         elements = resolve_segments(elements, masses, cam, simulation, initial, cams=cams)
+        self.check_sizes(elements, masses, cams)  # before a rod's nodes are made (issue 45)
         taken = {m.name: f"mass {m.name}" for m in masses} | {e.name: f"element {e.name}" for e in elements}
         for i, e in enumerate(elements):
             for node in e.interior_nodes():

@@ -99,8 +99,7 @@ class ShaftReader(CamReader):
         if name in CAM_KEYS or name in ("name", "phase"):
             raise self.error(where, f'"{name}" is a key of a cam table; name the cam otherwise (it is addressed '
                              f"as cam.<name>.<key>)")
-        if "." in name or "/" in name:
-            raise self.error(where, f'"{name}": a cam name may not hold "." or "/" (it names result paths)')
+        # what a name may hold is checked once for every table (camsim.machine.names, issue 45)
 
     # -- the camshaft --------------------------------------------------------------
     def camshaft(self, table: dict, speed: float, start: float, cams: list[Cam]) -> Camshaft:

@@ -70,10 +70,16 @@ class _Validator(ShaftReader, MaterialKeys):
             raise self.error("machine.name", "must not be empty")
         self.string(head, "description", "machine")
 
+        from camsim.machine.limits import current
+        from camsim.machine.names import check_names
+
+        check_names(doc, self.error)  # every named table, once (issue 45)
         self.materials = self.material_tables(doc)  # issue 39: [[material]]
         masses = self.masses(doc)
         mass_names = [m.name for m in masses]
         cams, camshaft, multi = self.cam_tables(doc, mass_names)
+        if len(cams) > current().cams:
+            raise self.error("cam", f"{len(cams)} [[cam]] tables, above the limit of {current().cams} cams (--max-cams)")
         cam = cams[0] if cams else None
         elements = self.elements(doc, mass_names, masses, cams)
         simulation = self.simulation(doc, cam)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 from camsim.errors import InputError
 
-__all__ = ["DEFAULT_MAX_OUTPUT", "DEFAULT_MAX_RUNS", "DEFAULT_MAX_STEPS", "check_runs", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
+__all__ = ["check_in_memory", "DEFAULT_MAX_OUTPUT", "DEFAULT_MAX_RUNS", "DEFAULT_MAX_STEPS", "check_runs", "Estimate", "estimate_run", "check_budget", "record_fraction", "parse_size", "format_size"]
 
 #: Default largest estimated output of a run without ``--yes`` [bytes] (2 GB).
 DEFAULT_MAX_OUTPUT = 2_000_000_000
@@ -255,6 +255,28 @@ def check_budget(estimate: Estimate, max_bytes: float, where: str, max_steps: fl
             f"{estimate.recorded_s:.4g} s recorded), above {max_steps:.3g} (minutes to hours of computing); "
             f"lower the stiffness or damping that sets the pace (or make that contact rigid, "
             f'law = "restitution"), record less with --cycles or simulation.duration, or pass --yes to run it anyway'
+        )
+
+
+def check_in_memory(machine, where: str, *, cycles=None, warmup_cycles=None, sample_rate=None) -> None:
+    """Refuse (InputError) a run held in memory -- a comparison's two, a sweep's variant, a fit's
+    evaluation, a material pair -- whose traces would exceed :data:`DEFAULT_MAX_OUTPUT`, or whose
+    steps forced by a fast mode exceed :data:`DEFAULT_MAX_STEPS` (issue 45: estimated before
+    anything is allocated; ``camsim run`` streams its traces and has ``--max-output``)."""
+    estimate = estimate_run(machine, cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
+    if estimate.bytes > DEFAULT_MAX_OUTPUT:
+        raise InputError(
+            f"{where}: each run of this command is held in memory, and this one would hold {estimate.samples:.3g} "
+            f"samples x {estimate.traces} traces = {format_size(estimate.bytes)} ({estimate.recorded_s:.4g} s "
+            f"recorded), above {format_size(DEFAULT_MAX_OUTPUT)}; record less with --cycles (simulation.cycles or "
+            "simulation.duration) or --sample-rate (camsim run streams its traces to the file instead: --max-output)"
+        )
+    if estimate.steps > DEFAULT_MAX_STEPS and estimate.paced_by_mode:
+        raise InputError(
+            f"{where}: the run would take {estimate.steps:.3g} integration steps ({estimate.pace}; "
+            f"{estimate.recorded_s:.4g} s recorded), above {DEFAULT_MAX_STEPS:.3g} (minutes to hours of computing); "
+            'lower the stiffness or damping that sets the pace (or make that contact rigid, law = "restitution"), '
+            "or record less with --cycles or simulation.duration"
         )
 
 

@@ -38,6 +38,7 @@ from camsim.run.bounds import physical_bounds
 from camsim.run.extremes import Observables
 from camsim.run.initial import _one_contact_static, initial_state, static_equilibrium  # noqa: F401 - tests
 from camsim.run.result import RunResult
+from camsim.run.watchdog import RunClock, watching
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
 SAMPLES_PER_PERIOD = 12
@@ -108,6 +109,17 @@ def simulate(
 
 def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream=None, shaft=None,
               record_all=False, rigid_shaft=False, assemble=None) -> RunResult:
+    """:func:`_run` watched by the run's progress channel and stall watchdog (issue 45,
+    :mod:`camsim.run.watchdog`); a camshaft relaxation's passes report to the run that started them."""
+    rate = sample_rate if sample_rate is not None else machine.simulation.sample_rate
+    clock = RunClock(None, 1.0 / rate if rate > 0 else math.inf, machine.source)
+    with watching(clock) as active:
+        return _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream, shaft, record_all,
+                    rigid_shaft, active if active is clock else None, active, assemble)
+
+
+def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, stream, shaft, record_all, rigid_shaft,
+         own_clock, clock, assemble=None) -> RunResult:
     """The run; ``stream(run)`` (camsim.run.stream), when given, makes the consumer of the
     stretches (see :class:`RunSetup`) and its ``finish()`` returns the result instead.
     ``shaft``: a dynamic camshaft's solution (camsim.run.shaft.ShaftSolution; None: the
@@ -133,6 +145,10 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         from camsim.run.shaft import converge
 
         t_rec_dyn = (sim.warmup_cycles * 2.0 * math.pi / machine.cams[0].speed) if sim.warmup_cycles else 0.0
+        if own_clock is not None and progress is not None:  # each pass of the relaxation, 0 to its end
+            t_all = t_rec_dyn + (sim.duration if sim.duration is not None else
+                                 sim.cycles * 2.0 * math.pi / machine.cams[0].speed)
+            own_clock.report = lambda t: progress(min(1.0, t / t_all))
         dynamics = converge(machine, lambda solution: _simulate(
             machine, no_impact, None, None, None, None, shaft=solution, record_all=True, rigid_shaft=solution is None),
             t_rec_dyn)
@@ -207,7 +223,9 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
     all_stops = tuple(stops) + ((t_period_end,) if t_period_end is not None and t_period_end not in stops else ())
 
     total = t_end
-    report = (lambda t: progress(min(1.0, t / total))) if progress else None
+    if own_clock is not None:  # this run's fraction done, through its channel (rate-limited)
+        own_clock.report = (lambda t: progress(min(1.0, t / total))) if progress else None
+    report = clock  # every stretch's end: the channel (progress display and stall watchdog)
     t_final = t_end + 0.5 * h_out
     # Warm-up cycles are not recorded: integrate them on a coarser grid, just dense
     # enough to see every guard and to carry the cam input exactly (warmup_step).
@@ -228,12 +246,16 @@ def _simulate(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, 
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=0.0 if record_all else t_rec, stops=all_stops,
                                           on_stop=on_stop, progress=report, check=bounds.check)
+            clock.phase = "locating the extremes and assembling the result"  # the watchdog's message
             result = (assemble or _assemble)(run, stretches)
+            clock.phase = ""
             peak = result.peak
         else:
             integrator.run(state, t_final, record_from=t_rec, stops=all_stops, on_stop=on_stop, progress=report,
                            on_stretch=consumer.on_stretch, check=bounds.check)
+            clock.phase = "locating the extremes and assembling the result"
             result = consumer.finish()
+            clock.phase = ""
             peak = result.peak
     if t_period_end is not None and round(t_period_end, 9) in saved:
         end = period_end(run, saved[round(t_period_end, 9)])

@@ -56,7 +56,7 @@ def test_cams_names_phases_and_the_shaft():
     (lambda d: d["cam"][1].__setitem__("name", "feed"), "cam[1].name", 'duplicate cam name "feed"'),
     (lambda d: d["cam"][1].__setitem__("name", "A2"), "cam[1].name", "already a node"),
     (lambda d: d["cam"][1].__setitem__("name", "ratio"), "cam[1].name", "a key of a cam table"),
-    (lambda d: d["cam"][1].__setitem__("name", "a.b"), "cam[1].name", 'may not hold "."'),
+    (lambda d: d["cam"][1].__setitem__("name", "a.b"), "cam[1].name", "is not a plain name"),
     (lambda d: d["cam"][1].__setitem__("drives", "A1"), "cam[1].drives", "driven by cam feed already"),
     (lambda d: d["cam"][1].__setitem__("phase", "1 m"), "cam[1].phase", "expected [angle]"),
     (lambda d: d["cam"][1]["segments"][0].__setitem__("lift", "-1 mm"), "cam[1].segments[0].lift", "positive lift"),

@@ -4,9 +4,11 @@ Every command declares its inputs and outputs next to its definition
 (:mod:`camsim.cli.contracts`). From those declarations this module builds, for
 
 * every output × {onto an input, over a file of another kind, over a file camsim did not
-  write, in a read-only folder, onto a full disk, beside a concurrent writer, SIGKILL and
-  SIGINT at a random moment}, and
-* every input × {truncated, empty, foreign HDF5, a CSV, attributes only, a missing dataset},
+  write, in a read-only folder, onto a full disk, beside a concurrent writer, SIGKILL,
+  SIGINT and SIGTERM at a random moment}, every output locked from the command's checks
+  (issue 45), and
+* every input × {truncated, empty, foreign HDF5, a CSV, attributes only, a missing dataset,
+  flipped metadata bytes, a non-finite trace, a reversed time base},
 
 the documented outcome (the table in :mod:`camsim.cli.contracts`, docs/results.md "Output
 policy", "Locks", "Environment errors"). A command, or a file parameter of one, that
@@ -49,8 +51,11 @@ ROOT = Path(__file__).resolve().parents[2]
 CI = os.environ.get("CI", "").lower() in ("1", "true", "yes") or os.environ.get("CAMSIM_SLOW") == "1"
 runner = CliRunner()
 
-OUT_CASES = ("input", "other_kind", "foreign", "readonly", "locked", "full_disk", "sigkill", "sigint")
-IN_CASES = ("truncated", "empty", "foreign_hdf5", "csv", "attributes_only", "missing_dataset")
+OUT_CASES = ("input", "other_kind", "foreign", "readonly", "locked", "full_disk", "sigkill", "sigint", "sigterm")
+IN_CASES = ("truncated", "empty", "foreign_hdf5", "csv", "attributes_only", "missing_dataset", "flipped", "nonfinite",
+            "reversed_time")
+#: Damage only an HDF5 result can have (issue 45: readers that distrust).
+RESULT_CASES = ("attributes_only", "missing_dataset", "flipped", "nonfinite", "reversed_time")
 #: Cases that refuse before anything is computed (fast, in-process).
 REFUSALS = ("input", "other_kind", "foreign", "readonly", "locked")
 #: (command, option, case) of the default run beyond the refusals of each main output.
@@ -122,7 +127,7 @@ def _in_params():
     for name, c in sorted(CONTRACTS.items()):
         for k, r in enumerate(c.reads):
             for case in IN_CASES:
-                if case in ("attributes_only", "missing_dataset") and r.kind != "result":
+                if case in RESULT_CASES and r.kind != "result":
                     continue  # HDF5 layouts: only results have them
                 marks = (pytest.mark.slow,) if c.slow else ()
                 params.append(pytest.param(name, k, case, id=f"{name}:{r.param}{'' if k == 0 or r.param != c.reads[0].param else '#' + str(k)}:{case}", marks=marks))
@@ -156,7 +161,7 @@ def _target(c, w, paths: dict[str, Path], inputs: dict[str, Path]) -> Path:
 
 def _args(c, paths: dict[str, Path], inputs: dict[str, Path], keep: str | None, example=None) -> list[str]:
     """The example with its placeholders filled; optional outputs other than ``keep`` left out."""
-    optional = {w.option for w in c.writes if w.optional and w.option != keep}
+    optional = set() if keep == "*" else {w.option for w in c.writes if w.optional and w.option != keep}
     tokens = list(example or c.example)
     out: list[str] = []
     i = 0
@@ -263,6 +268,41 @@ def test_the_examples_run(files, tmp_path):
         assert not list(d.rglob(".*.lock")) and not list(d.rglob("*.journal")), name
 
 
+def _claims_params():
+    fast = {"run", "sweep", "export", "optimize"}
+    return [pytest.param(name, id=name, marks=() if name in fast else (pytest.mark.slow,))
+            for name, c in sorted(CONTRACTS.items()) if c.writes and c.example and not c.slow]
+
+
+@pytest.mark.parametrize("name", _claims_params())
+def test_every_output_is_locked_from_the_check(name, files, tmp_path, monkeypatch):
+    """Issue 45: every file a command writes (companions, journals, figures included) is locked
+    when the command checks its outputs, before anything is computed, not when it is written:
+    each write finds its output already claimed by the command's checks (a journal or a row
+    store's view: its job's output). Before, an output that did not exist yet was never
+    claimed: two `optimize -o o.toml` at once both wrote o.toml."""
+    import camsim.io.atomic as atomic
+    import camsim.io.outputs as outputs
+
+    c = CONTRACTS[name]
+    inputs = _inputs(c, tmp_path, files)
+    paths = _paths(c, tmp_path, files)
+    late: list[str] = []
+    real = atomic.Target.__init__
+
+    def target_init(self, final, *args, **kwargs):
+        key = os.path.realpath(final)
+        owners = {key, key.removesuffix(".journal")}
+        if not owners & set(outputs._CLAIMS):
+            late.append(str(final))
+        real(self, final, *args, **kwargs)
+
+    monkeypatch.setattr(atomic.Target, "__init__", target_init)
+    r = _invoke(_args(c, paths, inputs, "*"))
+    assert r.exit_code == 0, r.stderr
+    assert not late, f"{name}: written without a claim from the command's checks: {late}"
+
+
 # ------------------------------------------------------------------------------ outputs
 @pytest.mark.parametrize("name,k,case", _out_params())
 def test_output(name, k, case, files, tmp_path, monkeypatch):
@@ -273,7 +313,8 @@ def test_output(name, k, case, files, tmp_path, monkeypatch):
     paths = _paths(c, tmp_path, files)
     target = _target(c, w, paths, inputs)
     run = {"input": _case_input, "other_kind": _case_other_kind, "foreign": _case_foreign, "readonly": _case_readonly,
-           "locked": _case_locked, "full_disk": _case_full_disk, "sigkill": _case_signal, "sigint": _case_signal}[case]
+           "locked": _case_locked, "full_disk": _case_full_disk, "sigkill": _case_signal, "sigint": _case_signal,
+           "sigterm": _case_signal}[case]
     run(c, w, keep, inputs, paths, target, tmp_path, monkeypatch=monkeypatch, case=case)
 
 
@@ -386,8 +427,8 @@ def _case_full_disk(c, w, keep, inputs, paths, target, tmp, monkeypatch, **_):
 
 
 def _case_signal(c, w, keep, inputs, paths, target, tmp, case, **_):
-    """SIGKILL or SIGINT at a random moment: the output absent or complete; SIGINT exits 130 (or
-    0 when the command finished first) leaving no temporary file; after SIGKILL the same
+    """SIGKILL, SIGINT or SIGTERM at a random moment: the output absent or complete; SIGINT and SIGTERM
+    exit 130 (or 0 when the command finished first) leaving no temporary file; after SIGKILL the same
     command (with --resume when it left a journal) completes and cleans up."""
     args = _args(c, paths, inputs, keep)
     rng = random.Random(f"{c.command}{w.option}{case}")
@@ -397,10 +438,10 @@ def _case_signal(c, w, keep, inputs, paths, target, tmp, case, **_):
         proc = subprocess.Popen([sys.executable, "-m", "camsim", *args], cwd=tmp, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE)
         time.sleep(rng.uniform(0.3, 2.5))
-        proc.send_signal(signal.SIGKILL if case == "sigkill" else signal.SIGINT)
+        proc.send_signal({"sigkill": signal.SIGKILL, "sigint": signal.SIGINT, "sigterm": signal.SIGTERM}[case])
         out, err = proc.communicate(timeout=120)
         text = err.decode(errors="replace")
-        if case == "sigint":
+        if case in ("sigint", "sigterm"):  # issue 45: SIGTERM takes Ctrl-C's orderly way out
             assert proc.returncode in (0, 130, 1), (proc.returncode, text)
             assert "Traceback" not in text and "internal error" not in text, text
             _no_temps(tmp)
@@ -455,6 +496,25 @@ def _damage(case: str, src: Path, dst: Path, kind: str) -> str | None:
             mass = next(iter(f["masses"]))
             del f[f"masses/{mass}/velocity"]
         return f"masses/{mass}/velocity"
+    elif case == "flipped":  # 16 bytes of the event table's object header (its checksum fails)
+        with h5py.File(src, "r") as f:
+            addr = h5py.h5o.get_info(f["events"].id).addr
+        damaged = bytearray(data)
+        for i in range(addr + 16, addr + 32):
+            damaged[i] ^= 0xFF
+        dst.write_bytes(bytes(damaged))
+        return "events"
+    elif case == "nonfinite":  # NaN in a trace the layout holds finite
+        shutil.copy(src, dst)
+        with h5py.File(dst, "r+") as f:
+            mass = next(iter(f["masses"]))
+            f[f"masses/{mass}/velocity"][1] = np.nan
+        return f"masses/{mass}/velocity"
+    elif case == "reversed_time":
+        shutil.copy(src, dst)
+        with h5py.File(dst, "r+") as f:
+            f["time"][...] = f["time"][()][::-1]
+        return "time"
     return None
 
 

@@ -62,9 +62,13 @@ def assert_clean_exit2(result, out: Path, *needles: str) -> None:
 # ------------------------------------------------------------------ the cases issue 25 names
 def test_stiffness_1e300_is_exit_2_naming_the_element(tmp_path):
     """dynacam-2mass with k12 = 1e300 N/m ended in a traceback (numpy rint on a Python int of
-    150 digits: the step count). Now: exit 2 naming element.k12.stiffness as numerically rigid."""
+    150 digits: the step count). Now: exit 2 naming element.k12.stiffness, beyond the range of
+    values camsim computes with (issue 45: refused when loaded, camsim.units.LARGEST = 1e30);
+    1e29 N/m, within it, is numerically rigid."""
     out = tmp_path / "out.h5"
     r = run(["run", MACHINES / "dynacam-2mass.toml", "--set", 'element.k12.stiffness="1e300 N/m"', "-o", out])
+    assert_clean_exit2(r, out, "element.k12.stiffness", "beyond the range", "1e+30")
+    r = run(["run", MACHINES / "dynacam-2mass.toml", "--set", 'element.k12.stiffness="1e29 N/m"', "-o", out])
     assert_clean_exit2(r, out, "element.k12.stiffness", "numerically rigid", "restitution")
 
 

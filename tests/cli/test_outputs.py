@@ -260,10 +260,15 @@ def test_cam_outputs_with_the_same_name_are_refused(machine):
 
 def test_absurd_stiffness_is_bad_input_not_a_traceback(machine):
     """Issue 26: `--set element.k12.stiffness="1e300 N/m"` ended in a traceback. Now exit 2, one
-    line naming the natural frequency, nothing written."""
+    line (issue 45: refused when loaded, beyond the range camsim computes with; 1e29 N/m names
+    the natural frequency), nothing written."""
     dyn = machine.parent / "dyn.toml"
     shutil.copy(MACHINES / "dynacam-2mass.toml", dyn)
     result = runner.invoke(app, ["run", str(dyn), "--set", "element.k12.stiffness=1e300 N/m", "-o",
+                                 str(machine.parent / "big.h5"), "-q"])
+    assert result.exit_code == 2, result.stderr
+    assert "beyond the range" in _one_line_error(result)
+    result = runner.invoke(app, ["run", str(dyn), "--set", "element.k12.stiffness=1e29 N/m", "-o",
                                  str(machine.parent / "big.h5"), "-q"])
     assert result.exit_code == 2, result.stderr
     assert "natural frequency" in _one_line_error(result)

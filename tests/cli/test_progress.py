@@ -80,3 +80,19 @@ def test_run_off_a_terminal_prints_progress_lines_and_keeps_stdout_json(every_ca
     quiet = runner.invoke(app, ["run", str(path), "-o", str(tmp_path / "q.h5"), "--json", "-q"])
     assert quiet.exit_code == 0, quiet.output
     assert not [ln for ln in quiet.stderr.splitlines() if ln.startswith("run: ")]
+
+
+def test_lines_go_on_while_nothing_finishes(monkeypatch, capsys):
+    """Issue 45: off a terminal a line every LINE_INTERVAL even while no unit finishes (a
+    sweep's slow variant in a worker process: the bar was called only when a variant ended)."""
+    monkeypatch.setattr(progress, "LINE_INTERVAL", 0.4)
+    bar = Bar("sweep", "variants")
+    bar.enabled, bar.lines = False, True
+    bar.start(10)
+    bar(1, 10)
+    import time
+
+    time.sleep(2.0)  # nothing finishes meanwhile
+    bar.close()
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("sweep: 1/10 variants")]
+    assert len(lines) >= 2, lines

@@ -170,6 +170,10 @@ def fit(
     source = machine if isinstance(machine, MachineSource) else MachineSource.from_path(machine)
     fixed = list(fixed)
     base = source.load(fixed)
+    from camsim.run.budget import check_in_memory
+
+    check_in_memory(base, str(source.source or "fit"), cycles=cycles, warmup_cycles=warmup_cycles,
+                    sample_rate=sample_rate)  # every evaluation's traces are held in memory (issue 45)
     parameters = resolve_params(source, fixed, params, log)
     paths = result_paths(base)
     data = read_measured(measured, paths, drop_nan=drop_nan) if measured is not None else None

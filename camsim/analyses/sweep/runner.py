@@ -512,14 +512,19 @@ def run_sweep(
     base = source.load(fixed)  # the --set overrides alone
     # The loader's checks on the varied keys, before anything runs: the first and last
     # variants hold every key and both ends of every range.
+    from camsim.run.budget import check_in_memory
+
     for ov in (grid[0], grid[-1]) if len(grid) > 1 else (grid[0],):
         try:
-            source.load(fixed + list(ov))
+            variant = source.load(fixed + list(ov))
         except MachineFileError as exc:
             suffix = next((f" (value from --set {a})" for a in ov if exc.message.endswith(f" (value from --set {a})")), None)
             if suffix is None:
                 raise
             raise MachineFileError(exc.file, exc.key, exc.message[: -len(suffix)] + suffix.replace("--set", "--vary/--values")) from None
+        # each variant's traces are held in memory: the grid's ends bound them (issue 45)
+        check_in_memory(variant, f"{source.source or 'sweep'} ({', '.join(ov) or 'the machine'})", cycles=cycles,
+                        warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     settings = SweepSettings(cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate, keep_traces=keep_traces)
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
