@@ -175,6 +175,13 @@ def chebval_rows(x: np.ndarray, coef: np.ndarray) -> np.ndarray:
 
 
 
+def _ends_piece(dense: "DenseStretch", steps: np.ndarray) -> np.ndarray:
+    """Whether each step ends a smooth piece of the record (its last, or the one before a
+    break's step of length zero)."""
+    after = np.minimum(steps + 1, dense.h.size - 1)
+    return (steps + 1 >= dense.h.size) | (dense.h[after] <= 0.0)
+
+
 def batch_values(items) -> list[np.ndarray]:
     """The observables at the Chebyshev points of given steps of many records at once.
 
@@ -188,8 +195,9 @@ def batch_values(items) -> list[np.ndarray]:
     list of ndarray (S_i, CHEBYSHEV_POINTS, n_obs)
         In the order of ``items``. The steps of linear records that share a configuration
         (branches, impact speeds, observables) are evaluated together: one Taylor series,
-        one evaluation of the cam law (the limit from the left at a record's last node, which
-        may be a break; inside a record the law is smooth), one of the observables.
+        one evaluation of the cam law (the limit from the left at the end of each smooth
+        piece, which may be a break; inside a piece the law is smooth), one of the
+        observables.
     """
     out: list = [None] * len(items)
     groups: dict = {}
@@ -206,7 +214,9 @@ def batch_values(items) -> list[np.ndarray]:
         D = np.concatenate([items[i][0].step_derivatives(items[i][1]) for i in idxs])
         h = np.concatenate([items[i][0].h[items[i][1]] for i in idxs])
         t0 = np.concatenate([items[i][0].nodes[items[i][1]] for i in idxs])
-        last = np.concatenate([items[i][1] == items[i][0].nodes.size - 2 for i in idxs])
+        # a step that ends a smooth piece (the record's last, or one before a break's step of
+        # length zero) ends on a node that may be a break: its last point takes the limit from the left
+        last = np.concatenate([_ends_piece(items[i][0], items[i][1]) for i in idxs])
         Zs = taylor_states(config, z0, D, h, _SIGMA)
         S, P, m = Zs.shape
         times = t0[:, None] + h[:, None] * _SIGMA[None, :]

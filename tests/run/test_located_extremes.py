@@ -235,3 +235,24 @@ def test_a_rigid_impact_opens_no_peak_window(monkeypatch):
     impacts = [e for e in result.events.impacts() if e.element in rigid]
     assert impacts, "the reference run must impact its rigid seat"
     assert not rigid & set(opened)
+
+
+@pytest.mark.parametrize("rate", ["4 kHz", "50 kHz"])
+def test_a_one_sided_limit_at_a_break_inside_a_stretch(rate):
+    """The cam's joins do not end a stretch (issue 42): a join is a node pair inside it, and
+    an extreme that is a one-sided limit there is located on the right side of the join.
+    Reference, closed form (tests/study/driven_follower.toml): the driven follower's cam
+    contact force is P + k·s − m·s̈ (no damping, no gravity); a harmonic rise of lift h over
+    β ends with the deceleration c = ω²·h/2·(π/β)², which jumps to 0 on the dwell, so the
+    minimum is the limit from the left at the end of the rise, P + k·h − m·c, at that instant
+    (1e-9 N, 1e-12 s); the maximum is at the rise's start, P + m·ω²·h/2·(π/β)² (its limit from
+    the right, at t = 0)."""
+    text = (ROOT / "tests" / "study" / "driven_follower.toml").read_text().replace('"4 kHz"', f'"{rate}"')
+    run = simulate(load_machine_text(text))
+    omega, h, beta, P, k, m = 600.0 * 2.0 * math.pi / 60.0, 0.010, math.pi / 2.0, 20.0, 2000.0, 0.5
+    c = omega**2 * h / 2.0 * (math.pi / beta) ** 2
+    low, high = run.located["cam_contact/force"]["min"], run.located["cam_contact/force"]["max"]
+    assert low.value == pytest.approx(P + k * h - m * c, abs=1e-9)
+    assert abs(low.time - beta / omega) < 1e-12
+    assert high.value == pytest.approx(P + m * c, abs=1e-9)
+    assert abs(high.time) < 1e-12
