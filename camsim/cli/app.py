@@ -151,6 +151,17 @@ def _main(
     """camsim: exact simulation of cam-follower systems with impact."""
 
 
+def warn(message: str) -> None:
+    """Print ``camsim: warning: message`` on stderr (a message already in the user's units)."""
+    err_console.print(f"camsim: warning: {message}", markup=False, highlight=False)
+
+
+def warn_notes(machine) -> None:
+    """The warnings of how a machine file was read (``Machine.notes``: bare numbers taken as SI)."""
+    for note in getattr(machine, "notes", ()):
+        warn(note)
+
+
 def fail(message: str, code: int = 2) -> typer.Exit:
     """Print ``camsim: error: message`` on stderr and return the Exit to raise."""
     err_console.print(f"camsim: error: {message}", markup=False, highlight=False)

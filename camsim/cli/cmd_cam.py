@@ -17,7 +17,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.app import app, err_console, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, machine_units, units_option
 from camsim.errors import InputError, MachineFileError
 
@@ -185,6 +185,7 @@ def cam_command(
         from camsim.machine.loader import load_machine
 
         machine = load_machine(machine_file, overrides=overrides)
+        warn_notes(machine)
         shown = machine_units(units, machine)
         if machine.cam is None:
             raise MachineFileError(str(machine_file), "cam", "the machine has no cam")

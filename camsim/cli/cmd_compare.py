@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.app import app, err_console, fail, print_json, user_errors, warn_notes
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -119,6 +119,7 @@ def compare_command(
                            "with and without impact) or two result files (HDF5: A against B)")
             rate = parse_sample_rate(sample_rate)
             machine = load_machine(machine_path, overrides=set_)
+            warn_notes(machine)
             shown = machine_units(units, machine)
             target = output if output is not None else beside(machine_path, "_compare.h5")
             check_output(target, output_format(target, HDF5), owner="compare", force=force,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors
+from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, machine_units, units_option
 
 
@@ -259,6 +259,7 @@ def fit_command(
         from camsim.machine.loader import load_machine
 
         loaded = load_machine(machine, overrides=set_)
+        warn_notes(loaded)
         shown = machine_units(units, loaded, [*param, *target, *sigma, *set_, *measured_units(measured)])
         if json_:
             print_json(result.to_json())

@@ -15,7 +15,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.app import app, err_console, fail, print_json, user_errors, warn
 from camsim.cli.units_option import check_units, units_option
 from camsim.errors import InputError
 from camsim.units import QuantityError, to_si
@@ -235,10 +235,29 @@ def impact_command(
         from camsim.display import display_units
 
         shown = display_units(units, None, [v for v in given.values() if v is not None])
+        _bare_numbers(given, shown)
     if json_out:
         print_json(_payload(inputs, estimates))
     else:
         _print_table(inputs, estimates, shown)
+
+
+#: The dimension of each quantity option (for the bare-number warning).
+_DIMENSION = {"mass": "mass", "velocity": "velocity", "drop_height": "length", "target_mass": "mass",
+              "stiffness": "stiffness", "sphere_diameter": "length", "bar_area": "area", "bar_length": "length",
+              "modulus": "pressure", "density": "density", "gravity": "acceleration"}
+
+
+def _bare_numbers(given: dict[str, str | None], shown) -> None:
+    """Issue 44: a bare number is SI, and the warning says so with the value in the table's units."""
+    from camsim.machine.keys import bare_number_note
+    from camsim.units import DIMENSIONS
+
+    for name, dimension in _DIMENSION.items():
+        note = bare_number_note(f"--{name.replace('_', '-')}", given[name], DIMENSIONS[dimension], shown) \
+            if given[name] is not None else None
+        if note:
+            warn(note)
 
 
 def _calculate(**given: str | None) -> tuple[dict[str, Any], impact.ImpactEstimates]:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
+from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors, warn_notes
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -77,6 +77,7 @@ def run_command(
         if record and not patterns:
             raise InputError("--record: give at least one pattern, e.g. 'transducer/*'")
         loaded = load_machine(machine, overrides=set_)
+        warn_notes(loaded)
         shown = machine_units(units, loaded)  # also the units of the errors below
         if record_last is not None and loaded.cam is None:
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")

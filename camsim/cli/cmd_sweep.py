@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.app import app, err_console, fail, print_json, user_errors, warn
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -201,6 +201,7 @@ def sweep_command(
                 on_start=bar.start,
                 output=target,
                 resume=resume,
+                warn=warn,
             )
         finally:
             bar.close()

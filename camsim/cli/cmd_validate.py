@@ -13,7 +13,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.app import app, err_console, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, machine_units, units_option
 
 if TYPE_CHECKING:  # numpy and the element kinds: imported by the command, not by --help
@@ -52,6 +52,7 @@ def validate(
     with user_errors():
         check_units(units)
         machine = load_machine(machine_file, overrides=overrides)
+        warn_notes(machine)
         shown = machine_units(units, machine)
     if json_output:
         print_json(machine_to_dict(machine))

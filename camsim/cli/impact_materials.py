@@ -12,7 +12,7 @@ from pathlib import Path
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import err_console, print_json
+from camsim.cli.app import err_console, print_json, warn_notes
 from camsim.errors import InputError
 
 __all__ = ["materials_command"]
@@ -48,6 +48,7 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
         raise InputError("--materials needs --machine FILE: a machine whose contact has law = \"hertz\" "
                          "(e.g. machines/ball-drop-hertz.toml)")
     loaded = load_machine(machine, overrides=overrides)
+    warn_notes(loaded)
     pairs = _pairs(pair, candidates)
     with Bar("materials", "pairs", quiet=json_out) as bar:
         bar.start(len(pairs) if pairs else 0)

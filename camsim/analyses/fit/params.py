@@ -122,9 +122,9 @@ def override_text(key: str, value: str | float) -> str:
     """The ``KEY=VALUE`` override that sets ``key`` to a value text or an SI float (an angle
     carries ``rad``: a bare angle is read in degrees)."""
     if isinstance(value, float):
-        from camsim.machine.schema import key_unit as schema_key_unit
+        from camsim.machine.keys import unit
 
-        if schema_key_unit(key) == "rad":
+        if unit(key) == "rad":
             return f'{key}="{value!r} rad"'
         return f"{key}={value!r}"
     number = _NUMBER.match(value)
