@@ -216,7 +216,7 @@ def impact_command(
         if extra:
             raise fail(f"--{extra[0].replace('_', '-')} is a calculator option; --materials takes a machine file")
         with user_errors():
-            materials_command(machine, contact, pair, candidates, set_, workers, json_out)
+            materials_command(machine, contact, pair, candidates, set_, workers, json_out, units)
         return
     if any((machine, contact, pair, candidates, set_)):
         raise fail("--machine, --contact, --pair, --candidates and --set go with --materials")

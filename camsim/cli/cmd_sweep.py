@@ -206,7 +206,7 @@ def sweep_command(
         finally:
             bar.close()
         try:
-            h5_path, csv_path = write_sweep(result, target)
+            h5_path, csv_path = write_sweep(result, target, units=machine_units(units, result.machine, [*vary, *values, *set_]))
         except FileSystemError as exc:  # the journal has every finished row
             again = "--fresh (the traces of --keep-traces are not in the journal)" if keep_traces else "--resume"
             raise exc.with_advice(f"{result.journal} keeps the finished rows: free space and run the same command "

@@ -134,8 +134,9 @@ def render_rods(summary: dict, console: Console, system: DisplayUnits) -> None:
     for name, row in summary.get("rods", {}).items():
         stress, force = row.get("max_stress"), row.get("max_end_force")
         inner = row["interior_nodes"]
-        text = (f"rod {name}: {row['segments_reason']}; interior nodes {inner[0]} … {inner[-1]} in the file"
-                if inner else f"rod {name}: {row['segments_reason']}")
+        reason = in_units(row["segments_reason"], system)  # composed in SI (the approach speed)
+        text = (f"rod {name}: {reason}; interior nodes {inner[0]} … {inner[-1]} in the file"
+                if inner else f"rod {name}: {reason}")
         console.print(text, markup=False)
         if stress is not None:
             limit = row.get("yield_strength")
