@@ -54,7 +54,10 @@ class _OneLineErrors(typer.core.TyperGroup):
         from camsim.cli.units_option import reset_error_units
         from camsim.io.outputs import output_session
 
+        from camsim.cli.helptext import polish
+
         reset_error_units()
+        polish(self)  # issue 44: examples, defaults and plain metavars in every --help
         try:
             with output_session():
                 rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -130,9 +131,9 @@ def optimize_command(
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Convergence, the front, and the optimum's response against the file's."),
     set_: list[str] = typer.Option([], "--set", help="Override a machine key for every run (repeatable)."),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per run."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first."),
-    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz".'),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
+    sample_rate: str = typer.Option(None, "--sample-rate", help=SAMPLE_RATE_HELP),
     workers: int = typer.Option(None, "--workers", min=1, help="Local worker processes (default: the number of cores; 1 runs serially)."),
     scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
     dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers."),
