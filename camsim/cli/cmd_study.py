@@ -47,8 +47,11 @@ def _render(result, err, system=None) -> None:
 
     units = dict(result.columns)
     table = Table(show_edge=False, pad_edge=False, title=f"{result.n_runs} runs ({result.method}, seed {result.seed}), 95 % bootstrap intervals of the mean")
+    # Issue 44: a name is never cut (three rows of "peak_displacement:…" on an 80-column terminal): the
+    # name columns keep their longest name, the numbers wrap instead.
+    longest = max((len(q) for q in result.stats), default=6)
     for head in ("output", "unit", "mean", "mean 95 %", "std", "p1", "p50", "p99", "min", "max"):
-        table.add_column(Text(head))
+        table.add_column(Text(head), min_width=longest if head == "output" else None, overflow="fold")
     for q, s in result.stats.items():
         unit, k = system.shown(units.get(q, ""))
         ci = s["ci95"]["mean"]
@@ -78,8 +81,10 @@ def _render(result, err, system=None) -> None:
         )
     if result.sensitivity is not None:
         sens = Table(show_edge=False, pad_edge=False, title="Sobol' indices: first order S1, total ST (95 % bootstrap intervals)")
+        widths = {"output": max((len(q) for q in result.sensitivity), default=6),
+                  "input": max((len(k) for per in result.sensitivity.values() if per for k in per), default=5)}
         for head in ("output", "input", "S1", "S1 95 %", "ST", "ST 95 %"):
-            sens.add_column(Text(head))
+            sens.add_column(Text(head), min_width=widths.get(head), overflow="fold")
         for q, per in result.sensitivity.items():
             if not per:
                 continue

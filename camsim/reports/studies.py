@@ -125,7 +125,7 @@ def sweep_sections(source: Source) -> list[Section]:
 def study_sections(source: Source) -> list[Section]:
     from camsim.io.hdf5 import read_table
     from camsim.io.results import attr_text
-    from camsim.analyses.study.statistics import parse_limit
+    from camsim.analyses.study.statistics import parse_limit, varies
 
     f = source.h5
     machine = _machine(f, source.path)
@@ -180,8 +180,7 @@ def study_sections(source: Source) -> list[Section]:
     used = _statistics_rows(rows)
     for name, o in payload.get("outputs", {}).items():
         values = np.asarray(rows[name], dtype=float)[used]
-        finite = values[np.isfinite(values)]
-        if not finite.size or np.ptp(finite) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300):
+        if not varies(values):
             continue
         shown = source.show(values, units.get(name, ""))
         lims = [(lim.expr, source.show(lim.threshold, units.get(name, "")).values) for lim in limits if lim.quantity == name]
