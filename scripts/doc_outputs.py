@@ -274,6 +274,9 @@ def shown_commands(page: str) -> list[tuple[str, bool]]:
             line = line.strip().removeprefix("$ ")
             for part in line.split("&&"):
                 part = part.split(" #", 1)[0].strip()
+                if part.startswith("python examples/"):  # a script whose output a command reads
+                    out.append((part, False))
+                    continue
                 if not part.startswith("camsim ") or _PLACEHOLDER.search(part):
                     continue
                 following = lines[i + 1] if i + 1 < len(lines) else ""
@@ -284,16 +287,19 @@ def shown_commands(page: str) -> list[tuple[str, bool]]:
 def run_commands(pages: list[str] | None = None) -> list[str]:
     """Run every shown command; the problems (a command that did not end as its page shows).
 
-    Commands a block shows without running them (``run=False``: a 100,000-revolution run) are
-    left out, as there."""
+    Commands a block shows are left out: the block check runs them and compares their output
+    (or, ``run=False``, shows them only: a 100,000-revolution run)."""
     from camsim.reports.browser import find_browser
 
     browser = find_browser(required=False) is not None
-    shown_only = {" ".join(shlex.split(st.shown.split(" #", 1)[0])) for b in BLOCKS.values() for st in b.steps
-                  if st.argv is None}
+    # a command a block shows is run there (its output compared) or, run=False, shown only
+    shown_only = {" ".join(shlex.split(st.shown.split(" #", 1)[0].replace("\\\n", " "))) for b in BLOCKS.values()
+                  for st in b.steps}
     problems = []
     for page in pages or COMMAND_PAGES:
         d = scratch()
+        (d / "docs" / "img").mkdir(parents=True, exist_ok=True)  # a command may draw into docs/img
+        _write_shown_files(page, d)
         try:
             todo = shown_commands(page)
             for attempt in (1, 2):  # a command reading a file a later one writes runs again after it
@@ -302,12 +308,15 @@ def run_commands(pages: list[str] | None = None) -> list[str]:
                     argv = shlex.split(line)
                     if ("--pdf" in argv and not browser) or " ".join(argv) in shown_only:
                         continue
-                    argv += list(QUICK.get(argv[1], ())) if len(argv) > 1 else []
-                    done = subprocess.run([sys.executable, "-m", "camsim", *argv[1:]], cwd=d, env=_env(d),
+                    if argv[0] == "python":
+                        argv = [sys.executable, *argv[1:]]
+                    else:
+                        argv = [sys.executable, "-m", "camsim", *argv[1:], *QUICK.get(argv[1], ())]
+                    done = subprocess.run(argv, cwd=d, env=_env(d),
                                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=1800)
                     ok = (done.returncode != 0) if fails else done.returncode == 0
-                    if not ok and attempt == 1 and ("does not exist" in done.stdout or "No such file" in done.stdout
-                                                    or "cannot open" in done.stdout):
+                    if not ok and attempt == 1 and any(w in done.stdout.lower() for w in
+                                                       ("does not exist", "no such file", "cannot open")):
                         again.append((line, fails))
                     elif not ok:
                         last = done.stdout.strip().splitlines()[-1:] or [""]
@@ -316,6 +325,16 @@ def run_commands(pages: list[str] | None = None) -> list[str]:
         finally:
             shutil.rmtree(d, ignore_errors=True)
     return problems
+
+
+def _write_shown_files(page: str, d: Path) -> None:
+    """A file a page shows in full and a command then reads (the ``[study]`` table of
+    docs/tolerance.md given to ``--config``): written into the scratch copy."""
+    text = (ROOT / page).read_text(encoding="utf-8")
+    for name in re.findall(r"--config (\S+\.toml)", text):
+        table = next((b for b in re.findall(r"```toml\n(.*?)```", text, re.S) if "[study]" in b), None)
+        if table is not None:
+            (d / name).write_text(table, encoding="utf-8")
 
 
 def _env(cwd: Path) -> dict:
