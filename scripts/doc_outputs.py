@@ -369,6 +369,8 @@ def run_step(step: Step, cwd: Path) -> str:
         argv = argv[: argv.index("#")]
     if argv and argv[0] == "camsim":
         argv = [sys.executable, "-m", "camsim", *argv[1:]]
+    elif argv and argv[0] == "python":  # this interpreter, whatever the PATH holds
+        argv = [sys.executable, *argv[1:]]
     done = subprocess.run(argv, cwd=cwd, env=_env(cwd), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           timeout=1800)
     # the progress lines a long command prints every 10 s off a terminal (camsim.cli.progress)

@@ -32,10 +32,10 @@ runner = CliRunner()
 def test_no_module_but_keys_parses_key_paths():
     """The grammar ``name[index]`` joined by dots was parsed in four places (machine/schema,
     machine/overrides, analyses/fit/tomledit, analyses/sweep/runner); only camsim/machine/keys.py
-    may hold it now."""
+    may hold it now (its framework module, keypath.py)."""
     pattern = re.compile(r"\(\?:\\\[\(\\d\+\)\\\]\)\?")  # the regex text (?:\[(\d+)\])?
     holders = [str(p.relative_to(ROOT)) for p in (ROOT / "camsim").rglob("*.py") if pattern.search(p.read_text())]
-    assert holders == ["camsim/machine/keys.py"]
+    assert holders == ["camsim/machine/keypath.py"]
 
 
 @pytest.mark.parametrize("key, unit", [
