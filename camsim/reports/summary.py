@@ -84,7 +84,7 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
                    f"Johnson upper [{f_unit}]", f"simulated peak [{f_unit}]"]
         columns += [f"impulsive [{f_unit}]"] if impulsive else []
         for col in columns + ["duration [ms]"]:
-            t.add_column(escape(col), justify="right")
+            t.add_column(escape(col), justify="right", min_width=len(col) if col.startswith(("duration", "t [")) else None)
         for e in shown_rows:
             row = [f"{e.time:.6f}", _fmt(e.angle_deg, ".2f"), escape(e.element), escape(e.masses), _fmt(e.relative_velocity * v_scale),
                    _fmt(e.johnson_lower * f_scale), _fmt(e.johnson_upper * f_scale), _fmt(e.peak_force * f_scale)]

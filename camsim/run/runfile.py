@@ -94,8 +94,14 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
 
     from camsim.run.result import scalar_columns
 
+    from camsim.cam.design import design_columns
+    from camsim.run.camshaft import camshaft_columns
+
     scalars = result.scalars()
-    units = dict(scalar_columns(list(result.machine.node_names)))
+    # every scalar with its unit: the cam design's and the camshaft's too (issue 44: the page
+    # showed "peak_camshaft_torque 23.76 -", SI without a unit)
+    units = dict(scalar_columns(list(result.machine.node_names)) + design_columns(result.machine)
+                 + camshaft_columns(result.machine))
     g = group.create_group("summary", track_order=True)
     for name, value in scalars.items():
         g.attrs[name] = value

@@ -372,3 +372,17 @@ def test_the_impact_detail_draws_the_force_in_the_axis_unit(results):
     # 2 kHz run straddle the located peak (within 1 %), the force in N would be 4.45 times it
     lbf = UREG.Quantity(1.0, "lbf").to("N").magnitude
     assert np.nanmin(drawn) == pytest.approx((preload - peak_n) / lbf, rel=0.01)
+
+
+def test_every_summary_scalar_names_its_unit(tmp_path):
+    """/summary gives each scalar its unit, the camshaft's and the cam design's too (the page read
+    "peak_camshaft_torque 23.76 -": N·m shown as a bare number). Reference: the hub's column
+    tables (camsim.run.camshaft.camshaft_columns, camsim.cam.design.DESIGN_COLUMNS)."""
+    out = tmp_path / "line.h5"
+    _invoke("run", MACHINES / "camshaft-line.toml", "-o", out, "-q", *QUICK)
+    with h5py.File(out, "r") as f:
+        attrs = f["summary"].attrs
+        units = {k[6:]: (v.decode() if isinstance(v, bytes) else str(v)) for k, v in attrs.items() if k.startswith("units:")}
+    assert units["peak_camshaft_torque"] == "N*m" and units["energy_excursion"] == "J"
+    assert units["flywheel_inertia"] == "kg*m^2" and units["min_clearance:pusher-lane"] == "m"
+    assert units["peak_cam_torque:feeder"] == "N*m"
