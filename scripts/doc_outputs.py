@@ -7,6 +7,7 @@ Usage::
     python scripts/doc_outputs.py --check         # exit 1, naming the stale blocks, if a page differs
     python scripts/doc_outputs.py --write readme-run cam-cdtm   # only the blocks named
     python scripts/doc_outputs.py --list          # the blocks, their pages, and which are slow
+    python scripts/doc_outputs.py --commands      # run every camsim command shown in README.md and docs/
 
 A block sits in its page between ``<!-- BEGIN doc_outputs.py:NAME -->`` and
 ``<!-- END doc_outputs.py:NAME -->`` and holds one fenced code block: each command as it is
@@ -21,6 +22,18 @@ results (issue 34's located peaks) or of a table's layout fails it until
 ``python scripts/doc_outputs.py --write`` is run. Blocks marked slow (a 55-speed sweep, a
 fit, the CI goldens check: tens of seconds each) are checked when ``CI=true`` or
 ``CAMSIM_SLOW=1``.
+
+A figure quoted in prose is generated too (issue 44: "6551 in/s²" stood beside a table that
+printed 6557): it sits between ``<!-- doc_outputs.py:NAME -->`` and ``<!-- /doc_outputs.py -->``
+on one line, and :data:`FIGURES` says which command's ``--json`` gives it and how it is
+written. ``--check`` and ``--write`` treat figures as blocks.
+
+``--commands`` runs every ``camsim`` command line shown in README.md and docs/ (fenced or
+indented blocks; synopses with placeholders such as ``MACHINE.toml`` or ``[...]`` are left
+out), page by page in a scratch copy, and fails on a command that does not end as its page
+shows (exit 0, or the error the page prints after it). Commands of many runs are made quick
+by :data:`QUICK` (fewer samples, a smaller budget, a coarser sample rate): what is checked is
+that the command, its options and its files work as shown.
 
 Not generated here: the tables of docs/validation.md (``scripts/validation.py``, checked by
 tests/test_validation.py), the machine-file reference of docs/machine-file.md
@@ -107,6 +120,20 @@ BLOCKS: dict[str, Block] = {
         camsim('camsim run machines/dynacam-2mass.toml --set element.k12.stiffness="1e18 N/m"'),
         camsim('camsim run machines/dynacam-2mass.toml --set element.k12.stiffness="1e14 N/m" --cycles 40'),
     ), fence="console"),
+    "regression-review": Block("docs/regression.md", (
+        camsim("camsim run machines/cdtm.toml --sample-rate 5kHz --compress -o cdtm.h5", excerpt_from=r"^wrote "),
+        camsim("camsim check cdtm.h5 --against tests/data/golden/cdtm.h5 --show 30", excerpt_from=r"^(PASS|FAIL)"),
+    ), fence="console"),
+    "cam-design-compare": Block("docs/cam-design.md", (
+        camsim("camsim compare machines/cdtm-geometry.toml -o cdtm-geometry_compare.h5", excerpt_from=r"^cam design: impact vs"),
+    ), fence="text"),
+    "camshaft-cam": Block("docs/camshaft.md", (
+        camsim("camsim cam machines/camshaft-line.toml", excerpt_from=r"^clearances over one revolution"),), fence="text"),
+    "camshaft-run": Block("docs/camshaft.md", (
+        camsim("camsim run machines/camshaft-line.toml -o line.h5", excerpt_from=r"^cams on the shaft"),), fence="text"),
+    "camshaft-dynamic": Block("docs/camshaft.md", (
+        camsim("camsim run machines/camshaft-line-dynamic.toml -o line-dyn.h5", excerpt_from=r"^cams on the shaft"),),
+        fence="text", slow=True),
     "fitting-rig-trace": Block("docs/fitting.md", (
         shell("python examples/make_rig_trace.py"),
         shell("head -3 examples/rig_trace.csv"),
@@ -117,6 +144,206 @@ BLOCKS: dict[str, Block] = {
         "    --param element.seat.damping_ratio=0.01:0.3 \\\n"
         "    --workers 2 -o cdtm_fitted.toml --report fit.png"),), fence="sh", slow=True, after=("fitting-rig-trace",)),
 }
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure quoted in prose: the command whose ``--json`` (stdout) holds it, and how it is written."""
+
+    page: str
+    argv: tuple[str, ...]
+    text: object  # Callable[[dict], str]: the payload → the text on the page
+
+
+def _q(value: float, unit: str, si_unit: str, fmt: str = ".4g") -> str:
+    """An SI value in ``unit`` (pint), written ``"6557 in/s²"``."""
+    import pint
+
+    ureg = pint.UnitRegistry()
+    shown = ureg.Quantity(value, si_unit.replace("^", "**")).to(unit.replace("²", "**2").replace("·", "*")).magnitude
+    return f"{format(shown, fmt)} {unit}"
+
+
+def _cdtm_m2(p: dict) -> str:
+    a = p["masses"]["M2"]["acceleration"]["peak"]
+    return f"{_q(a, 'in/s²', 'm/s^2')} ({_q(a, 'm/s²', 'm/s^2', '.4g')})"
+
+
+def _ball_peak(p: dict) -> str:
+    return _q(max(e["peak_force"] for e in p["impacts"]), "lbf", "N")
+
+
+def _shaft(key: str, unit: str, si_unit: str, fmt: str = ".4g"):
+    def text(p: dict) -> str:
+        return _q(p["camshaft"][key], unit, si_unit, fmt)
+    return text
+
+
+def _dynamics(key: str, unit: str, si_unit: str, fmt: str = ".6g"):
+    def text(p: dict) -> str:
+        return _q(p["camshaft"]["dynamics"][key], unit, si_unit, fmt)
+    return text
+
+
+def _residual(p: dict) -> str:
+    return f"{p['periodicity_residual']:.3g}"
+
+
+CDTM_JSON = ("camsim", "run", "machines/cdtm.toml", "-o", "cdtm-json.h5", "--json")
+LINE_JSON = ("camsim", "run", "machines/camshaft-line-dynamic.toml", "-o", "line-dyn-json.h5", "--json")
+FIGURES: dict[str, Figure] = {
+    "readme-m2-acceleration": Figure("README.md", CDTM_JSON, _cdtm_m2),
+    "readme-ball-drop-peak": Figure("README.md", ("camsim", "run", "machines/ball-drop.toml", "-o", "ball.h5", "--json"),
+                                    _ball_peak),
+    "camshaft-dyn-speed": Figure("docs/camshaft.md", LINE_JSON, _dynamics("mean_drive_speed", "rpm", "rad/s")),
+    "camshaft-dyn-drive-work": Figure("docs/camshaft.md", LINE_JSON, _shaft("drive_work", "J", "J")),
+    "camshaft-dyn-cycle-work": Figure("docs/camshaft.md", LINE_JSON, _shaft("cycle_work", "J", "J")),
+    "camshaft-dyn-residual": Figure("docs/camshaft.md", LINE_JSON, _residual),
+}
+#: Figures whose command takes tens of seconds (checked when CI=true, as the slow blocks).
+SLOW_FIGURES = {"camshaft-dyn-speed", "camshaft-dyn-drive-work", "camshaft-dyn-cycle-work", "camshaft-dyn-residual"}
+
+
+def figure_markers(name: str) -> tuple[str, str]:
+    return f"<!-- doc_outputs.py:{name} -->", "<!-- /doc_outputs.py -->"
+
+
+def current_figure(name: str) -> str:
+    begin, end = figure_markers(name)
+    text = (ROOT / FIGURES[name].page).read_text(encoding="utf-8")
+    if begin not in text:
+        raise KeyError(f"{FIGURES[name].page}: no {begin} marker")
+    return text.split(begin, 1)[1].split(end, 1)[0]
+
+
+def replace_figure(name: str, value: str) -> bool:
+    page = ROOT / FIGURES[name].page
+    begin, end = figure_markers(name)
+    text = page.read_text(encoding="utf-8")
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    new = f"{head}{begin}{value}{end}{tail}"
+    if new != text:
+        page.write_text(new, encoding="utf-8")
+        return True
+    return False
+
+
+def generate_figures(names: list[str]) -> dict[str, str]:
+    """Each named figure, every command run once (its JSON on stdout) in a scratch copy."""
+    import json
+
+    d = scratch()
+    payloads: dict[tuple[str, ...], dict] = {}
+    try:
+        for name in names:
+            argv = FIGURES[name].argv
+            if argv not in payloads:
+                done = subprocess.run([sys.executable, "-m", "camsim", *argv[1:]], cwd=d, env=_env(d),
+                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, timeout=1800)
+                payloads[argv] = json.loads(done.stdout)
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+    return {n: FIGURES[n].text(payloads[FIGURES[n].argv]) for n in names}
+
+
+# ---------------------------------------------------------------------- every command shown
+#: Pages whose commands are run by --commands (performance.md and validation.md: bench and
+#: validation scripts' records, their commands are the bench's).
+COMMAND_PAGES = ("README.md", *sorted(f"docs/{p.name}" for p in (ROOT / "docs").glob("*.md")
+                                      if p.name not in ("performance.md", "validation.md")))
+#: Extra options that make a command of many runs quick (appended: the last value wins).
+QUICK = {
+    "sweep": ("--sample-rate", "5 kHz", "--warmup", "0", "--workers", "1"),
+    "study": ("-n", "4", "--sample-rate", "2 kHz", "--warmup", "0", "--workers", "1"),
+    "optimize": ("--budget", "3", "--sample-rate", "2 kHz", "--warmup", "0", "--workers", "1", "--speeds", "120rpm"),
+    "fit": ("--max-evaluations", "3", "--accept-misfit", "--workers", "1"),
+}
+#: A placeholder or a synopsis: not a command to run.
+_PLACEHOLDER = re.compile(r"[A-Z]{2,}[\w.]*\.(?:toml|h5|csv|html)|\s\[|\.\.\.|…|<|\bMACHINE\b|\bRESULT\b|\bKEY=")
+
+
+def shown_commands(page: str) -> list[tuple[str, bool]]:
+    """(command line, shown failing) of every camsim command a page shows, in page order."""
+    text = (ROOT / page).read_text(encoding="utf-8")
+    blocks = re.findall(r"```[a-z]*\n(.*?)```", text, re.S) + re.findall(r"(?:\n\n)((?:    \S.*\n)+)", text)
+    out = []
+    for block in blocks:
+        lines = block.replace("\\\n", " ").splitlines()
+        for i, line in enumerate(lines):
+            line = line.strip().removeprefix("$ ")
+            for part in line.split("&&"):
+                part = part.split(" #", 1)[0].strip()
+                if part.startswith("python examples/"):  # a script whose output a command reads
+                    out.append((part, False))
+                    continue
+                if not part.startswith("camsim ") or _PLACEHOLDER.search(part):
+                    continue
+                following = lines[i + 1] if i + 1 < len(lines) else ""
+                out.append((part, following.strip().startswith("camsim: error")))
+    return out
+
+
+def run_commands(pages: list[str] | None = None) -> list[str]:
+    """Run every shown command; the problems (a command that did not end as its page shows).
+
+    Commands a block shows are left out: the block check runs them and compares their output
+    (or, ``run=False``, shows them only: a 100,000-revolution run)."""
+    from camsim.reports.browser import find_browser
+
+    browser = find_browser(required=False) is not None
+    # a command a block shows is run there (its output compared) or, run=False, shown only
+    shown_only = {" ".join(shlex.split(st.shown.split(" #", 1)[0].replace("\\\n", " "))) for b in BLOCKS.values()
+                  for st in b.steps}
+    problems = []
+    for page in pages or COMMAND_PAGES:
+        d = scratch()
+        (d / "docs" / "img").mkdir(parents=True, exist_ok=True)  # a command may draw into docs/img
+        _write_shown_files(page, d)
+        try:
+            todo = shown_commands(page)
+            for attempt in (1, 2):  # a command reading a file a later one writes runs again after it
+                again = []
+                for line, fails in todo:
+                    argv = shlex.split(line)
+                    if ("--pdf" in argv and not browser) or " ".join(argv) in shown_only:
+                        continue
+                    if argv[0] == "python":
+                        argv = [sys.executable, *argv[1:]]
+                    else:
+                        argv = [sys.executable, "-m", "camsim", *argv[1:], *QUICK.get(argv[1], ())]
+                    done = subprocess.run(argv, cwd=d, env=_env(d),
+                                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=1800)
+                    ok = (done.returncode != 0) if fails else done.returncode == 0
+                    if not ok and attempt == 1 and any(w in done.stdout.lower() for w in
+                                                       ("does not exist", "no such file", "cannot open")):
+                        again.append((line, fails))
+                    elif not ok:
+                        last = done.stdout.strip().splitlines()[-1:] or [""]
+                        problems.append(f"{page}: {line}: exit {done.returncode}: {last[0][:300]}")
+                todo = again
+        finally:
+            shutil.rmtree(d, ignore_errors=True)
+    return problems
+
+
+def _write_shown_files(page: str, d: Path) -> None:
+    """A file a page shows in full and a command then reads (the ``[study]`` table of
+    docs/tolerance.md given to ``--config``): written into the scratch copy."""
+    text = (ROOT / page).read_text(encoding="utf-8")
+    for name in re.findall(r"--config (\S+\.toml)", text):
+        table = next((b for b in re.findall(r"```toml\n(.*?)```", text, re.S) if "[study]" in b), None)
+        if table is not None:
+            (d / name).write_text(table, encoding="utf-8")
+
+
+def _env(cwd: Path) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    env["PATH"] = str(cwd / ".bin") + os.pathsep + env.get("PATH", "")
+    env.pop("CAMSIM_TRACEBACK", None)
+    env["COLUMNS"] = "140"
+    return env
 
 
 def scratch() -> Path:
@@ -142,12 +369,9 @@ def run_step(step: Step, cwd: Path) -> str:
         argv = argv[: argv.index("#")]
     if argv and argv[0] == "camsim":
         argv = [sys.executable, "-m", "camsim", *argv[1:]]
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    env["PATH"] = str(cwd / ".bin") + os.pathsep + env.get("PATH", "")
-    env.pop("CAMSIM_TRACEBACK", None)
-    env["COLUMNS"] = "140"
-    done = subprocess.run(argv, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    elif argv and argv[0] == "python":  # this interpreter, whatever the PATH holds
+        argv = [sys.executable, *argv[1:]]
+    done = subprocess.run(argv, cwd=cwd, env=_env(cwd), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           timeout=1800)
     # the progress lines a long command prints every 10 s off a terminal (camsim.cli.progress)
     # depend on the machine's speed and load: not part of the documented output
@@ -234,17 +458,34 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--check", action="store_true", help="exit 1 when a page's block differs")
     parser.add_argument("--list", action="store_true", help="list the blocks")
     parser.add_argument("--skip-slow", action="store_true", help="leave out the slow blocks")
+    parser.add_argument("--commands", action="store_true", help="run every camsim command shown in README.md and docs/")
     args = parser.parse_args(argv)
+    if args.commands:
+        problems = run_commands()
+        for p in problems:
+            print(p, file=sys.stderr)
+        return 1 if problems else 0
     if args.list:
         for name, b in BLOCKS.items():
             print(f"{name:22} {b.page:22} {'slow' if b.slow else ''}")
         return 0
-    unknown = [n for n in args.names if n not in BLOCKS]
+    unknown = [n for n in args.names if n not in BLOCKS and n not in FIGURES]
     if unknown:
         parser.error(f"unknown block(s): {', '.join(unknown)} (see --list)")
-    names = args.names or [n for n, b in BLOCKS.items() if not (args.skip_slow and b.slow)]
+    wanted = args.names or [*BLOCKS, *FIGURES]
+    names = [n for n in wanted if n in BLOCKS and not (args.skip_slow and BLOCKS[n].slow)]
+    figures = [n for n in wanted if n in FIGURES and not (args.skip_slow and n in SLOW_FIGURES)]
     blocks = generate(names)
     stale = []
+    for name, value in generate_figures(figures).items():
+        if args.write:
+            if replace_figure(name, value):
+                print(f"updated {FIGURES[name].page}: {name}")
+        elif args.check:
+            if current_figure(name) != value:
+                stale.append(name)
+        else:
+            print(f"{figure_markers(name)[0]}  ({FIGURES[name].page}) {value}")
     for name, block in blocks.items():
         if args.write:
             if replace(name, block):
@@ -255,7 +496,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"{markers(name)[0]}  ({BLOCKS[name].page})\n{block}\n")
     if stale:
-        print("stale: " + ", ".join(f"{n} ({BLOCKS[n].page})" for n in stale) + "; run: python scripts/doc_outputs.py --write",
+        print("stale: " + ", ".join(f"{n} ({(BLOCKS.get(n) or FIGURES[n]).page})" for n in stale)
+              + "; run: python scripts/doc_outputs.py --write",
               file=sys.stderr)
         return 1
     return 0

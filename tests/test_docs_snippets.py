@@ -62,7 +62,12 @@ def _check_blocks(slow: bool) -> None:
     assert names
     fresh = script.generate(names)
     stale = [n for n in names if script.normalised(script.current(n)) != script.normalised(fresh[n])]
-    assert not stale, (f"stale command output in the docs: {', '.join(f'{n} ({script.BLOCKS[n].page})' for n in stale)}; "
+    # the figures quoted in prose (issue 44: "6551 in/s²" beside a table printing 6557)
+    figures = [n for n in script.FIGURES if (n in script.SLOW_FIGURES) == slow]
+    values = script.generate_figures(figures)
+    stale += [n for n in figures if script.current_figure(n) != values[n]]
+    assert not stale, (f"stale command output in the docs: "
+                       f"{', '.join(f'{n} ({(script.BLOCKS.get(n) or script.FIGURES[n]).page})' for n in stale)}; "
                        "run: python scripts/doc_outputs.py --write")
 
 
@@ -77,6 +82,32 @@ def test_command_outputs_in_the_docs_are_current():
 def test_slow_command_outputs_in_the_docs_are_current():
     """The same for the blocks that take tens of seconds (the 55-speed sweep, the fit, the CI check)."""
     _check_blocks(slow=True)
+
+
+@pytest.mark.slow
+def test_every_command_shown_runs():
+    """Issue 44: every ``camsim`` command of README.md and docs/ runs from a scratch copy of the
+    repository and ends as its page shows (exit 0, or the error printed after it); commands of
+    many runs with fewer samples and a smaller budget (scripts/doc_outputs.py QUICK). The review
+    recipe of docs/regression.md exited 2 ("different time grids") before."""
+    script = _doc_outputs()
+    assert len([c for p in script.COMMAND_PAGES for c in script.shown_commands(p)]) > 40
+    problems = script.run_commands()
+    assert not problems, "\n".join(problems)
+
+
+def test_the_regression_recipe_compares_like_with_like():
+    """docs/regression.md's commands that compare with a golden run with the golden's settings
+    (tests/data/golden/goldens.txt), so they are comparable (the recipe exited 2)."""
+    script = _doc_outputs()
+    goldens = {line.split()[1]: line.split()[2:] for line in (ROOT / "tests" / "data" / "golden" / "goldens.txt")
+               .read_text().splitlines() if line.strip() and not line.startswith("#")}
+    lines = [c for c, _ in script.shown_commands("docs/regression.md") if "golden" in c or "--check-against" in c]
+    runs = [c for c, _ in script.shown_commands("docs/regression.md") if c.startswith("camsim run")]
+    assert runs and lines
+    for run in runs:
+        machine = run.split()[2]
+        assert all(opt in run for opt in goldens[machine]), (run, goldens[machine])
 
 
 def _command_lines() -> list[tuple[str, str]]:

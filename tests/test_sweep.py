@@ -340,10 +340,12 @@ def test_hdf5_and_csv_agree_and_keep_traces(tmp_path):
         assert list(f["sweep/variants/1"].attrs["overrides"]) == ["cam.speed=460 rpm"]
     with open(csvp, newline="") as fh:
         lines = list(csv.reader(fh))
-    assert lines[0] == [name for name, _ in result.columns]
+    assert [h.split(" [")[0] for h in lines[0]] == [name for name, _ in result.columns]
     assert len(lines) == 3
+    units = dict(result.columns)
     for i, line in enumerate(lines[1:]):
-        for name, cell in zip(lines[0], line):
+        for header, cell in zip(lines[0], line):
+            name = header.split(" [")[0]
             value = table[name][i]
             if name == "status":
                 assert cell == value
@@ -351,9 +353,13 @@ def test_hdf5_and_csv_agree_and_keep_traces(tmp_path):
                 assert cell == ("true" if value else "false")
             elif name == "impacts":
                 assert int(cell) == value
-            else:
-                x = float(cell)
-                assert (math.isnan(x) and math.isnan(value)) or x == value, name  # exact round trip
+            else:  # in the header's display unit (issue 44), back in SI by pint
+                import pint
+
+                unit = header.split(" [")[1].rstrip("]").replace("²", "**2").replace("·", "*") if " [" in header else ""
+                x = pint.UnitRegistry().Quantity(float(cell), unit).to(units[name].replace("^", "**")).magnitude \
+                    if unit and units[name] else float(cell)
+                assert (math.isnan(x) and math.isnan(value)) or math.isclose(x, value, rel_tol=1e-12), name
 
 
 def test_machine_source_from_text_equals_file():

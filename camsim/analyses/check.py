@@ -206,13 +206,27 @@ def _compare_tables(path: str, r_ds: h5py.Dataset, g_ds: h5py.Dataset, rtol: flo
         return [PathDiff(path, "", math.nan, math.nan, math.nan, 0.0, False, note=f"rows: {nr}, golden {ng}")]
     time = np.asarray(g["time"], dtype=float) if "time" in g and g["time"].dtype.kind == "f" else None
     out = []
+    row_units = _row_units(g)
     for col in g:
         cpath = f"{path}/{col}"
-        if g[col].dtype.kind == "f":
+        if g[col].dtype.kind == "f" and row_units is not None and units.get(col) == "quantity's":
+            # Issue 44: the extremes table's max/min hold each row's quantity in its own unit (its
+            # "units" column); compared row by row, each in its unit (never "quantity's").
+            for i, (quantity, unit) in enumerate(row_units):
+                out.append(compare_arrays(f"{path}/{quantity}/{col}", r[col][i:i + 1], g[col][i:i + 1], rtol, atol, unit))
+        elif g[col].dtype.kind == "f":
             out.append(compare_arrays(cpath, r[col], g[col], rtol, atol, units.get(col, ""), time))
         else:
             out.append(_compare_exact(cpath, r[col], g[col], units.get(col, ""), time))
     return out
+
+
+def _row_units(table: dict) -> list[tuple[str, str]] | None:
+    """(quantity, unit) of each row of a table that names them (the extremes table), else None."""
+    if "quantity" not in table or "units" not in table:
+        return None
+    text = lambda v: v.decode() if isinstance(v, bytes) else str(v)  # noqa: E731
+    return [(text(q), text(u)) for q, u in zip(table["quantity"], table["units"])]
 
 
 def _check_tolerances(rtol: float, atol: float) -> None:

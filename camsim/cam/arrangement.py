@@ -341,59 +341,6 @@ def parse_geometry(table, source: str, cam_arm: float | None = None, path: str =
     )
 
 
-def apply_geometry_override(cam: dict, key: str, rest: list[tuple[str, int | None]], value, source: str) -> str:
-    """Set ``cam.geometry.<key>`` (or ``cam.geometry.<material>.<key>``) in a parsed document.
-
-    Parameters
-    ----------
-    cam : dict
-        The document's ``[cam]`` table (``geometry`` is created if missing).
-    key : str
-        The whole override key, for messages.
-    rest : list of (name, index)
-        The key parts after ``cam.geometry``.
-    value
-        The parsed value.
-    source : str
-        The machine file's name.
-
-    Returns
-    -------
-    str
-        The canonical key path set.
-    """
-    if not rest or any(index is not None for _, index in rest):
-        raise MachineFileError(source, key, "address one geometry key, e.g. cam.geometry.base_radius=40mm")
-    name = rest[0][0]
-    if name not in GEOMETRY_KEYS:
-        raise MachineFileError(source, key, f"unknown key; {_suggest(name, GEOMETRY_KEYS)}")
-    geometry = cam.setdefault("geometry", {})
-    if not isinstance(geometry, dict):
-        raise MachineFileError(source, "cam.geometry", "expected a table")
-    if name in ("cam_material", "follower_material") and len(rest) == 1:  # issue 39: a material name
-        geometry[name] = value
-        return f"cam.geometry.{name}"
-    if name in ("cam_material", "follower_material"):
-        if len(rest) != 2 or rest[1][0] not in MATERIAL_KEYS:
-            word = rest[1][0] if len(rest) > 1 else ""
-            raise MachineFileError(source, key, f"unknown key; {_suggest(word, MATERIAL_KEYS)}")
-        material = geometry.setdefault(name, {})
-        if not isinstance(material, dict):
-            raise MachineFileError(source, f"cam.geometry.{name}", "expected a table")
-        material[rest[1][0]] = value
-        return f"cam.geometry.{name}.{rest[1][0]}"
-    if len(rest) != 1:
-        raise MachineFileError(source, key, f"cam.geometry.{name} has no sub-keys")
-    geometry[name] = value
-    return f"cam.geometry.{name}"
-
-
-def geometry_key_unit(key: str) -> str:
-    """SI unit of an override key ``cam.geometry.…`` (``""`` for numbers and strings)."""
-    leaf = key.rsplit(".", 1)[-1]
-    return next((p.unit for p in (*GEOMETRY_PARAMS, *MATERIAL_PARAMS) if p.key == leaf), "")
-
-
 def geometry_to_dict(geometry: CamGeometry | None) -> dict | None:
     """A JSON-able description in SI (``max_pressure_angle`` resolved, in rad)."""
     if geometry is None:

@@ -54,9 +54,12 @@ class _OneLineErrors(typer.core.TyperGroup):
         from camsim.cli.units_option import reset_error_units
         from camsim.io.outputs import output_session
 
+        from camsim.cli.helptext import polish
+
         reset_error_units()
         import warnings
 
+        polish(self)  # issue 44: examples, defaults and plain metavars in every --help
         try:
             with output_session(), warnings.catch_warnings():
                 # numpy's floating-point warnings are never the user's message (issue 45): a value
@@ -169,6 +172,17 @@ def _main(
     ),
 ) -> None:
     """camsim: exact simulation of cam-follower systems with impact."""
+
+
+def warn(message: str) -> None:
+    """Print ``camsim: warning: message`` on stderr (a message already in the user's units)."""
+    err_console.print(f"camsim: warning: {message}", markup=False, highlight=False)
+
+
+def warn_notes(machine) -> None:
+    """The warnings of how a machine file was read (``Machine.notes``: bare numbers taken as SI)."""
+    for note in getattr(machine, "notes", ()):
+        warn(note)
 
 
 def fail(message: str, code: int = 2) -> typer.Exit:

@@ -17,7 +17,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.app import app, err_console, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, machine_units, units_option
 from camsim.errors import InputError, MachineFileError
 
@@ -185,11 +185,12 @@ def cam_command(
         from camsim.machine.loader import load_machine
 
         machine = load_machine(machine_file, overrides=overrides)
+        warn_notes(machine)
         shown = machine_units(units, machine)
         if machine.cam is None:
             raise MachineFileError(str(machine_file), "cam", "the machine has no cam")
         if machine.multi_cam:  # issue 38: several cams on one shaft
-            _several_cams(machine, machine_file, output, kind, points, as_json, plot, profile, dxf, unit, tol)
+            _several_cams(machine, machine_file, output, kind, points, as_json, plot, profile, dxf, unit, tol, shown)
             return
         try:
             program = CamProgram(machine.cam)
@@ -300,11 +301,11 @@ def _geometry_console():
     return err_console if err_console.is_terminal else Console(stderr=True, width=140, highlight=False, emoji=False)
 
 
-def _several_cams(machine, machine_file, output, kind, points, as_json, plot, profile, dxf, unit, tol) -> None:
+def _several_cams(machine, machine_file, output, kind, points, as_json, plot, profile, dxf, unit, tol, shown) -> None:
     """``camsim cam`` on a machine with ``[[cam]]`` tables (issue 38): every cam's table and
     geometry checks, the clearances (a collision is an error, exit 2, before any output),
     the timing diagram (--plot), every cam under /cams/<name>/ (-o), a profile per cam with
-    geometry (--profile/--dxf: STEM-<cam>.EXT)."""
+    geometry (--profile/--dxf: STEM-<cam>.EXT); values in the display units ``shown``."""
     from camsim.cam import CamProgram
     from camsim.cam.files import write_cams_csv, write_cams_hdf5
     from camsim.cam.timing import kinematic_clearances
@@ -352,21 +353,23 @@ def _several_cams(machine, machine_file, output, kind, points, as_json, plot, pr
         for cam in machine.cams:
             _print_table(machine, programs[cam.name], programs[cam.name].segment_peaks(),
                          heading=f"cam {cam.name}, phase {math.degrees(cam.phase):.6g} deg"
-                         + (f", drives {cam.drives}" if cam.drives else ""))
+                         + (f", drives {cam.drives}" if cam.drives else ""), units=shown)
             if cam.name in checks:
                 from camsim.reports.summary import render_geometry_checks
 
                 g = cam.geometry
-                render_geometry_checks(checks[cam.name], _geometry_console(), title=(
-                    f"cam {cam.name} geometry: {g.follower}, Rb {1e3 * g.base_radius:.5g} mm; cam angles, lift at the roller"))
+                render_geometry_checks(checks[cam.name], _geometry_console(), units=shown, title=(
+                    f"cam {cam.name} geometry: {g.follower}, Rb {shown.quantity(g.base_radius, 'm', '.5g')}; cam angles, "
+                    "lift at the roller"))
         if clearances:
             table = Table(title="clearances over one revolution (kinematic)", title_justify="left", box=box.SIMPLE_HEAD)
-            for header in ("pair", "between", "smallest [mm]", "shaft angle [deg]", "allowed [mm]", ""):
+            length, k = shown.shown("m")
+            for header in ("pair", "between", f"smallest [{length}]", "shaft angle [deg]", f"allowed [{length}]", ""):
                 table.add_column(escape(header), justify="left" if header in ("pair", "between", "") else "right")
             for c in clearances:
                 d = c["minimum_distance"]
-                table.add_row(escape(c["name"]), escape(" – ".join(c["between"])), _num(None if d is None else 1e3 * d),
-                              _num(c["shaft_angle_deg"], ".2f"), _num(1e3 * c["allowed"]),
+                table.add_row(escape(c["name"]), escape(" – ".join(c["between"])), _num(None if d is None else k * d),
+                              _num(c["shaft_angle_deg"], ".2f"), _num(k * c["allowed"]),
                               escape(c.get("reason") or ("COLLISION" if c["collides"] else "ok")))
             _geometry_console().print(table)
     for cam in machine.cams:
@@ -402,7 +405,7 @@ def _several_cams(machine, machine_file, output, kind, points, as_json, plot, pr
         from camsim.figures.style import save_figure
         from camsim.figures.timing import plot_timing
 
-        fig = plot_timing(machine, title=f"{machine.name}: timing diagram")
+        fig = plot_timing(machine, title=f"{machine.name}: timing diagram", units=shown)
         save_figure(fig, plot, plot.suffix.lower().lstrip("."), dpi=150)
         written.append(f"{plot} (timing diagram)")
     if not as_json:

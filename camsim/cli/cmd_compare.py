@@ -8,7 +8,8 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
+from camsim.cli.app import app, err_console, fail, print_json, user_errors, warn_notes
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -64,9 +65,9 @@ def render_design_comparison(rows, console, units=None) -> None:
 def compare_command(
     inputs: list[Path] = typer.Argument(..., help="A machine file (TOML), or two run result files (HDF5) to compare."),
     output: Path = typer.Option(None, "-o", "--output", help="Comparison file (HDF5): /impact, /no_impact, /difference. Default for a machine: next to it, <stem>_compare.h5; for two files: none."),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Warm-up revolutions."),
-    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate, e.g. "50 kHz".'),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
+    sample_rate: str = typer.Option(None, "--sample-rate", help=SAMPLE_RATE_HELP),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key, e.g. --set cam.speed="150 rpm" (repeatable).'),
     json_: bool = typer.Option(False, "--json", help="Print the comparison table as JSON on stdout."),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
@@ -119,6 +120,7 @@ def compare_command(
                            "with and without impact) or two result files (HDF5: A against B)")
             rate = parse_sample_rate(sample_rate)
             machine = load_machine(machine_path, overrides=set_)
+            warn_notes(machine)
             shown = machine_units(units, machine)
             target = output if output is not None else beside(machine_path, "_compare.h5")
             check_output(target, output_format(target, HDF5), owner="compare", force=force,

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
+from camsim.cli.app import app, err_console, fail, parse_sample_rate, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, machine_units, units_option
 
 
@@ -184,8 +185,8 @@ def fit_command(
     max_evaluations: int = typer.Option(None, "--max-evaluations", min=1, help="Largest number of residual evaluations per start (default 100 per parameter); a fit stopped by it exits 1."),
     resume: bool = typer.Option(False, "--resume", help="Continue a fit that was interrupted (Ctrl-C, SIGTERM, SIGKILL): the simulations it finished are kept in FITTED.toml.evaluations.h5 (and its .journal) and are not run again. The same machine, parameters, traces and settings are required."),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key for every run, e.g. --set element.seat.stiffness="9e6 N/m" (repeatable).'),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions of every run (overrides simulation.cycles)."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Warm-up revolutions of every run (overrides simulation.warmup_cycles)."),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate of every run, e.g. "50 kHz" (default: the machine file\'s); the simulation is interpolated linearly at the measured times.'),
     accept_misfit: bool = typer.Option(False, "--accept-misfit", help="Write the fitted file (exit 0) even when a --target is missed by more than its sigma or the residual variance of a trace fit is above 2 (the misfit is printed as a warning)."),
     fresh: bool = typer.Option(False, "--fresh", help="Discard the evaluations an interrupted fit left (FITTED.toml.evaluations.h5) and start again."),
@@ -267,6 +268,7 @@ def fit_command(
         from camsim.machine.loader import load_machine
 
         loaded = load_machine(machine, overrides=set_)
+        warn_notes(loaded)
         shown = machine_units(units, loaded, [*param, *target, *sigma, *set_, *measured_units(measured)])
         if json_:
             print_json(result.to_json())

@@ -15,7 +15,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.app import app, err_console, fail, print_json, user_errors, warn
 from camsim.cli.units_option import check_units, units_option
 from camsim.errors import InputError
 from camsim.units import QuantityError, to_si
@@ -39,12 +39,7 @@ impact_app = typer.Typer(
         "a power-law contact to force-deflection data with 'camsim impact fit'. "
         "Values are quantities with their units, quoted; results in the units written (--units)."
     ),
-    epilog=(
-        "\b\nExample (thesis appendix C, table 6: a 0.375 in steel ball dropped 1 in on the hard stop):\n"
-        '  camsim impact --mass "2.029e-5 lbf*s**2/in" --drop-height "1 in" \\\n'
-        '      --sphere-diameter "0.375 in" --modulus "2.9e7 psi" --stiffness "60800 lbf/in"\n'
-        "See docs/impact.md for the formulas and their sources."
-    ),
+    epilog="See docs/impact.md for the formulas and their sources (the examples below: camsim.cli.helptext).",
 )
 app.add_typer(impact_app, name="impact")
 
@@ -218,7 +213,7 @@ def impact_command(
         from camsim.run.lifecycle import sigterm_as_interrupt
 
         with user_errors(), sigterm_as_interrupt():  # issue 45: SIGTERM stops the pairs as Ctrl-C does
-            materials_command(machine, contact, pair, candidates, set_, workers, json_out)
+            materials_command(machine, contact, pair, candidates, set_, workers, json_out, units)
         return
     if any((machine, contact, pair, candidates, set_)):
         raise fail("--machine, --contact, --pair, --candidates and --set go with --materials")
@@ -237,10 +232,29 @@ def impact_command(
         from camsim.display import display_units
 
         shown = display_units(units, None, [v for v in given.values() if v is not None])
+        _bare_numbers(given, shown)
     if json_out:
         print_json(_payload(inputs, estimates))
     else:
         _print_table(inputs, estimates, shown)
+
+
+#: The dimension of each quantity option (for the bare-number warning).
+_DIMENSION = {"mass": "mass", "velocity": "velocity", "drop_height": "length", "target_mass": "mass",
+              "stiffness": "stiffness", "sphere_diameter": "length", "bar_area": "area", "bar_length": "length",
+              "modulus": "pressure", "density": "density", "gravity": "acceleration"}
+
+
+def _bare_numbers(given: dict[str, str | None], shown) -> None:
+    """Issue 44: a bare number is SI, and the warning says so with the value in the table's units."""
+    from camsim.machine.keys import bare_number_note
+    from camsim.units import DIMENSIONS
+
+    for name, dimension in _DIMENSION.items():
+        note = bare_number_note(f"--{name.replace('_', '-')}", given[name], DIMENSIONS[dimension], shown) \
+            if given[name] is not None else None
+        if note:
+            warn(note)
 
 
 def _calculate(**given: str | None) -> tuple[dict[str, Any], impact.ImpactEstimates]:

@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.app import app, err_console, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, units_option
 
 
@@ -34,6 +34,7 @@ def modes_command(
     with user_errors():
         check_units(units)
         loaded = load_machine(machine, overrides=set_)
+        warn_notes(loaded)
         modes = machine_modes(loaded)
         rods = rod_modes(loaded)
     if json_:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -15,11 +16,18 @@ class _Progress:
     """Evaluations done / budget and the best feasible objective so far, on stderr
     (:class:`camsim.cli.progress.Bar`: a live bar on a terminal, a line every 10 s elsewhere)."""
 
-    def __init__(self, quiet: bool, unit: str = "") -> None:
+    def __init__(self, quiet: bool, units: str = "file", options: tuple = ()) -> None:
         from camsim.cli.progress import Bar
 
         self.bar = Bar("optimize", "evaluations", quiet=quiet)
-        self.unit = unit
+        self.units, self.options = units, list(options)
+        self.si_unit, self.shown = "", None
+
+    def objective(self, si_unit: str, machine) -> None:
+        """The best value is shown in the objective's display unit (issue 44: "best: 216.496" was SI, unitless)."""
+        from camsim.cli.units_option import machine_units
+
+        self.si_unit, self.shown = si_unit, machine_units(self.units, machine, self.options)
 
     def start(self, budget: int, stored: int, executor: str) -> None:
         if stored:
@@ -27,7 +35,12 @@ class _Progress:
         self.bar.start(budget, executor, note="best: none feasible yet")
 
     def __call__(self, done: int, budget: int | None, best: float | None) -> None:
-        text = "best: none feasible yet" if best is None else f"best: {best:.6g} {self.unit}".rstrip()
+        if best is None:
+            text = "best: none feasible yet"
+        elif self.shown is not None:
+            text = f"best: {self.shown.quantity(best, self.si_unit, '.6g')}"
+        else:
+            text = f"best: {best:.6g}"
         self.bar(done, budget, note=text)
 
     def close(self) -> None:
@@ -118,9 +131,9 @@ def optimize_command(
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     plot: Path = typer.Option(None, "--plot", metavar="FILE.png", help="Convergence, the front, and the optimum's response against the file's."),
     set_: list[str] = typer.Option([], "--set", help="Override a machine key for every run (repeatable)."),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per run."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first."),
-    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz".'),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
+    sample_rate: str = typer.Option(None, "--sample-rate", help=SAMPLE_RATE_HELP),
     workers: int = typer.Option(None, "--workers", min=1, help="Local worker processes (default: the number of cores; 1 runs serially)."),
     scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
     dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers."),
@@ -143,7 +156,7 @@ def optimize_command(
     from camsim.errors import InputError
     from camsim.run.lifecycle import sigterm_as_interrupt
 
-    bar = _Progress(quiet)
+    bar = _Progress(quiet, units, (*var, *constraint, *dist, *set_, *([speeds] if speeds else [])))
     with user_errors(), sigterm_as_interrupt():
         check_units(units)
         rate = None
@@ -161,7 +174,7 @@ def optimize_command(
                 absorb=absorb, speeds=speeds, robust=robust, dists=dist, samples=samples, max_probability=max_probability,
                 tol_sigma=tol_sigma, method=method, budget=budget, points=points, seed=seed, fixed=set_, cycles=cycles,
                 warmup_cycles=warmup, sample_rate=rate, workers=workers, scheduler=scheduler, dask_local=dask_local,
-                output=out, history=history, resume=resume, fresh=fresh, force=force, progress=bar, on_start=bar.start,
+                output=out, history=history, resume=resume, fresh=fresh, force=force, progress=bar, on_start=bar.start, on_units=bar.objective,
                 max_runs=math.inf if yes else max_runs, max_output=math.inf if yes else None,
             )
         except OptimizeInterrupted as exc:

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
+from camsim.cli.app import app, err_console, parse_sample_rate, print_json, user_errors, warn_notes
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -22,15 +23,15 @@ def default_output(machine_path: Path, suffix: str = "") -> Path:
 def run_command(
     machine: Path = typer.Argument(..., help="Machine file (TOML)."),
     output: Path = typer.Option(None, "-o", "--output", help="Result file (HDF5). Default: next to the machine file, e.g. machines/cdtm.h5."),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions (overrides simulation.cycles)."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first (overrides simulation.warmup_cycles)."),
-    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "50 kHz" (bare number: Hz).'),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
+    sample_rate: str = typer.Option(None, "--sample-rate", help=SAMPLE_RATE_HELP),
     no_impact: bool = typer.Option(False, "--no-impact", help="Run the no-impact variant: contacts removed, links fixed joined, cam contacts bilateral."),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key, e.g. --set cam.speed="150 rpm" (repeatable).'),
     json_: bool = typer.Option(False, "--json", help="Print the summary as JSON on stdout (and nothing else there)."),
     check_against: Path = typer.Option(None, "--check-against", help="After the run, compare the result with this golden file (exit 1 on a regression)."),
-    rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (see camsim check)."),
-    atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against (SI)."),
+    rtol: float = typer.Option(None, "--rtol", help="Relative tolerance for --check-against (default 1e-06, as camsim check)."),
+    atol: float = typer.Option(None, "--atol", help="Absolute tolerance for --check-against, in each dataset's SI unit (default 1e-12, as camsim check)."),
     max_output: str = typer.Option("2GB", "--max-output", metavar="SIZE", help="Refuse (exit 2, before integrating) a run whose estimated output is larger, e.g. 500MB, 10GB; the message gives the estimate and the options that reduce it."),
     yes: bool = typer.Option(False, "--yes", "-y", help="Run even when the estimated output exceeds --max-output or the run would take more than 1e8 integration steps forced by a fast mode."),
     record: list[str] = typer.Option([], "--record", metavar="PATTERN[,PATTERN]", help="Store only the traces whose result path matches a pattern (fnmatch), e.g. 'transducer/*,masses/M3/*' (repeatable); time is stored with them. The summary and events cover everything."),
@@ -43,7 +44,7 @@ def run_command(
     units: str = units_option(),
     force: bool = typer.Option(False, "--force", help="Replace an existing result of another camsim command (a file of another kind or an input is never replaced)."),
     report: Path = typer.Option(None, "--report", metavar="PAGE.html", help=REPORT_HELP),
-    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = ΔE/(Cs·ω²) in the cam design summary; needs [cam.geometry]."),
+    cs: float = typer.Option(None, "--cs", help="Coefficient of speed fluctuation (e.g. 0.05) for the flywheel inertia I = ΔE/(Cs·ω²) in the cam design summary; needs [cam.geometry] (default: none, no flywheel inertia)."),
 ) -> None:
     """Simulate MACHINE and write displacement, velocity, acceleration, forces and events to HDF5.
 
@@ -81,6 +82,7 @@ def run_command(
         if record and not patterns:
             raise InputError("--record: give at least one pattern, e.g. 'transducer/*'")
         loaded = load_machine(machine, overrides=set_)
+        warn_notes(loaded)
         shown = machine_units(units, loaded)  # also the units of the errors below
         if record_last is not None and loaded.cam is None:
             raise InputError(f"--record-last {record_last}: needs a cam (revolutions); {machine} has none")

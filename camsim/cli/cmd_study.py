@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import typer
 
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
 from camsim.cli.app import app, err_console, fail, print_json, user_errors
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
@@ -45,8 +47,11 @@ def _render(result, err, system=None) -> None:
 
     units = dict(result.columns)
     table = Table(show_edge=False, pad_edge=False, title=f"{result.n_runs} runs ({result.method}, seed {result.seed}), 95 % bootstrap intervals of the mean")
+    # Issue 44: a name is never cut (three rows of "peak_displacement:…" on an 80-column terminal): the
+    # name columns keep their longest name, the numbers wrap instead.
+    longest = max((len(q) for q in result.stats), default=6)
     for head in ("output", "unit", "mean", "mean 95 %", "std", "p1", "p50", "p99", "min", "max"):
-        table.add_column(Text(head))
+        table.add_column(Text(head), min_width=longest if head == "output" else None, overflow="fold")
     for q, s in result.stats.items():
         unit, k = system.shown(units.get(q, ""))
         ci = s["ci95"]["mean"]
@@ -76,8 +81,10 @@ def _render(result, err, system=None) -> None:
         )
     if result.sensitivity is not None:
         sens = Table(show_edge=False, pad_edge=False, title="Sobol' indices: first order S1, total ST (95 % bootstrap intervals)")
+        widths = {"output": max((len(q) for q in result.sensitivity), default=6),
+                  "input": max((len(k) for per in result.sensitivity.values() if per for k in per), default=5)}
         for head in ("output", "input", "S1", "S1 95 %", "ST", "ST 95 %"):
-            sens.add_column(Text(head))
+            sens.add_column(Text(head), min_width=widths.get(head), overflow="fold")
         for q, per in result.sensitivity.items():
             if not per:
                 continue
@@ -96,6 +103,10 @@ def _render(result, err, system=None) -> None:
         err.print(f"note: {in_units(note, system)}", markup=False)
 
 
+#: A trace reduction (--reduce), mistaken for the study file.
+_REDUCTION = re.compile(r"^(max|min|maxabs|rms|mean|ptp):[\w/\[\]]")
+
+
 @app.command("study")
 def study_command(
     machine: Path = typer.Argument(None, help="Machine file (TOML); may come from the [study] table of --config instead."),
@@ -110,19 +121,19 @@ def study_command(
         ),
     ),
     samples: int = typer.Option(None, "--samples", "-n", help="Number of samples N (with --sensitivity: N (d+2) runs, N a power of two). Default 256."),
-    out: Path = typer.Option(None, "-o", "--out", help="Study file (HDF5, table /study/rows); a CSV with the same stem is written beside it. Default: <machine>_study.h5."),
+    out: Path = typer.Option(None, "-o", "--output", "--out", help="Study file (HDF5, table /study/rows); a CSV with the same stem is written beside it. Default: <machine>_study.h5."),
     method: str = typer.Option(None, "--method", help="Sampling: mc (Monte Carlo, default), lhs (Latin hypercube) or sobol (scrambled Sobol'; use a power-of-two N)."),
     seed: int = typer.Option(None, "--seed", min=0, help="Seed of every random draw (default 0): the same seed gives the same rows, bit for bit, whatever --workers."),
     tol_sigma: float = typer.Option(None, "--tol-sigma", help="Standard deviations between a tol: nominal and its limits (default 3)."),
     correlate: list[str] = typer.Option([], "--correlate", metavar="KEY1,KEY2=RHO", help="Correlate two inputs (Gaussian copula on their normal scores; repeatable)."),
-    output_expr: list[str] = typer.Option([], "--output", metavar="REDUCER:PATH", help="An extra output per run: max|min|rms|mean of a trace, e.g. max:masses/M3/acceleration, rms:transducer/force (repeatable)."),
+    output_expr: list[str] = typer.Option([], "--reduce", metavar="REDUCER:PATH", help="An extra output per run, a trace reduced to one number: max|min|rms|mean of a trace, e.g. max:masses/M3/acceleration, rms:transducer/force (repeatable; was --output, which now names the study file as -o does)."),
     limit: list[str] = typer.Option([], "--limit", metavar="QUANTITY<VALUE", help='Probability of crossing a limit, e.g. "min_cam_contact_force<0N" (<, <=, >, >=; repeatable).'),
     sensitivity: bool = typer.Option(None, "--sensitivity/--no-sensitivity", help="First-order and total Sobol' indices of every output to every input (Saltelli design, N (d+2) runs)."),
     config: Path = typer.Option(None, "--config", help="Read the study from the [study] table of this TOML file (command-line options win)."),
     set_: list[str] = typer.Option([], "--set", help="Override a machine key for every run (repeatable)."),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per run."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first."),
-    sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare: Hz). Peaks are taken over the samples.'),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
+    sample_rate: str = typer.Option(None, "--sample-rate", help=SAMPLE_RATE_HELP),
     workers: int = typer.Option(None, "--workers", min=1, help="Local worker processes (default: the number of cores; 1 runs serially)."),
     scheduler: str = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask scheduler (needs camsim[dask])."),
     dask_local: int = typer.Option(None, "--dask-local", min=1, metavar="N", help="Start a Dask LocalCluster of N workers for the study."),
@@ -140,7 +151,7 @@ def study_command(
     """Tolerance study of MACHINE: sample the --dist inputs, run every sample, report statistics.
 
     Each run records every summary quantity of the run (peaks per mass, min/max cam
-    contact force, peak transducer force, jump, impacts, ...) and the --output
+    contact force, peak transducer force, jump, impacts, ...) and the --reduce
     reductions, in SI. Statistics: mean, std, percentiles 1/5/50/95/99, min/max with
     95 % bootstrap intervals; --limit gives the probability of crossing each limit;
     --sensitivity the Sobol' indices. Rows are kept as they finish; after Ctrl-C or a
@@ -176,6 +187,9 @@ def study_command(
                 raise InputError(f"--sample-rate: {exc}") from None
         from camsim.io.outputs import beside
 
+        if out is not None and _REDUCTION.match(str(out)):  # issue 44: -o/--output is the file, as in every command
+            raise InputError(f"-o/--output {out}: names the study file (HDF5); '{out}' is a reduction of a trace: "
+                             f"give it with --reduce {out}")
         target = out if out is not None else beside(machine, "_study.h5")
         from camsim.io.outputs import CSV, HDF5, check_journal, check_output, output_format
         from camsim.io.rowstore import journal_path_for
@@ -208,7 +222,7 @@ def study_command(
                 seed=seed if seed is not None else cfg.get("seed", 0),
                 tol_sigma=tol_sigma if tol_sigma is not None else float(cfg.get("tol_sigma", 3.0)),
                 correlate=cfg.get("correlate", []) + correlate,
-                outputs=cfg.get("output", []) + output_expr,
+                outputs=cfg.get("reduce", cfg.get("output", [])) + output_expr,
                 limits=cfg.get("limit", []) + limit,
                 sensitivity=sens,
                 fixed=cfg.get("set", []) + set_,

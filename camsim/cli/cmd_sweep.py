@@ -7,7 +7,8 @@ from pathlib import Path
 
 import typer
 
-from camsim.cli.app import app, err_console, fail, print_json, user_errors
+from camsim.cli.helptext import CYCLES_HELP, SAMPLE_RATE_HELP, WARMUP_HELP
+from camsim.cli.app import app, err_console, fail, print_json, user_errors, warn
 from camsim.cli.report_option import REPORT_HELP, check_report_target, write_report_page
 from camsim.cli.units_option import check_units, machine_units, units_option
 
@@ -136,8 +137,8 @@ def sweep_command(
     yes: bool = typer.Option(False, "--yes", "-y", help="Run a grid larger than --max-variants."),
     json_: bool = typer.Option(False, "--json", help='Print {"rows": [...], "jump_onset_rpm": ...} as JSON on stdout (and nothing else there).'),
     set_: list[str] = typer.Option([], "--set", help='Override a machine key for every variant, e.g. --set element.seat.stiffness="9e6 N/m" (repeatable).'),
-    cycles: int = typer.Option(None, "--cycles", min=1, help="Recorded revolutions per variant (overrides simulation.cycles)."),
-    warmup: int = typer.Option(None, "--warmup", min=0, help="Revolutions computed and discarded first (overrides simulation.warmup_cycles)."),
+    cycles: int = typer.Option(None, "--cycles", min=1, help=CYCLES_HELP),
+    warmup: int = typer.Option(None, "--warmup", min=0, help=WARMUP_HELP),
     sample_rate: str = typer.Option(None, "--sample-rate", help='Output sample rate with units, e.g. "10 kHz" (bare number: Hz). Default: the machine file\'s. Peaks are taken over the samples.'),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted sweep into the same output: run only the variants missing from <output>.journal (same machine, ranges, --set and settings, else exit 2). Without a journal: a fresh sweep."),
     fresh: bool = typer.Option(False, "--fresh", help="Discard the journal an interrupted run of this command left and start again (without it, and without --resume, such a journal is an error)."),
@@ -201,11 +202,12 @@ def sweep_command(
                 on_start=bar.start,
                 output=target,
                 resume=resume,
+                warn=warn,
             )
         finally:
             bar.close()
         try:
-            h5_path, csv_path = write_sweep(result, target)
+            h5_path, csv_path = write_sweep(result, target, units=machine_units(units, result.machine, [*vary, *values, *set_]))
         except FileSystemError as exc:  # the journal has every finished row
             again = "--fresh (the traces of --keep-traces are not in the journal)" if keep_traces else "--resume"
             raise exc.with_advice(f"{result.journal} keeps the finished rows: free space and run the same command "

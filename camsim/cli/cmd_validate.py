@@ -13,8 +13,9 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import app, err_console, print_json, user_errors
+from camsim.cli.app import app, err_console, print_json, user_errors, warn_notes
 from camsim.cli.units_option import check_units, machine_units, units_option
+from camsim.display import in_units
 
 if TYPE_CHECKING:  # numpy and the element kinds: imported by the command, not by --help
     from camsim.display import DisplayUnits
@@ -56,6 +57,7 @@ def validate(
     with user_errors(), raised(nodes=max_nodes, cams=max_cams):
         check_units(units)
         machine = load_machine(machine_file, overrides=overrides)
+        warn_notes(machine)
         shown = machine_units(units, machine)
     if json_output:
         print_json(machine_to_dict(machine))
@@ -162,16 +164,20 @@ def _print_machine(machine: Machine, u: DisplayUnits) -> None:
         shaft = Table(title="camshaft", title_justify="left", show_header=False)
         shaft.add_column("key")
         shaft.add_column("value")
+        torque, k = u.shown("N*m")  # torsional rates per radian of twist, in the torque shown (issue 44)
+        per_rad = {"N*m/rad": "/rad", "N*m*s/rad": "·s/rad"}
         for key, value in dataclasses.asdict(machine.camshaft).items():
             if key == "sections":
                 for sec in value:
-                    shaft.add_row(f"section {sec['cam']}", escape(f"k_t {sec['stiffness']:.6g} N*m/rad, J {sec['inertia']:.6g} "
-                                                                  f"kg*m^2, zeta {sec['damping_ratio']:g}"))
+                    shaft.add_row(f"section {sec['cam']}", escape(f"k_t {sec['stiffness'] * k:.6g} {torque}/rad, J "
+                                                                  f"{_g(sec['inertia'], 'kg*m^2', u)}, zeta {sec['damping_ratio']:g}"))
                 continue
-            if isinstance(value, float) and key in ("speed", "start_angle", "no_load_speed"):
+            if isinstance(value, float) and units.get(key) in per_rad:
+                text = f"{value * k:.6g} {torque}{per_rad[units[key]]}"
+            elif isinstance(value, float) and key in units:
                 text = _g(value, units[key], u)
             elif isinstance(value, float):
-                text = f"{value:.6g} {units.get(key, '')}".strip()
+                text = f"{value:.6g}"
             else:
                 text = "-" if value is None else str(value)
             shaft.add_row(key, escape(text))
@@ -208,8 +214,8 @@ def _print_machine(machine: Machine, u: DisplayUnits) -> None:
     for e in machine.elements:  # issue 39: how each rod is discretised, and why
         if e.compound:
             err_console.print(
-                f"rod {e.name}: {e.segments_reason}; c = {e.wave_speed:.5g} m/s, Z = A*sqrt(E*rho) = "
-                f"{e.impedance:.5g} N*s/m, mass {e.rod_mass:.5g} kg, 2L/c = {e.transit_time:.4g} s, interior nodes "
+                f"rod {e.name}: {in_units(e.segments_reason, u)}; c = {_g(e.wave_speed, 'm/s', u)}, Z = A*sqrt(E*rho) = "
+                f"{_g(e.impedance, 'N*s/m', u)}, mass {_g(e.rod_mass, 'kg', u)}, 2L/c = {e.transit_time:.4g} s, interior nodes "
                 + (f"{e.interior_nodes()[0]} ... {e.interior_nodes()[-1]}" if e.interior_nodes() else "none"),
                 markup=False)
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from rich.markup import escape
 from rich.table import Table
 
-from camsim.cli.app import err_console, fail, print_json
+from camsim.cli.app import err_console, fail, print_json, warn_notes
 from camsim.errors import InputError
 
 __all__ = ["materials_command"]
@@ -38,7 +38,7 @@ def _pairs(pair: list[str], candidates: str | None) -> list[tuple[str, str]] | N
 
 
 def materials_command(machine: Path | None, contact: str | None, pair: list[str], candidates: str | None,
-                      overrides: list[str], workers: int, json_out: bool) -> None:
+                      overrides: list[str], workers: int, json_out: bool, units: str = "file") -> None:
     """Load, rank, print (stderr table or JSON on stdout). Raises InputError on bad options."""
     from camsim.analyses.materials import rank_materials
     from camsim.cli.progress import Bar
@@ -48,6 +48,11 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
         raise InputError("--materials needs --machine FILE: a machine whose contact has law = \"hertz\" "
                          "(e.g. machines/ball-drop-hertz.toml)")
     loaded = load_machine(machine, overrides=overrides)
+    warn_notes(loaded)
+    from camsim.cli.units_option import machine_units
+
+    shown = machine_units(units, loaded, overrides)  # issue 44: the table in the file's units (or --units)
+    (pu, pk), (fu, fk), (vu, vk) = (shown.shown(u) for u in ("Pa", "N", "m/s"))
     pairs = _pairs(pair, candidates)
     finished = [0]
 
@@ -68,8 +73,8 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
         return
     table = Table(title=escape(f"{ranking.machine}: material pairs for {ranking.contact} ({ranking.geometry}), "
                                "best first"), title_justify="left")
-    for col in ("#", "body / flat", "E* [GPa]", "peak force [N]", "peak pressure [MPa]", "first yield [MPa]",
-                "p/p_yield", "rebound", "duration [us]"):
+    for col in ("#", "body / flat", f"E* [{pu}]", f"peak force [{fu}]", f"peak pressure [{pu}]", f"first yield [{pu}]",
+                "p/p_yield", "rebound", "duration [µs]"):
         table.add_column(escape(col), justify="left" if col == "body / flat" else "right",
                          no_wrap=col == "body / flat")
 
@@ -78,19 +83,19 @@ def materials_command(machine: Path | None, contact: str | None, pair: list[str]
 
     for i, r in enumerate(ranking.rows, 1):
         if r.status != "ok":
-            table.add_row(str(i), escape(" / ".join(r.materials)), g(r.e_star, scale=1e-9), escape(r.status),
+            table.add_row(str(i), escape(" / ".join(r.materials)), g(r.e_star, scale=pk), escape(r.status),
                           *["–"] * 5)
             continue
         flag = " yields" if r.yields else ""
-        table.add_row(str(i), escape(" / ".join(r.materials)), g(r.e_star, scale=1e-9), g(r.peak_force),
-                      g(r.peak_pressure, scale=1e-6), g(r.yield_pressure, scale=1e-6),
+        table.add_row(str(i), escape(" / ".join(r.materials)), g(r.e_star, scale=pk), g(r.peak_force, scale=fk),
+                      g(r.peak_pressure, scale=pk), g(r.yield_pressure, scale=pk),
                       g(r.pressure_ratio, ".3g") + flag, g(r.rebound, ".3g"), g(r.contact_duration, ".4g", 1e6))
     err_console.print(table)
     for note in _dash_notes(ranking.rows):  # issue 35: every "–" says why
         err_console.print(note, markup=False)
     speeds = [r.approach_velocity for r in ranking.rows if r.status == "ok"]
     if speeds:
-        err_console.print(f"approach speed of the largest impact: {min(speeds):.4g} to {max(speeds):.4g} m/s",
+        err_console.print(f"approach speed of the largest impact: {min(speeds) * vk:.4g} to {max(speeds) * vk:.4g} {vu}",
                           markup=False)
     err_console.print("ranked: below first yield before yielding, then by peak force, then by rebound "
                       "(docs/impact.md, materials)", markup=False)

@@ -128,6 +128,7 @@ BASE = ("length", "force", "mass", "angle", "angular_speed")
 #: Metric length symbols: their derived units are the coherent SI ones (m/s, N/m, not mm/s).
 _METRIC_LENGTHS = {"m", "mm", "cm", "dm", "km", "µm", "um", "nm"}
 _METRIC_FORCES = {"N", "kN", "mN", "MN", "kgf"}
+_METRIC_MASSES = {"kg", "g", "t", "mg"}
 
 _SUPERSCRIPT = {"2": "²", "3": "³", "4": "⁴", "5": "⁵", "6": "⁶", "-1": "⁻¹"}
 
@@ -192,8 +193,14 @@ def compose(base: Mapping[str, Unit]) -> dict[str, Unit]:
     out["torque"] = Unit(f"{force.text}·{k_force.text}", force.size * k_force.size)
     out["energy"] = (Unit("J", 1.0) if (k_force.text == "m" and force.text == "N")
                      else Unit(f"{k_force.text}·{force.text}", force.size * k_force.size))
-    out["inertia"] = Unit(f"{mass.text}·{k.text}²", mass.size * k.size**2)
-    out["density"] = Unit(f"{mass.text}/{k.text}³", mass.size / k.size**3)
+    # A mass of one system with lengths of the other (lb with mm): inertia and density in the
+    # mass's system (lb·in², never lb·m²), as force/length units follow the force's.
+    if (mass.text in _METRIC_MASSES) != (k.text == "m"):
+        k_mass = Unit("m", 1.0) if mass.text in _METRIC_MASSES else Unit("in", INCH)
+    else:
+        k_mass = k
+    out["inertia"] = Unit(f"{mass.text}·{k_mass.text}²", mass.size * k_mass.size**2)
+    out["density"] = Unit(f"{mass.text}/{k_mass.text}³", mass.size / k_mass.size**3)
     out["area"] = Unit(f"{length.text}²", length.size**2)
     out["slowness"] = Unit(f"s/{k.text}", 1.0 / k.size)
     return out

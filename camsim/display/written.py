@@ -46,7 +46,29 @@ _DIMENSIONALITY = {
     "[length] ** 2 * [mass]": "inertia",
     "[mass] / [length] ** 3": "density",
     "[length] ** 2": "area",
+    "[length] ** 2 * [mass] / [time] ** 2": "torque",  # N·m, lbf·in (a joule counts for energy)
 }
+
+
+def _dimensions(text: str) -> tuple:
+    """``"[length] ** 2 * [mass] / [time] ** 2"`` → ``(("[length]", 2), ("[mass]", 1), ("[time]", -2))``."""
+    out: dict[str, int] = {}
+    sign = 1
+    for token in re.findall(r"/|\[\w+\](?: \*\* \d+)?", text):
+        if token == "/":
+            sign = -1
+            continue
+        name, _, power = token.partition(" ** ")
+        out[name] = out.get(name, 0) + sign * int(power or 1)
+    return tuple(sorted(out.items()))
+
+
+def _dimension_of(dimensionality) -> str | None:
+    """The display dimension of a pint dimensionality, whatever order pint prints its factors in
+    (``[mass] * [length] ** 2`` is the inertia ``kg*m^2``: issue 44)."""
+    key = tuple(sorted(dict(dimensionality).items()))
+    return _BY_DIMENSIONS.get(key)
+_BY_DIMENSIONS = {_dimensions(k): v for k, v in _DIMENSIONALITY.items()}
 #: Abbreviations pint prints differently from how people write them.
 _SYMBOLS = {"th": "thou", "degree": "deg", "°": "deg", "inch": "in", "um": "µm"}
 _SUP = {2: "²", 3: "³", 4: "⁴"}
@@ -87,7 +109,9 @@ def _classify(ureg: Any, quantity: Any) -> Iterator[tuple[str, bool, str, float]
     elif angular and dims == "1 / [time]":
         whole = "angular_speed"
     elif not angular:
-        whole = _DIMENSIONALITY.get(dims)
+        whole = _dimension_of(quantity.dimensionality)
+        if whole == "torque" and any("joule" in n for n in units):
+            whole = "energy"
     if whole is not None:
         text = _text(ureg, units)
         if text is not None:
@@ -98,7 +122,7 @@ def _classify(ureg: Any, quantity: Any) -> Iterator[tuple[str, bool, str, float]
                 yield whole, True, text, size
     if len(units) > 1 or next(iter(units.values())) != 1:
         for name in units:
-            part = _DIMENSIONALITY.get(str(ureg.Unit(name).dimensionality))
+            part = _dimension_of(ureg.Unit(name).dimensionality)
             if part in ("length", "force", "mass"):
                 size = float(ureg.Quantity(1.0, name).to_base_units().magnitude)
                 yield part, False, _symbol(ureg, name), size
@@ -170,6 +194,9 @@ def _resolve(file_votes: _Votes, option_votes: _Votes | None) -> dict[str, Unit]
     for dimension, unit in chosen.items():
         if dimension in direct or dimension in BASE:
             units[dimension] = unit
+    if "torque" in direct and "energy" not in direct:  # work follows the torque written: N·m → J
+        torque = units["torque"]
+        units["energy"] = Unit("J", 1.0) if torque.text == "N·m" else Unit("·".join(reversed(torque.text.split("·"))), torque.size)
     return units
 
 

@@ -178,7 +178,7 @@ def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str
         Figure title.
     """
     if "cam/angle" not in group and "cams" in group:  # issue 38: every cam against the shaft angle
-        return _plot_svaj_cams(group, time_window, angle_window, title)
+        return _plot_svaj_cams(group, time_window, angle_window, title, units)
     angle_ds = require(group, "cam/angle", "cam angle for the SVAJ plot")
     angle = angle_ds[()]
     if time_window is not None or angle_window is not None:
@@ -215,7 +215,8 @@ def plot_svaj(group: h5py.Group, time_window=None, angle_window=None, title: str
     return fig
 
 
-def _plot_svaj_cams(group: h5py.Group, time_window=None, angle_window=None, title: str = "") -> Figure:
+def _plot_svaj_cams(group: h5py.Group, time_window=None, angle_window=None, title: str = "",
+                    units: DisplayUnits | None = None) -> Figure:
     """s, v, a, j of every cam of a machine with ``[[cam]]`` tables against the shaft's angle."""
     shaft = require(group, "camshaft/angle", "shaft angle for the SVAJ plot")
     mask = _sample_mask(group, time_window, angle_window) if "time" in group else _in(shaft[()], angle_window)
@@ -226,17 +227,20 @@ def _plot_svaj_cams(group: h5py.Group, time_window=None, angle_window=None, titl
         for cam in group["cams"]:
             for ax, q in zip(axes, names):
                 ds = require(group, f"cams/{cam}/{q}", "cam SVAJ")
-                ax.plot(x, ds[()][mask], label=cam)
-                ax.set_ylabel(axis_label(q, units_of(ds)))
+                label, scale = displayed(q, units_of(ds), units)
+                ax.plot(x, ds[()][mask] * scale, label=cam)
+                ax.set_ylabel(label)
         axes[0].legend(loc="best", fontsize="small")
         axes[-1].set_xlabel(axis_label("shaft angle", units_of(shaft)))
         fig.suptitle(title or "every cam's displacement, velocity, acceleration, jerk")
     return fig
 
 
-def plot_camshaft(group: h5py.Group, time_window=None, angle_window=None, title: str = "") -> Figure:
+def plot_camshaft(group: h5py.Group, time_window=None, angle_window=None, title: str = "",
+                  units: DisplayUnits | None = None) -> Figure:
     """The camshaft (issue 38): each cam's torque and the shaft's, the motor's torque, and the
-    shaft's speed when it varies (a dynamic shaft)."""
+    shaft's speed when it varies (a dynamic shaft), in the display units ``units`` (issue 44:
+    the speed was drawn in rad/s)."""
     mask = _sample_mask(group, time_window, angle_window)
     t = group["time"][()][mask]
     speed = group["camshaft/speed"][()][mask] if "camshaft/speed" in group else None
@@ -244,19 +248,21 @@ def plot_camshaft(group: h5py.Group, time_window=None, angle_window=None, title:
     with matplotlib.rc_context(_STYLE):
         fig, axes = _new_figure(6.5 if varies else 3.8, 2 if varies else 1)
         ax = axes[0]
+        torque = require(group, "camshaft/torque")
+        t_label, t_scale = displayed("torque", units_of(torque), units)
         if "cams" in group:
             for cam in group["cams"]:
                 if f"cams/{cam}/torque" in group:
-                    ax.plot(t, group[f"cams/{cam}/torque"][()][mask], linewidth=0.9, label=f"cam {cam}")
-        torque = require(group, "camshaft/torque")
-        ax.plot(t, torque[()][mask], color="k", linewidth=1.2, linestyle="--", label="shaft (sum)")
+                    ax.plot(t, group[f"cams/{cam}/torque"][()][mask] * t_scale, linewidth=0.9, label=f"cam {cam}")
+        ax.plot(t, torque[()][mask] * t_scale, color="k", linewidth=1.2, linestyle="--", label="shaft (sum)")
         if "camshaft/motor_torque" in group and varies:
-            ax.plot(t, group["camshaft/motor_torque"][()][mask], color="tab:red", linestyle="--", label="drive")
-        ax.set_ylabel(axis_label("torque", units_of(torque)))
+            ax.plot(t, group["camshaft/motor_torque"][()][mask] * t_scale, color="tab:red", linestyle="--", label="drive")
+        ax.set_ylabel(t_label)
         ax.legend(loc="best", fontsize="small")
         if varies:
-            axes[1].plot(t, speed, color="tab:blue")
-            axes[1].set_ylabel(axis_label("shaft speed", units_of(group["camshaft/speed"])))
+            s_label, s_scale = displayed("shaft speed", units_of(group["camshaft/speed"]), units)
+            axes[1].plot(t, speed * s_scale, color="tab:blue")
+            axes[1].set_ylabel(s_label)
         axes[-1].set_xlabel(axis_label("time", units_of(group["time"])))
         fig.suptitle(title or "camshaft torque" + (" and speed" if varies else ""))
     return fig
@@ -532,7 +538,7 @@ def figures_for_file(
                 if explicit:
                     raise ResultFileError(f"{f.filename}: --what camshaft: no /camshaft/torque (one cam and no [camshaft])")
                 continue
-            figs[f"{stem}_camshaft"] = plot_camshaft(f, time_window, angle_window)
+            figs[f"{stem}_camshaft"] = plot_camshaft(f, time_window, angle_window, units=units)
         elif k == "design":  # issue 14: cam design datasets ([cam.geometry])
             if "cam/pressure_angle" not in f:
                 if explicit:

@@ -27,12 +27,12 @@ MAX_OUTPUTS = 8
 
 def plotted_outputs(result) -> list[str]:
     """The outputs that get panels: varying, limited ones first, at most :data:`MAX_OUTPUTS`."""
+    from camsim.analyses.study.statistics import varies
+
     ok = (result.rows["status"] == "ok").to_numpy()
     varying = []
     for q in result.stats:
-        x = result.rows[q].to_numpy(dtype=float)[ok]
-        x = x[np.isfinite(x)]
-        if x.size and np.ptp(x) > 0:
+        if varies(result.rows[q].to_numpy(dtype=float)[ok]):
             varying.append(q)
     limited = [lim["expr"] for lim in result.limits]
     first = [q for q in varying if any(e.startswith(q) and e[len(q):len(q) + 1] in "<>" for e in limited)]
@@ -134,7 +134,8 @@ def plot_study(result, outputs: list[str] | None = None, units=None):
                     t_err = np.abs(np.array([s[kk]["total_ci95"] for kk in keys]).T - total)
                     ax.barh(pos - 0.2, first, 0.4, xerr=f_err, label="first order", color="#66ccee")
                     ax.barh(pos + 0.2, total, 0.4, xerr=t_err, label="total", color="#228833")
-                    ax.legend(loc="lower right")
+                    # beside the bars, never over them (issue 44: it covered the lowest input's bars)
+                    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8, frameon=False)
                 ax.set_yticks(pos, [kk.split(".", 1)[-1] for kk in keys])
                 ax.set_xlim(-0.05, 1.05)
                 ax.set_xlabel("Sobol' index")

@@ -17,11 +17,13 @@ from camsim.figures.cam import _STYLE
 __all__ = ["plot_timing"]
 
 
-def plot_timing(machine, title: str = "", points: int = 3601) -> Figure:
-    """The timing diagram: s of every cam [mm] against the shaft angle [deg]; the clearances
-    (kinematic ones) in a second panel."""
+def plot_timing(machine, title: str = "", points: int = 3601, units=None) -> Figure:
+    """The timing diagram: s of every cam against the shaft angle [deg]; the clearances
+    (kinematic ones) in a second panel; lengths in the display units ``units`` (default: the
+    machine file's)."""
     import matplotlib
 
+    length, k = (units if units is not None else machine.display_units).shown("m")
     data = timing_samples(machine, points)
     angle = data["angle"] - data["angle"][0]
     clearances = [c for c in kinematic_clearances(machine) if c["minimum_distance"] is not None]
@@ -32,8 +34,8 @@ def plot_timing(machine, title: str = "", points: int = 3601) -> Figure:
         for cam in machine.cams:
             phase = np.degrees(cam.phase)
             label = f"{cam.name} (phase {phase:g}°" + (f", drives {cam.drives})" if cam.drives else ")")
-            ax.plot(angle, 1e3 * data[cam.name], label=label)
-        ax.set_ylabel("follower displacement s [mm]")
+            ax.plot(angle, k * data[cam.name], label=label)
+        ax.set_ylabel(f"follower displacement s [{length}]")
         ax.legend(loc="best", fontsize="small")
         ax.grid(True, alpha=0.3)
         if clearances:
@@ -44,11 +46,11 @@ def plot_timing(machine, title: str = "", points: int = 3601) -> Figure:
                 spec = next(x for x in machine.clearances if x.name == c["name"])
                 xa, xb = kinematic_position(machine, spec.a.node), kinematic_position(machine, spec.b.node)
                 d = (xb(theta) + spec.b.offset) - (xa(theta) + spec.a.offset)
-                line, = ax2.plot(angle, 1e3 * d, label=f"{c['name']}: {c['between'][0]} – {c['between'][1]}")
+                line, = ax2.plot(angle, k * d, label=f"{c['name']}: {c['between'][0]} – {c['between'][1]}")
                 at = (c["shaft_angle_deg"] - np.degrees(start)) % 360.0
-                ax2.plot([at], [1e3 * c["minimum_distance"]], "o", color=line.get_color())
-                ax2.axhline(1e3 * spec.minimum, color=line.get_color(), linestyle=":", linewidth=0.8)
-            ax2.set_ylabel("clearance [mm]")
+                ax2.plot([at], [k * c["minimum_distance"]], "o", color=line.get_color())
+                ax2.axhline(k * spec.minimum, color=line.get_color(), linestyle=":", linewidth=0.8)
+            ax2.set_ylabel(f"clearance [{length}]")
             ax2.legend(loc="best", fontsize="small")
             ax2.grid(True, alpha=0.3)
         axes[-1].set_xlabel("shaft angle from its start angle [deg]")

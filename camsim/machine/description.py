@@ -145,6 +145,10 @@ class Machine:
         The file the machine came from (for messages), ``"<string>"`` otherwise.
     text : str
         The TOML text as read (stored in result files).
+    notes : tuple of str
+        How the file was read, when it needs saying: each bare number taken as SI in a file
+        that otherwise writes units, and each bare number given with ``--set`` (one line each,
+        its value in the file's units). Commands print them as warnings.
     """
 
     name: str
@@ -160,6 +164,9 @@ class Machine:
     camshaft: Camshaft | None = None
     clearances: tuple[Clearance, ...] = ()
     multi_cam: bool = False
+    #: Warnings about how the file was read, one line each: a bare number taken as SI where the
+    #: file otherwise writes units (:func:`camsim.machine.keys.bare_number_note`, issue 44).
+    notes: tuple[str, ...] = field(default=(), compare=False)
 
     #: Rebuilds a machine from this one's text with ``--set`` assignments; set by the loader
     #: that made it (the description sits below the loader, so it is handed the way back).

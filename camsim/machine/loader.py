@@ -206,12 +206,30 @@ def load_machine_text(
             if exc.key in origin:
                 message += f" (value from --set {origin[exc.key]})"
             raise MachineFileError(source, exc.key, message) from None
+    notes = _bare_number_notes(doc, text, overrides, origin)
     if overrides:
         import tomli_w
 
         header = "".join(f"# --set {a}\n" for a in overrides)
         text = f"# {source} with command-line overrides:\n{header}" + tomli_w.dumps(doc)
-    return _replace_text(machine, text, base_dir)
+    return _replace_text(machine, text, base_dir, notes)
+
+
+def _bare_number_notes(doc: dict, text: str, overrides: Sequence[str], origin: dict[str, str]) -> tuple[str, ...]:
+    """Issue 44: each bare number read as SI where the file otherwise writes units, and each one
+    given with ``--set``, in one line with its value in the file's units (camsim.machine.keys)."""
+    from camsim.display import option_quantities, written_units
+    from camsim.machine import keys
+    from camsim.machine.overrides import _parse_value
+
+    shown = written_units(text, option_quantities(overrides))
+    notes = []
+    for path, assignment in origin.items():
+        key, _, raw = assignment.partition("=")
+        note = keys.bare_number_note(f"--set {key.strip()}", _parse_value(raw), keys.unit(path), shown)
+        if note:
+            notes.append(note)
+    return tuple(keys.bare_number_notes(doc, shown, skip=origin) + notes)
 
 
 def _in_file_units(message: str, text: str, overrides: Sequence[str]) -> str:
@@ -265,49 +283,9 @@ def override_keys(doc: dict) -> list[str]:
         ``element.K12.stiffness``, ``initial.M2.velocity``...), including keys that the
         schema allows but the file leaves at their default.
     """
-    keys = ["schema"] + [f"machine.{k}" for k in MACHINE_KEYS]
-    cam = doc.get("cam")
-    from camsim.cam.arrangement import GEOMETRY_KEYS, MATERIAL_KEYS  # issue 14
+    from camsim.machine.keys import document_paths
 
-    def cam_keys(prefix: str, table, valid) -> list[str]:
-        out = [f"{prefix}.{k}" for k in valid if k not in ("segments", "geometry", "speed", "start_angle")
-               or (prefix == "cam" and k in ("speed", "start_angle"))]
-        out += [f"{prefix}.geometry.{k}" for k in GEOMETRY_KEYS if not k.endswith("_material")]
-        out += [f"{prefix}.geometry.{m}.{k}" for m in ("cam_material", "follower_material") for k in MATERIAL_KEYS]
-        if isinstance(table, dict) and isinstance(table.get("segments"), list):
-            for i, _ in enumerate(table["segments"]):
-                out += [f"{prefix}.segments[{i}].{k}" for k in SEGMENT_KEYS]
-        return out
-
-    if isinstance(cam, list):  # issue 38: [[cam]] tables, by name; cam.speed is the shaft's
-        from camsim.machine import schema
-
-        keys += ["cam.speed", "cam.start_angle"]
-        for name, row in _named_rows(cam).items():
-            keys += cam_keys(f"cam.{name}", row, MULTI_CAM_KEYS)
-        keys += [f"camshaft.{k}" for k in schema.keys("camshaft") if k != "section"]
-        shaft = doc.get("camshaft") if isinstance(doc.get("camshaft"), dict) else {}
-        for row in shaft.get("section", []) if isinstance(shaft.get("section"), list) else []:
-            if isinstance(row, dict) and isinstance(row.get("cam"), str):
-                keys += [f"camshaft.section.{row['cam']}.{k}" for k in schema.keys("camshaft.section") if k != "cam"]
-    else:
-        keys += cam_keys("cam", cam, CAM_KEYS)
-    for name in _named_rows(doc.get("clearance")):
-        keys.append(f"clearance.{name}.minimum")
-    masses = _named_rows(doc.get("mass"))
-    for name in masses:
-        keys += [f"mass.{name}.{k}" for k in MASS_KEYS if k != "name"]
-    for name, row in _named_rows(doc.get("element")).items():
-        kind = row.get("type")
-        extra = element_kinds.type_keys(kind) if isinstance(kind, str) else ()
-        keys += [f"element.{name}.{k}" for k in ELEMENT_COMMON_KEYS + extra if k != "name"]
-    keys += [f"simulation.{k}" for k in SIMULATION_KEYS]
-    rows = cam if isinstance(cam, list) else [cam]
-    driven = {r.get("drives") for r in rows if isinstance(r, dict)}
-    for name in masses:
-        if name not in driven:
-            keys += [f"initial.{name}.{k}" for k in INITIAL_KEYS]
-    return keys
+    return document_paths(doc)
 
 
 def damping_coefficients(machine: Machine, element: Element) -> dict[str, float]:
@@ -466,7 +444,7 @@ def _shaft_dict(machine: Machine) -> dict[str, Any]:
     return out
 
 
-def _replace_text(machine: Machine, text: str, base_dir: Path) -> Machine:
+def _replace_text(machine: Machine, text: str, base_dir: Path, notes: tuple[str, ...] = ()) -> Machine:
     import dataclasses
 
-    return dataclasses.replace(machine, text=text, base_dir=str(base_dir), rebuild=_with_values)
+    return dataclasses.replace(machine, text=text, base_dir=str(base_dir), rebuild=_with_values, notes=notes)

@@ -208,53 +208,6 @@ def _element_params() -> dict[str, Param]:
 
 ELEMENT_PARAMS = _element_params()
 
-_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
-
-
-def key_param(key: str) -> Param | None:
-    """The :class:`Param` an override key (``--set`` grammar) addresses, or None.
-
-    ``cam.speed``, ``cam.segments[2].lift``, ``mass.M2.mass``, ``element.seat.stiffness``,
-    ``simulation.cycles``, ``initial.M3.velocity`` (``mass[1].mass`` and
-    ``element[3].gap`` as well).
-    """
-    parts = [_PART.match(p.strip()) for p in key.split(".")]
-    if not parts or not all(parts):
-        return None
-    names = [m.group(1) for m in parts]
-    head, leaf = names[0], names[-1]
-    if head == "element":
-        return ELEMENT_PARAMS.get(leaf)
-    if head == "cam" and len(names) >= 3 and names[1] not in keys("cams"):  # issue 38: cam.<name>.<key>
-        if len(names) == 3 and leaf in ("name", "phase"):
-            return next(p for p in TABLES["cams"] if p.key == leaf)
-        return key_param(".".join(["cam", *key.split(".")[2:]]))
-    if head == "camshaft" and len(names) == 4 and names[1] == "section":  # camshaft.section.<cam>.<key>
-        table = "camshaft.section"
-        return next((p for p in TABLES[table] if p.key == leaf), None)
-    if head == "clearance" and len(names) == 3:  # clearance.<name>.minimum
-        return next((p for p in TABLES["clearance"] if p.key == leaf), None)
-    if head == "cam" and len(names) == 3 and names[1] == "segments":
-        table = "cam.segments"
-    elif head == "cam" and len(names) == 4 and names[1] == "segments":  # issue 27
-        table = "cam.segments.points" if names[2] == "points" else "cam.segments.end"
-    elif head == "cam" and len(names) == 3 and names[1] == "compensation":  # issue 27
-        table = "cam.compensation"
-    elif head == "cam" and len(names) >= 3 and names[1] == "geometry":  # issue 14
-        table = "cam.geometry" if len(names) == 3 else "cam.geometry.material"
-    elif head in ("mass", "initial"):
-        table = head
-    else:
-        table = head
-    return next((p for p in TABLES.get(table, ()) if p.key == leaf), None)
-
-
-def key_unit(key: str) -> str:
-    """SI unit of an override key's value (``""`` for numbers and unknown keys)."""
-    p = key_param(key)
-    return p.unit if p is not None else ""
-
-
 # ---------------------------------------------------------------------- the reference page
 _SHOWN = {
     "stiffness": "force/length", "damping": "N·s/m", "number": "number", "bool": "boolean", "nodes": "[node, node]",

@@ -84,9 +84,11 @@ def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathL
         Not a camsim result, a kind without a page, an unwritable output, no browser for
         ``pdf``, or bokeh missing; nothing is written then.
     """
+    from camsim.extras import require
     from camsim.io.atomic import check_writable
     from camsim.io.results import open_h5
 
+    require("bokeh", "report")  # issue 44: the install hint (exit 2), never "internal error"
     out = Path(output)
     inputs = [Path(p) for p in paths]
     if not inputs:
@@ -132,7 +134,10 @@ def build_report(paths: Sequence[str | os.PathLike[str]], output: str | os.PathL
 def build_report_from(obj: Any, kind: str, output: str | os.PathLike[str], *, command: str = "",
                       pdf: str | os.PathLike[str] | None = None, title: str = "", units: Any = None) -> Path:
     """The page of an in-memory result that has no result file (a fit), values in ``units``."""
+    from camsim.extras import require
     from camsim.io.atomic import check_writable
+
+    require("bokeh", "report")
 
     check_writable(output)
     if pdf is not None:

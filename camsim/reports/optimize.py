@@ -7,7 +7,7 @@ the rows of ``/optimize/candidates`` and ``/optimize/front`` and the attributes 
 optimum, the sense of each objective, the constraint limits and the machine file's values.
 A history without that payload still gets a page; the optimum is then picked from the rows
 (the best feasible objective, else the least violation) and the file values are left out.
-Values are shown in the page's display units (:meth:`camsim.reports.page.Source.unit`, the
+Values are shown in the page's display units through :class:`camsim.reports.page.Source` (the
 machine file's by default), speeds in rpm and angles in deg unless the file writes them otherwise.
 """
 
@@ -42,10 +42,14 @@ def _text(value) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
-def _unit(source: Source, dset, column: str) -> tuple[str, float]:
-    """(unit shown, factor from SI) of a history column in the page's display units (speeds in rpm,
-    durations in deg, like the sweep page)."""
-    return source.unit(_text(dset.attrs.get(f"units:{column}", "")))
+def _si(dset, column: str) -> str:
+    """The SI unit of a history column (its ``units:<column>`` attribute)."""
+    return _text(dset.attrs.get(f"units:{column}", ""))
+
+
+def _column(source: Source, dset, column: str, name: str = ""):
+    """A history column in the page's display units (speeds in rpm, durations in deg, like the sweep page)."""
+    return source.column(name or column, _si(dset, column))
 
 
 def _best_row(rows: dict, payload: dict, objectives: list[str]) -> int:
@@ -65,15 +69,6 @@ def _best_row(rows: dict, payload: dict, objectives: list[str]) -> int:
 def _at(rows: dict, column: str, i: int) -> float:
     """Row ``i`` of a numeric column, NaN when the history has no such column."""
     return float(rows[column][i]) if column in rows else float("nan")
-
-
-def _cell(value, scale: float = 1.0, spec: str = ".4g") -> str:
-    """A table cell: text as text, booleans as yes/no, numbers scaled to the shown unit."""
-    if isinstance(value, (str, bytes)):
-        return esc(_text(value))
-    if isinstance(value, (bool, np.bool_)):
-        return fmt(bool(value))
-    return fmt(float(value) * scale, spec)
 
 
 @register("optimize")
@@ -118,7 +113,8 @@ def optimize_sections(source: Source) -> list[Section]:
              ("status", f"<span data-key=status>{esc(status)}</span>"),
              ("seed", esc(_text(g.attrs.get("seed", "–")))), ("budget", esc(_text(g.attrs.get("budget", "–")))),
              ("evaluations", esc(_text(g.attrs.get("evaluations", len(feasible))))), ("runs", esc(_text(g.attrs.get("runs", "–")))),
-             ("speeds", ", ".join(fmt(s) for s in speeds) + " rpm" if speeds else "the machine file's speed")]
+             ("speeds", ", ".join(source.number(s * 2.0 * np.pi / 60.0, "rad/s") for s in speeds)
+              + f" {source.show(1.0, 'rad/s').unit}" if speeds else "the machine file's speed")]
     out = [header_section(source, machine.name, extra)]
     out.append(_verdicts(source, status, rows, best, payload, objectives, dset))
     out.append(_convergence(source, rows, feasible, best, payload, objectives, dset))
@@ -137,12 +133,12 @@ def _verdicts(source, status, rows, best, payload, objectives, dset) -> Section:
     s = Section(source.name("verdicts"), "Verdicts")
     k = int(rows["candidate"][best])
     if status == "optimal":
-        tiles = [verdict("Feasible optimum", "ok", f"Found: candidate <span class=value data-key=optimum>{k}</span> meets every constraint.", "optimum")]
+        tiles = [verdict("Feasible optimum", "ok", f"Found: candidate {source.number(k, '', key='optimum')} meets every constraint.", "optimum")]
     else:
         # The solver's fallback (run.py): the least-violating candidate stands in for the optimum.
         tiles = [verdict("Feasible optimum", "fail", f"No feasible candidate: none meets the constraints ({esc(status)}). "
-                         f"The least-violating one, candidate <span class=value data-key=optimum>{k}</span> (violation "
-                         f"{fmt(rows['violation'][best])}), is shown as the optimum below.", "optimum")]
+                         f"The least-violating one, candidate {source.number(k, '', key='optimum')} (violation "
+                         f"{source.number(rows['violation'][best], '')}), is shown as the optimum below.", "optimum")]
     info = payload.get("objectives") or [{"expr": c[10:]} for c in objectives]
     where = "at the optimum" if status == "optimal" else "at the least-violating candidate"
     # The payload's reference candidate is the file's values, or START when --var gave one.
@@ -150,13 +146,13 @@ def _verdicts(source, status, rows, best, payload, objectives, dset) -> Section:
     file_values = {v["key"]: v.get("initial") for v in payload.get("variables") or []}
     ref_name = "the machine file's values" if all(start.get(k) == v for k, v in file_values.items()) else "the START values of --var"
     for c, o in zip(objectives, info):
-        unit, scale = _unit(source, dset, c)
-        value = float(rows[c][best]) * scale
-        detail = (f"{esc(o.get('sense', ''))} <code>{esc(o['expr'])}</code>: <span class=value data-key=objective>{fmt(value)}</span> {esc(unit)} {where}")
+        value = float(rows[c][best])
+        detail = (f"{esc(o.get('sense', ''))} <code>{esc(o['expr'])}</code>: {source.quantity(value, _si(dset, c), key='objective')} {where}")
         if o.get("initial") is not None:
-            ref = float(o["initial"]) * scale
+            ref = float(o["initial"])
             change = 100.0 * (value - ref) / abs(ref) if ref else float("nan")
-            detail += f" against {fmt(ref)} {esc(unit)} with {ref_name} (change {fmt(change, '+.3g')} %)."
+            detail += (f" against {source.quantity(ref, _si(dset, c))} with {ref_name} "
+                       f"(change <span class=derived data-of='change'>{fmt(change, '+.3g')}</span> %).")
         else:
             detail += "; the machine file's values were not evaluated (outside the bounds, or not in this history)."
         tiles.append(verdict("Objective", "info", detail, "objective"))
@@ -173,8 +169,8 @@ def _convergence(source, rows, feasible, best, payload, objectives, dset) -> Sec
     senses = [o.get("sense", "min") for o in payload.get("objectives") or []] + ["min"] * len(objectives)
     order = np.asarray(rows["candidate"], dtype=float)
     for j, c in enumerate(objectives):
-        unit, scale = _unit(source, dset, c)
-        y = np.asarray(rows[c], dtype=float) * scale
+        shown = source.show(np.asarray(rows[c], dtype=float), _si(dset, c))
+        y, unit = shown.values, shown.unit or "-"
         # Best so far among the feasible candidates only: an infeasible one is no answer yet.
         ranked = np.where(feasible & np.isfinite(y), y if senses[j] == "min" else -y, np.inf)
         run = np.minimum.accumulate(ranked) if ranked.size else ranked
@@ -202,11 +198,12 @@ def _optimum(source, rows, best, payload, params, dset) -> Section:
         initial[absorb["key"]] = absorb.get("initial")
     body = []
     for c in params:
-        unit, scale = _unit(source, dset, c)
+        column = _column(source, dset, c)
         key = c[6:]
         ref = initial.get(key)
         body.append([f"<span data-key='{esc(key)}'>{esc(key)}</span>" + (" (absorbing)" if key == absorb.get("key") else ""),
-                     esc(unit), _cell(rows[c][best], scale), "–" if ref is None else _cell(ref, scale)])
+                     esc(source.show(1.0, _si(dset, c)).unit or "-"), column.cell(rows[c][best]),
+                     "–" if ref is None else column.cell(ref)])
     return s.add(table(["key", "unit", "optimum", "file value"], body, id=source.name("optimum-table"),
                        numeric=[False, False, True, True],
                        caption=f"Values of candidate {int(rows['candidate'][best])} in the unit of column 2; "
@@ -222,16 +219,19 @@ def _constraints(source, rows, best, payload, cons, dset) -> Section:
         label = c[11:]
         # Columns are constraint:<expr>@<speed>rpm (several speeds) or constraint:<expr>.
         expr, _, speed = label.rpartition("@") if label.endswith("rpm") and "@" in label else (label, "", "")
-        unit, scale = _unit(source, dset, c)
+        column = _column(source, dset, c)
         lim = limits.get(expr, {})
         margin = _at(rows, f"g:{label}", best)
-        row = [f"<code>{esc(expr)}</code>", esc(speed[:-3]) if speed else "–", _cell(rows[c][best], scale),
-               f"{esc(lim.get('op', ''))} {fmt(float(lim['limit']) * scale)}" if "limit" in lim else "–", esc(unit),
+        speed_cell = source.number(float(speed[:-3]) * 2.0 * np.pi / 60.0, "rad/s") if speed else "–"
+        row = [f"<code>{esc(expr)}</code>", speed_cell, column.cell(rows[c][best]),
+               f"{esc(lim.get('op', ''))} {column.cell(float(lim['limit']))}" if "limit" in lim else "–",
+               esc(source.show(1.0, _si(dset, c)).unit or "-"),
                "–" if not np.isfinite(margin) else ("yes" if margin <= 0 else "no")]
         if robust:
-            row.insert(5, fmt(_at(rows, f"probability:{label}", best)))
+            row.insert(5, source.number(_at(rows, f"probability:{label}", best), ""))
         body.append(row)
-    headers = ["constraint", "speed [rpm]", "value", "limit", "unit"] + (["probability [-]"] if robust else []) + ["satisfied"]
+    headers = ["constraint", source.column("speed", "rad/s").header, "value", "limit", "unit"] + \
+        (["probability [-]"] if robust else []) + ["satisfied"]
     return s.add(table(headers, body, id=source.name("constraints-table"), numeric=[False, True, True, True, False] + [True] * robust + [False],
                        caption="Value at the optimum (with --robust the mean) and limit in the unit of column 5; speed –: the machine file's; "
                                "satisfied: the solver's scaled margin g ≤ 0"))
@@ -245,30 +245,31 @@ def _front(source, front, rows, feasible, objectives, dset) -> Section:
     objs = [c for c in front.dtype.names if c.startswith("objective:")]
     if len(objs) < 2 or not len(pts[objs[0]]):
         return s.add("<p>The front has fewer than two objectives or no point.</p>")
-    (xu, xs), (yu, ys) = _unit(source, front, objs[0]), _unit(source, front, objs[1])
-    x, y = np.asarray(pts[objs[0]], dtype=float) * xs, np.asarray(pts[objs[1]], dtype=float) * ys
+    xs_, ys_ = (source.show(np.asarray(pts[o], dtype=float), _si(front, o)) for o in objs[:2])
+    (x, xu), (y, yu) = (xs_.values, xs_.unit or "-"), (ys_.values, ys_.unit or "-")
     order = np.argsort(x)
     p = xy_figure(source.name("optimize-front"), "Pareto front", f"{objs[0][10:]} [{xu}]", f"{objs[1][10:]} [{yu}]",
                   [("front", x[order], y[order])], markers=True, height=340)
     if objs[0] in rows and objs[1] in rows:
         # The other feasible candidates behind the front show what it dominates.
-        p.scatter(np.asarray(rows[objs[0]], dtype=float)[feasible] * xs, np.asarray(rows[objs[1]], dtype=float)[feasible] * ys,
+        p.scatter(source.show(np.asarray(rows[objs[0]], dtype=float)[feasible], _si(front, objs[0])).values,
+                  source.show(np.asarray(rows[objs[1]], dtype=float)[feasible], _si(front, objs[1])).values,
                   marker="circle", size=5, fill_alpha=0.0, line_color="#999999", legend_label="feasible candidates")
     s.add(Plot(p, f"Pareto front: {objs[1][10:]} [{yu}] against {objs[0][10:]} [{xu}] (line with markers), "
                   "every feasible candidate as grey rings."))
     cols = list(front.dtype.names)
-    units = [_unit(source, front, c) for c in cols]
-    body = [[_cell(pts[c][i], sc) for c, (_, sc) in zip(cols, units)] for i in order]
-    return s.add(table([f"{c} [{u}]" for c, (u, _) in zip(cols, units)], body, id=source.name("front-table"),
+    columns = [_column(source, front, c) for c in cols]
+    body = [[col.cell(pts[c][i]) for c, col in zip(cols, columns)] for i in order]
+    return s.add(table([col.header for col in columns], body, id=source.name("front-table"),
                        numeric=[True] * len(cols), caption="Points of the front, by the first objective"))
 
 
 def _candidates(source, rows, names, best, dset) -> Section:
     s = Section(source.name("candidates"), "Candidates")
-    units = [_unit(source, dset, c) for c in names]
+    columns = [_column(source, dset, c) for c in names]
     n = len(rows[names[0]])
-    body = [[_cell(rows[c][i], sc) for c, (_, sc) in zip(names, units)] for i in range(min(n, MAX_CANDIDATE_ROWS))]
-    headers = [c if c in ("candidate", "feasible", "status") or u == "-" else f"{c} [{u}]" for c, (u, _) in zip(names, units)]
+    body = [[col.cell(rows[c][i]) for c, col in zip(names, columns)] for i in range(min(n, MAX_CANDIDATE_ROWS))]
+    headers = [c if c in ("candidate", "feasible", "status") or not _si(dset, c) else col.header for c, col in zip(names, columns)]
     note = "" if n <= MAX_CANDIDATE_ROWS else f"<p class=note>The first {MAX_CANDIDATE_ROWS} of {n} candidates; the file has them all.</p>"
     return s.add(table(headers, body, cls="candidates", id=source.name("candidates-table"),
                        numeric=[c not in ("status", "feasible") for c in names],

@@ -25,8 +25,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 
-__all__ = ["BUILDERS", "Plot", "Section", "Source", "register", "render_page", "write_page"]
+__all__ = ["BUILDERS", "Column", "Plot", "Section", "Shown", "Source", "register", "render_page", "write_page"]
 
 
 # ---------------------------------------------------------------------- page model
@@ -96,21 +97,110 @@ class Source:
     def name(self, text: str) -> str:
         return f"{self.prefix}{text}"
 
-    def unit(self, si_unit: str) -> tuple[str, float]:
-        """(unit shown, factor from SI) of a value in ``si_unit``; ``-`` for a number without unit."""
+    # -- values: the display layer is the only way a section gets a unit text --------------
+    @property
+    def display(self):
+        """The page's :class:`~camsim.display.DisplayUnits` (SI when none was given)."""
         from camsim.reports.display import as_display
 
-        unit, scale = as_display(self.units or "si").shown(si_unit)
-        return (unit or "-"), scale
+        return as_display(self.units or "si")
 
-    def quantity(self, value: Any, si_unit: str, spec: str = ".4g") -> str:
-        """``"50.66 lbf"``: a value in the page's units (``–`` for None or NaN)."""
-        unit, scale = self.unit(si_unit)
+    def show(self, values: Any, si_unit: str, as_unit: str = "") -> "Shown":
+        """``values`` (a number or an array in ``si_unit``) converted to the page's unit, with that unit.
+
+        ``as_unit`` picks a presentation unit of a quantity shown the same in every system:
+        ``"ms"`` for a time in s, ``"%"`` for a fraction. A section never holds a unit text
+        apart from the values converted to it (issue 44: the impact detail drew newtons under
+        an ``[lbf]`` label).
+        """
+        if as_unit:
+            base, factor = _PRESENTATION[as_unit]
+            if si_unit != base:
+                raise ValueError(f"{as_unit} shows a quantity in {base!r}, not {si_unit!r}")
+            unit = as_unit
+        else:
+            unit, factor = self.display.shown(si_unit)
         try:
-            v = float(value) * scale
+            shown = np.asarray(values, dtype=float) * factor if not np.isscalar(values) else float(values) * factor
         except (TypeError, ValueError):
-            return "–"
-        return f"{fmt(v, spec)} {unit}" if unit != "-" else fmt(v, spec)
+            shown = float("nan")
+        return Shown(shown, unit, si_unit)
+
+    def number(self, value: Any, si_unit: str, spec: str = ".4g", key: str = "", as_unit: str = "") -> str:
+        """One value as the page shows it, in a ``span.value`` that records the SI value and both
+        units (``data-si``, ``data-si-unit``, ``data-unit``) so a test can read it back; no unit text."""
+        shown = self.show(value, si_unit, as_unit)
+        try:
+            si = repr(float(value))
+        except (TypeError, ValueError):
+            si = "nan"
+        data = f" data-key='{esc(key)}'" if key else ""
+        from camsim.display import typographic
+
+        return (f"<span class=value{data} data-si='{si}' data-si-unit='{esc(typographic(si_unit))}' data-unit='{esc(shown.unit or '-')}'>"
+                f"{fmt(shown.values, spec)}</span>")
+
+    def quantity(self, value: Any, si_unit: str, spec: str = ".4g", key: str = "", as_unit: str = "") -> str:
+        """:meth:`number` followed by its unit (``50.66 lbf``), for prose and verdict tiles."""
+        shown = self.show(value, si_unit, as_unit)
+        return self.number(value, si_unit, spec, key, as_unit) + (f" {esc(shown.unit)}" if shown.unit else "")
+
+    def text(self, value: Any, si_unit: str, spec: str = ".4g") -> str:
+        """Plain text ``"50.66 lbf"`` (not HTML: a select option, a plot's description); ``–`` for None/NaN."""
+        shown = self.show(value, si_unit)
+        return f"{fmt(shown.values, spec)} {shown.unit}".rstrip() if fmt(shown.values, spec) != "–" else "–"
+
+    def column(self, name: str, si_unit: str, as_unit: str = "") -> "Column":
+        """A table column of a quantity: its header with the unit and its cells, from one conversion."""
+        return Column(self, name, si_unit, as_unit)
+
+
+#: Presentation units of quantities shown alike in every system: unit -> (SI unit, factor).
+_PRESENTATION = {"ms": ("s", 1e3), "µs": ("s", 1e6), "%": ("", 100.0)}
+
+
+@dataclass(frozen=True)
+class Shown:
+    """Values converted to the page's unit, and that unit (``""`` for a number): never apart.
+
+    Attributes
+    ----------
+    values : float or ndarray
+        In ``unit``.
+    unit : str
+        What the values are in, as shown.
+    si_unit : str
+        What they were in.
+    """
+
+    values: Any
+    unit: str
+    si_unit: str
+
+    def label(self, name: str) -> str:
+        """An axis label or header, ``"force [lbf]"`` (``"ratio [-]"`` for a number)."""
+        return f"{name} [{self.unit or '-'}]"
+
+
+@dataclass(frozen=True)
+class Column:
+    """A table column: ``header`` carries the unit its ``cell`` values are converted to."""
+
+    source: Source
+    name: str
+    si_unit: str
+    as_unit: str = ""
+
+    @property
+    def header(self) -> str:
+        return self.source.show(1.0, self.si_unit, self.as_unit).label(self.name)
+
+    def cell(self, value: Any, spec: str = ".4g", key: str = "") -> str:
+        if isinstance(value, (bool, np.bool_)):
+            return fmt(bool(value))
+        if isinstance(value, (str, bytes)):
+            return esc(value.decode() if isinstance(value, bytes) else value)
+        return self.source.number(value, self.si_unit, spec, key, self.as_unit)
 
 
 Builder = Callable[[Source], list[Section]]

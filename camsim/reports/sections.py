@@ -4,9 +4,11 @@ Every number shown comes from the result file as written by the run result hub
 (:class:`camsim.run.result.RunResult`): the ``/summary`` scalars, the event table with its
 Johnson bounds and peaks, the traces; the cam design summary comes from
 :meth:`RunResult.design_summary`. Nothing here recomputes a quantity the hub offers.
-Values are shown in the page's display units (:meth:`camsim.reports.page.Source.unit`: the
-units of the result's machine file by default, ``--units si|us``); every header and axis label
-carries its unit. The sweep, study and fit pages are in :mod:`camsim.reports.studies`.
+Values are shown in the page's display units through :class:`camsim.reports.page.Source` only
+(``number``/``quantity``/``column``/``show``: a unit text never travels apart from the values
+converted to it; the units of the result's machine file by default, ``--units si|us``); every
+header and axis label carries its unit. The verdict tiles are in :mod:`camsim.reports.verdicts`,
+the sweep, study and fit pages in :mod:`camsim.reports.studies`.
 """
 
 from __future__ import annotations
@@ -20,23 +22,13 @@ import numpy as np
 from camsim.display import engineering
 from camsim.reports.envelope import DEFAULT_COLUMNS, envelope
 from camsim.reports.figures import PALETTE, bokeh, finish_legend, trace_figure, xy_figure
-from camsim.reports.page import Plot, Section, Source, definition_list, esc, fmt, provenance, register, table, verdict
+from camsim.reports.page import Plot, Section, Source, definition_list, esc, fmt, provenance, register, table
+from camsim.reports.verdicts import verdict_tiles
 
 #: Impacts offered at full resolution in the impact detail (largest approach speeds first).
 MAX_DETAIL_IMPACTS = 200
 #: Largest event table shown on a page (a long run has thousands; the file has them all).
 MAX_EVENT_ROWS = 2000
-
-
-def _value(source: Source, value, si_unit: str, key: str = "", spec: str = ".4g") -> str:
-    """A value in the page's units, marked up as the verdict tiles show values."""
-    unit, scale = source.unit(si_unit)
-    try:
-        v = float(value) * scale
-    except (TypeError, ValueError):
-        v = float("nan")
-    data = f" data-key={key}" if key else ""
-    return f"<span class=value{data} data-unit='{esc(unit)}'>{fmt(v, spec)}</span> {esc(unit)}"
 
 
 def _attr(obj, name, default=float("nan")):
@@ -61,6 +53,10 @@ def _machine(f, path):
 
 
 # ---------------------------------------------------------------------- run
+#: Attributes of ``/summary`` that are not scalars of the run.
+_NOT_SCALARS = ("recorded", "record_last", "warnings", "notes")
+
+
 class RunView:
     """What the run sections read from one run layout (a file root or a comparison side)."""
 
@@ -75,8 +71,13 @@ class RunView:
         self.time = self.traces["time"][()] if "time" in self.traces else np.zeros(0)
         self.events = read_events(group) or {}
         self.event_units = table_units(group["events"]) if "events" in group else {}
-        self.summary = {k: _attr(group["summary"], k) for k in group["summary"].attrs if not k.startswith("units:")} if "summary" in group else {}
-        self.summary_units = {k[6:]: _attr(group["summary"], k, "") for k in group["summary"].attrs if k.startswith("units:")} if "summary" in group else {}
+        attrs = group["summary"].attrs if "summary" in group else {}
+        self.summary = {k: _attr(group["summary"], k) for k in attrs if not k.startswith("units:") and k not in _NOT_SCALARS}
+        self.summary_units = {k[6:]: _attr(group["summary"], k, "") for k in attrs if k.startswith("units:")}
+        #: What the run printed (issue 44): its warnings (SI, shown in the page's units) and how the
+        #: machine file was read (Machine.notes, as printed); None for a file written before they were stored.
+        self.warnings = json.loads(_attr(group["summary"], "warnings")) if "warnings" in attrs else None
+        self.notes = json.loads(_attr(group["summary"], "notes")) if "notes" in attrs else []
 
     def data(self, path: str) -> np.ndarray | None:
         d = self.traces.get(path)
@@ -97,6 +98,17 @@ class RunView:
 
         kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in self.events.get("kind", ())]
         return [i for i, k in enumerate(kinds) if k in EventKind.__members__.values() and EventKind(k).is_impact]
+
+    def event_list(self):
+        """The event table as :class:`~camsim.elements.events.Event` rows (what the hub's checks read)."""
+        from camsim.elements.events import Event, EventTable
+
+        names = list(self.events)
+        rows = EventTable()
+        for i in range(self.n_events):
+            rows.append(Event(**{c: (str(self.event(i, c)) if c in ("element", "kind", "masses") else float(self.event(i, c)))
+                                 for c in names}))
+        return rows
 
     def event(self, i: int, column: str):
         v = self.events[column][i]
@@ -121,113 +133,63 @@ def header_section(source: Source, machine_name: str, extra: list[tuple[str, str
 def _speed(source: Source, machine) -> str:
     """The cam speed in the page's units (rpm unless the file writes speeds otherwise)."""
     cam = getattr(machine, "cam", None)
-    return esc(source.quantity(cam.speed, "rad/s", ".6g")) if cam is not None else "–"
+    return source.quantity(cam.speed, "rad/s", ".6g") if cam is not None else "–"
 
 
-def verdict_section(source: Source, view: RunView, design: dict | None, title: str = "Verdicts", summary: bool = True) -> Section:
-    """Jump, impacts against Johnson's bounds, stress/torque, periodicity: the run's answers."""
+def verdict_section(source: Source, view: RunView, design: dict | None, title: str = "Verdicts", summary: bool = True,
+                    hub: dict | None = None) -> Section:
+    """The run's answers, each with its criterion (:mod:`camsim.reports.verdicts`), then every summary scalar."""
     s = Section(source.name("verdicts" + (f"-{view.label}" if view.label else "")), title)
-    sm = view.summary
-    speed = getattr(getattr(view.machine, "cam", None), "speed", float("nan"))
-    tiles = []
-    # Jump: the hub's flag; the first jump/release at a cam contact says where.
-    cam_contacts = {e.name for e in view.machine.elements if e.unilateral and "cam" in e.nodes}
-    if "jump" not in sm:
-        tiles.append(verdict("Follower jump", "nodata", "no data: the file has no /summary with the run's jump flag "
-                             "(written by an older camsim)", "jump"))
-    elif sm.get("jump"):
-        where = ""
-        for i in range(view.n_events):
-            kind, element = view.event(i, "kind"), view.event(i, "element")
-            if kind == "jump" or (kind == "release" and element in cam_contacts):
-                where = f" first at cam angle {_value(source, view.event(i, 'angle_deg'), 'deg', 'jump_angle', '.2f')} (t = {fmt(view.event(i, 'time'), '.5f')} s)"
-                break
-        tiles.append(verdict("Follower jump", "fail", f"The follower leaves the cam at {_speed(source, view.machine)};{where}.", "jump"))
-    else:
-        lo = sm.get("min_cam_contact_force", float("nan"))
-        if isinstance(lo, float) and math.isnan(lo):  # issue 35: no bare "–"
-            from camsim.run.result import missing_reason
-
-            why = missing_reason(view.machine, "min_cam_contact_force", {**sm, "status": "ok"}) or "not in the file"
-            force = f"no smallest cam contact force: {esc(why)}"
-        else:
-            force = f"smallest cam contact force {_value(source, lo, 'N', 'min_cam_contact_force')}"
-        tiles.append(verdict("Follower jump", "ok", f"None at {_value(source, speed, 'rad/s', 'speed_rpm', '.6g')}; {force}.", "jump"))
-    impacts = view.impact_rows()
-    n = int(sm.get("impacts", len(impacts)))
-    if n:
-        peaks = np.array([float(view.event(i, "peak_force")) for i in impacts]) if impacts else np.zeros(0)
-        detail = (f"<span class=value data-key=impacts>{n}</span> impacts; largest approach speed "
-                  f"{_value(source, sm.get('max_impact_velocity'), 'm/s', 'max_impact_velocity')}.")
-        state = "warn"
-        if peaks.size and np.any(np.isfinite(peaks)):
-            k = impacts[int(np.nanargmax(peaks))]
-            lo, hi = float(view.event(k, "johnson_lower")), float(view.event(k, "johnson_upper"))
-            f_unit, f_scale = source.unit("N")
-            detail += (f" Largest simulated peak {_value(source, peaks[np.nanargmax(peaks)], 'N', 'largest_peak_force')} "
-                       f"({esc(view.event(k, 'element'))}) against Johnson's bounds {fmt(lo * f_scale)} to {fmt(hi * f_scale)} {esc(f_unit)}.")
-        tiles.append(verdict("Impacts", state, detail, "impacts"))
-    else:
-        tiles.append(verdict("Impacts", "ok", "<span class=value data-key=impacts>0</span> impacts.", "impacts"))
-    if design is not None:
-        pa, limit = design.get("max_pressure_angle"), design.get("pressure_angle_limit")
-        state = "fail" if (pa is not None and limit is not None and pa > limit) else "ok"
-        tiles.append(verdict("Cam stress and torque", state,
-                             f"Peak Hertz stress {_value(source, design.get('peak_hertz_stress'), 'Pa', 'peak_hertz_stress')} "
-                             "(no allowable stress in the machine file); peak torque "
-                             f"{_value(source, design.get('peak_torque'), 'N*m', 'peak_torque')}; "
-                             f"pressure angle {fmt(pa)} deg against the limit {fmt(limit)} deg.", "design"))
-    res = sm.get("periodicity_residual", float("nan"))
-    if not np.isfinite(res):  # issue 35: no data is not a verdict
-        from camsim.run.result import missing_reason
-
-        why = "the file has no /summary" if not sm else missing_reason(view.machine, "periodicity_residual", {"periodicity_residual": res})
-        tiles.append(verdict("Periodicity", "nodata", f"no data: {esc(why or 'not computed')}.", "periodicity"))
-    else:
-        tiles.append(verdict("Periodicity", "ok" if res < 1e-3 else "warn", f"Residual one revolution apart, relative to peak: "
-                             f"<span class=value data-key=periodicity_residual>{fmt(res, '.3g')}</span> [-] "
-                             "(below 1e-3: a steady state).", "periodicity"))
-    s.add('<div class="verdicts">' + "".join(tiles) + "</div>")
+    s.add('<div class="verdicts">' + "".join(verdict_tiles(source, view, design, hub)) + "</div>")
     if not summary:
         return s
     # The flat summary of the run, every scalar with its unit.
     rows = []
-    for name, value in sm.items():
-        if name in ("recorded", "record_last"):
-            continue
-        unit, scale = source.unit(str(view.summary_units.get(name, "")))
-        shown_value = fmt(value) if isinstance(value, (bool, np.bool_)) or name == "impacts" else fmt(float(value) * scale)
-        rows.append([f"<span data-key='{esc(name)}'>{esc(name)}</span>", shown_value, esc(unit)])
+    for name, value in view.summary.items():
+        si_unit = str(view.summary_units.get(name, ""))
+        column = source.column("value", si_unit)
+        cell = fmt(value) if isinstance(value, (bool, np.bool_)) else column.cell(value, ".6g" if name == "impacts" else ".4g")
+        rows.append([f"<span data-key='{esc(name)}'>{esc(name)}</span>", cell, esc(source.show(1.0, si_unit).unit or "-")])
     s.add(table(["quantity", "value", "unit"], rows, cls="summary", id=source.name("summary-table" + (f"-{view.label}" if view.label else "")),
                 caption="Summary values (over every revolution run)", numeric=[False, True, False]))
     return s
 
 
+#: The event table's columns: (file column, header, SI unit or None for text, format, presentation unit).
 EVENT_COLUMNS = (
-    ("time", "t", "s", ".6f"), ("angle_deg", "angle", "deg", ".2f"), ("element", "element", None, None),
-    ("kind", "kind", None, None), ("masses", "masses", None, None), ("relative_velocity", "approach speed", "m/s", ".4g"),
-    ("johnson_lower", "Johnson lower", "N", ".4g"), ("johnson_upper", "Johnson upper", "N", ".4g"),
-    ("peak_force", "simulated peak", "N", ".4g"), ("contact_duration", "contact duration", "ms", ".4g"),
+    ("time", "t", "s", ".6f", ""), ("angle_deg", "angle", "deg", ".2f", ""), ("element", "element", None, None, ""),
+    ("kind", "kind", None, None, ""), ("masses", "masses", None, None, ""),
+    ("relative_velocity", "approach speed", "m/s", ".4g", ""),
+    ("johnson_lower", "Johnson lower (impulsive)", "N", ".4g", ""), ("johnson_upper", "Johnson upper (impulsive)", "N", ".4g", ""),
+    ("peak_force", "simulated peak (with preload)", "N", ".4g", ""), ("impulsive", "impulsive peak", "N", ".4g", ""),
+    ("contact_duration", "contact duration", "s", ".4g", "ms"),
 )
 
 
 def event_section(source: Source, view: RunView, detail_names: dict[int, int] | None = None, title: str = "Impacts and events") -> Section:
+    from camsim.run.checks import impact_preload
+
     s = Section(source.name("events" + (f"-{view.label}" if view.label else "")), title)
     if not view.n_events:
         return s.add("<p>No events in the recorded window.</p>")
-    headers = [f"{h} [{source.unit(u)[0] if u != 'ms' else u}]" if u else h for _, h, u, _ in EVENT_COLUMNS]
-    numeric = [u is not None for _, _, u, _ in EVENT_COLUMNS]
+    columns = [source.column(h, u, presentation) if u is not None else None for _, h, u, _, presentation in EVENT_COLUMNS]
+    headers = [c.header if c is not None else h for c, (_, h, _, _, _) in zip(columns, EVENT_COLUMNS)]
+    numeric = [u is not None for _, _, u, _, _ in EVENT_COLUMNS]
+    by_name = {e.name: e for e in view.machine.elements}
     rows = []
     detail_names = detail_names or {}
     for i in range(min(view.n_events, MAX_EVENT_ROWS)):
         row = []
-        for col, _, unit, spec in EVENT_COLUMNS:
-            v = view.event(i, col)
+        for (col, _, unit, spec, _), column in zip(EVENT_COLUMNS, columns):
             if unit is None:
-                row.append(esc(v))
+                row.append(esc(view.event(i, col)))
+            elif col == "impulsive":  # Johnson's bounds estimate this part (run.checks.johnson_rows)
+                peak, element = float(view.event(i, "peak_force")), by_name.get(str(view.event(i, "element")))
+                value = peak - impact_preload(element) if element is not None and np.isfinite(peak) else float("nan")
+                row.append(column.cell(value, spec))
             else:
-                v = float(v) * (1e3 if unit == "ms" else source.unit(unit)[1])
-                row.append(fmt(abs(v) if col == "relative_velocity" else v, spec))
+                v = float(view.event(i, col))
+                row.append(column.cell(abs(v) if col == "relative_velocity" else v, spec))
         if i in detail_names:
             sel = source.name("impact-select")
             row[3] += (f' <button class="show-impact" type="button" aria-label="show impact at t = {fmt(view.event(i, "time"), ".5f")} s at full resolution" '
@@ -236,9 +198,11 @@ def event_section(source: Source, view: RunView, detail_names: dict[int, int] | 
         rows.append(row)
     note = "" if view.n_events <= MAX_EVENT_ROWS else f"<p class=note>The first {MAX_EVENT_ROWS} of {view.n_events} events; the file has them all.</p>"
     s.add(table(headers, rows, cls="events", id=source.name("event-table" + (f"-{view.label}" if view.label else "")), numeric=numeric,
-                caption="Events (approach speed as |relative velocity|; Johnson's bounds and the simulated peak for impacts; "
-                        "– where a column does not apply to the kind of event, and for an impact's contact duration "
-                        "where the contact is still closed when the recording ends: it outlasts the recorded revolutions)") + note)
+                caption="Events (approach speed as |relative velocity|; for impacts Johnson's bounds estimate the impulsive "
+                        "peak, the simulated peak minus the preload the interface holds at rest, and the simulated peak is "
+                        "the event table's, preload included; – where a column does not apply to the kind of event, and for "
+                        "an impact's contact duration where the contact is still closed when the recording ends: it "
+                        "outlasts the recorded revolutions)") + note)
     return s
 
 
@@ -253,9 +217,12 @@ def _trace_groups(view: RunView) -> list[tuple[str, str, list[str]]]:
             members = ["cam/displacement"] + members
         if members:
             groups.append((f"{q.capitalize()} per mass", q, members))
-    forces = [p for p in paths if p.startswith("elements/")]
+    forces = [p for p in paths if p.startswith("elements/") and view.units(p) == "N"]
     if forces:
         groups.append(("Element forces", "elements", forces))
+    stresses = [p for p in paths if p.startswith("elements/") and view.units(p) == "Pa"]  # issue 39: a rod's stress
+    if stresses:
+        groups.append(("Element stresses", "stress", stresses))
     contact = [p for p in ("cam_contact/force", "transducer/force") if p in paths]
     contact += [p for p in paths if p.startswith("cams/") and p.endswith("/contact_force")]  # issue 38
     if contact:
@@ -265,6 +232,8 @@ def _trace_groups(view: RunView) -> list[tuple[str, str, list[str]]]:
 
 def _series_label(path: str) -> str:
     parts = path.split("/")
+    if path.startswith("elements/") and len(parts) > 2 and parts[2] != "force":  # a rod's end forces, stress
+        return f"{parts[1]} {parts[2].replace('_', ' ')}"
     if path.startswith("masses/") or path.startswith("elements/"):
         return parts[1]
     if path.startswith("cams/"):  # issue 38
@@ -285,7 +254,7 @@ def trace_section(source: Source, views: list[RunView], x_range=None, title: str
              "shows any impact at full resolution." if n > 2 * DEFAULT_COLUMNS else ".") + "</p>")
     for title_, q, members in groups:
         unit_si = main.units(members[0])
-        unit, scale = source.unit(unit_si)
+        unit = source.show(1.0, unit_si).unit
         series = []
         reduced = False
         for view in views:
@@ -293,15 +262,15 @@ def trace_section(source: Source, views: list[RunView], x_range=None, title: str
                 y = view.data(path)
                 if y is None:
                     continue
-                x, yy, r = envelope(view.time, y * scale)
+                x, yy, r = envelope(view.time, source.show(y, view.units(path)).values)
                 reduced |= r
                 label = _series_label(path) + (f" ({view.label})" if len(views) > 1 else "")
                 series.append((label, x, yy))
         note = (f"{n} samples per trace, drawn as their min/max envelope over {DEFAULT_COLUMNS} screen columns: "
                 "peaks are never lost" if reduced else "")
         name = source.name(f"trace-{q}")
-        quantity = q if q in ("displacement", "velocity", "acceleration") else "force"
-        p = trace_figure(name, title_, f"{quantity} [{unit}]", series, x_range=x_range, angle_axis=main.angle_axis(),
+        quantity = q if q in ("displacement", "velocity", "acceleration", "stress") else "force"
+        p = trace_figure(name, title_, source.show(1.0, unit_si).label(quantity), series, x_range=x_range, angle_axis=main.angle_axis(),
                          impact_times=impact_times, note=note)
         x_range = p.x_range
         s.add(Plot(p, f"{title_} [{unit}] against time [s] with the cam angle [deg] on top; "
@@ -323,7 +292,7 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     dt = float(view.time[1] - view.time[0])
     cols = {"t": [], "force": [], "acc_a": [], "acc_b": []}
     offsets, labels, names, partners = [0], [], {}, []
-    a_unit, a_scale = source.unit("m/s^2")
+    a_unit = source.show(1.0, "m/s^2").unit
     for j, i in enumerate(chosen):
         t_i, element = float(view.event(i, "time")), str(view.event(i, "element"))
         duration = float(view.event(i, "contact_duration"))
@@ -335,15 +304,16 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
         t = view.time[k0:k1]
         cols["t"].append(t)
         force_ds = view.traces.get(f"elements/{element}/force")
-        cols["force"].append(force_ds[k0:k1] if force_ds is not None else np.full(t.size, np.nan))
+        # In the page's force unit (issue 44: newtons were drawn under an [lbf] label).
+        cols["force"].append(source.show(force_ds[k0:k1], "N").values if force_ds is not None else np.full(t.size, np.nan))
         masses = [m for m in str(view.event(i, "masses")).split("/") if m and m != "ground"]
         partners.append([m or "–" for m in (masses + [None, None])[:2]])
         for key, m in zip(("acc_a", "acc_b"), masses + [None, None]):
             ds = view.traces.get(f"masses/{m}/acceleration") if m else None
-            cols[key].append(ds[k0:k1] * a_scale if ds is not None else np.full(t.size, np.nan))
+            cols[key].append(source.show(ds[k0:k1], "m/s^2").values if ds is not None else np.full(t.size, np.nan))
         offsets.append(offsets[-1] + t.size)
         labels.append((str(j), f"t = {t_i:.5f} s, {element} ({view.event(i, 'masses')}), approach "
-                               f"{source.quantity(abs(float(view.event(i, 'relative_velocity'))), 'm/s')}"))
+                               f"{source.text(abs(float(view.event(i, 'relative_velocity'))), 'm/s')}"))
         names[i] = j
     every = {k: np.concatenate(v).astype(float) for k, v in cols.items()}
     everything = models.ColumnDataSource(every)
@@ -352,7 +322,7 @@ def impact_detail_section(source: Source, view: RunView) -> tuple[Section | None
     sel = models.Select(title="Impact shown at full resolution", value="0", options=labels, name=source.name("impact-select"))
     legend_items = []
     plotting, _ = bokeh()
-    f_unit, _ = source.unit("N")
+    f_unit = source.show(1.0, "N").unit
     figures, x_range = [], None
     if has_force:
         pf = trace_figure(source.name("impact-detail-force"), "Impacting element force (full resolution)", f"force [{f_unit}]", [])
@@ -406,8 +376,9 @@ def cam_section(source: Source, view: RunView) -> Section | None:
         y = view.data(f"cam/{q}")
         if y is None:
             continue
-        unit, scale = source.unit(unit_si)
-        x, yy, _ = envelope(angle[one], y[one] * scale)
+        shown = source.show(y[one], unit_si)
+        unit = shown.unit
+        x, yy, _ = envelope(angle[one], shown.values)
         # A short label (s, v, a, j; the title names the quantity): a low plot, lower still on
         # paper, never cuts it ("displacem").
         p = xy_figure(source.name(f"svaj-{q}"), f"Cam {q} (model axis)", "cam angle [deg]", f"{SVAJ_SYMBOL[q]} [{unit}]", [(q, x, yy)],
@@ -416,13 +387,13 @@ def cam_section(source: Source, view: RunView) -> Section | None:
         p.legend.visible = False
         s.add(Plot(p, f"Cam {q} [{unit}] against cam angle [deg] over one revolution."))
     surface, pitch = view.traces.get("cam/surface"), view.traces.get("cam/pitch_curve")
-    length, length_scale = source.unit("m")
+    length = source.show(1.0, "m").unit
     if surface is not None:
         curves = []
         for label, ds in (("cam surface", surface), ("pitch curve", pitch)):
             if ds is None:
                 continue
-            xy = ds[()][one] * length_scale
+            xy = source.show(ds[()][one], "m").values
             idx = np.unique(np.concatenate([np.linspace(0, xy.shape[0] - 1, 1500).astype(int)]))
             curves.append((label, xy[idx, 0], xy[idx, 1]))
         p = xy_figure(source.name("cam-profile"), "Cam drawn to scale (cam frame)", f"x [{length}]", f"y [{length}]", curves, equal=True)
@@ -435,17 +406,20 @@ def machine_section(source: Source, text: str) -> Section:
     return s.add(f"<details><summary>The machine file of the run (TOML, {len(text.splitlines())} lines)</summary><pre>{esc(text)}</pre></details>")
 
 
-def _design(source: Source, view: RunView) -> dict | None:
-    """The hub's cam design summary when the machine has a geometry and the file every trace."""
-    if getattr(getattr(view.machine, "cam", None), "geometry", None) is None or source.path is None:
-        return None
+def _hub(source: Source, view: RunView) -> tuple[dict | None, dict | None]:
+    """The hub's cam design summary (with a geometry) and its run summary (rods' stresses), when the
+    file holds every trace; (None, None) otherwise (--record/--summary-only: /summary still shows)."""
+    if source.path is None:
+        return None, None
     from camsim.errors import ResultFileError
     from camsim.run.result import open_result
 
     try:
-        return open_result(source.path, view.label or None).design_summary()
+        result = open_result(source.path, view.label or None)
     except ResultFileError:
-        return None  # a run stored with --record/--summary-only: the scalars in /summary still show
+        return None, None
+    design = result.design_summary() if getattr(getattr(view.machine, "cam", None), "geometry", None) is not None else None
+    return design, (result.summary() if any(e.compound for e in view.machine.elements) else None)
 
 
 def _stored_text(view: RunView, recorded: list[str]) -> str:
@@ -468,7 +442,8 @@ def run_sections(source: Source) -> list[Section]:
     extra = [("sample rate", esc(engineering(float(_attr(f, 'sample_rate')), "Hz"))), ("speed", _speed(source, machine)),
              ("variant", "no-impact" if _attr(f, "no_impact", False) else "with impact"),
              ("traces stored", _stored_text(view, recorded))]
-    out = [header_section(source, machine.name, extra), verdict_section(source, view, _design(source, view))]
+    design, hub = _hub(source, view)
+    out = [header_section(source, machine.name, extra), verdict_section(source, view, design, hub=hub)]
     detail, names = impact_detail_section(source, view)
     out.append(event_section(source, view, names))
     if len(view.traces) > 1:
@@ -501,16 +476,18 @@ def compare_sections(source: Source) -> list[Section]:
     s = Section(source.name("difference"), "Impact against no impact")
     rows = []
     for name, a in imp.summary.items():
-        if name in ("recorded", "record_last") or name not in non.summary:
+        if name not in non.summary:
             continue
         b = non.summary[name]
-        unit, scale = source.unit(str(imp.summary_units.get(name, "")))
+        si_unit = str(imp.summary_units.get(name, ""))
+        column, unit = source.column("value", si_unit), source.show(1.0, si_unit).unit or "-"
         if isinstance(a, (bool, np.bool_)) or name in ("impacts", "jump"):
-            rows.append([esc(name), fmt(a), fmt(b), "–", esc(unit)])
+            rows.append([esc(name), column.cell(a), column.cell(b), "–", esc(unit)])
             continue
         a, b = float(a), float(b)
-        change = 100.0 * (a - b) / abs(b) if b not in (0.0,) and np.isfinite(b) else float("nan")
-        rows.append([esc(name), fmt(a * scale), fmt(b * scale), fmt(change, "+.3g"), esc(unit)])
+        change = (a - b) / abs(b) if b not in (0.0,) and np.isfinite(b) else float("nan")
+        rows.append([esc(name), column.cell(a), column.cell(b),
+                     f"<span class=derived data-of='change'>{fmt(100.0 * change, '+.3g')}</span>", esc(unit)])
     s.add(table(["quantity", "with impact", "no impact", "change [%]", "unit"], rows, cls="difference",
                 id=source.name("difference-table"), numeric=[False, True, True, True, False],
                 caption="Summary values of both runs; change = 100·(impact − no impact)/|no impact|"))

@@ -73,16 +73,28 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
         t = Table(title=escape(title), title_justify="left")
         v_unit, v_scale = system.shown("m/s")
         f_unit, f_scale = system.shown("N")
-        for col in ("t [s]", "angle [deg]", "element", "masses", f"approach [{v_unit}]", f"Johnson lower [{f_unit}]",
-                    f"Johnson upper [{f_unit}]", f"simulated peak [{f_unit}]", "duration [ms]"):
-            t.add_column(escape(col), justify="right")
+        # Issue 44: Johnson's bounds estimate the impulsive peak, the simulated peak minus the preload
+        # the interface holds at rest; the table shows it beside them when an impact has a preload.
+        from camsim.run.checks import impact_preload
+
+        elements = {e.name: e for e in result.machine.elements}
+        preload = {e.element: impact_preload(elements[e.element]) for e in shown_rows if e.element in elements}
+        impulsive = any(preload.values())
+        columns = ["t [s]", "angle [deg]", "element", "masses", f"approach [{v_unit}]", f"Johnson lower [{f_unit}]",
+                   f"Johnson upper [{f_unit}]", f"simulated peak [{f_unit}]"]
+        columns += [f"impulsive [{f_unit}]"] if impulsive else []
+        for col in columns + ["duration [ms]"]:
+            t.add_column(escape(col), justify="right", min_width=len(col) if col.startswith(("duration", "t [")) else None)
         for e in shown_rows:
-            t.add_row(
-                f"{e.time:.6f}", _fmt(e.angle_deg, ".2f"), escape(e.element), escape(e.masses), _fmt(e.relative_velocity * v_scale),
-                _fmt(e.johnson_lower * f_scale), _fmt(e.johnson_upper * f_scale), _fmt(e.peak_force * f_scale),
-                _fmt(e.contact_duration * 1e3 if not math.isnan(e.contact_duration) else float("nan")),
-            )
+            row = [f"{e.time:.6f}", _fmt(e.angle_deg, ".2f"), escape(e.element), escape(e.masses), _fmt(e.relative_velocity * v_scale),
+                   _fmt(e.johnson_lower * f_scale), _fmt(e.johnson_upper * f_scale), _fmt(e.peak_force * f_scale)]
+            row += [_fmt((e.peak_force - preload.get(e.element, 0.0)) * f_scale)] if impulsive else []
+            t.add_row(*row, _fmt(e.contact_duration * 1e3 if not math.isnan(e.contact_duration) else float("nan")))
         console.print(t)
+        if impulsive:
+            console.print("impulsive: the simulated peak minus the preload the interface holds at rest ("
+                          + ", ".join(f"{name} {system.quantity(p, 'N')}" for name, p in preload.items() if p)
+                          + "), the part Johnson's bounds estimate", markup=False)
         for note in _dash_notes(shown_rows):  # issue 35: every "–" says why
             console.print(note, markup=False)
         if len(impacts) > len(shown_rows):
@@ -102,11 +114,13 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
     if "camshaft" in summary:  # issue 38: several cams, or a [camshaft]
         shaft = summary["camshaft"] if cs is None else {**result.camshaft_summary(cs),
                                                          "dynamics": summary["camshaft"].get("dynamics")}
-        render_camshaft(shaft, console)
+        render_camshaft(shaft, console, system)
     residual = result.periodicity_residual
     console.print(
         "periodicity residual (state one revolution apart, relative to peak): "
         + ("not computed" if math.isnan(residual) else f"{residual:.3g}")
+        + (" [-], above 1e-3: not a steady state (add warm-up revolutions, --warmup); per-revolution figures "
+           "such as work and energy are of this revolution only" if residual > 1e-3 else "")
     )
     for warning in result.warnings:
         console.print(f"warning: {in_units(warning, system)}", style="yellow", markup=False)
@@ -120,8 +134,9 @@ def render_rods(summary: dict, console: Console, system: DisplayUnits) -> None:
     for name, row in summary.get("rods", {}).items():
         stress, force = row.get("max_stress"), row.get("max_end_force")
         inner = row["interior_nodes"]
-        text = (f"rod {name}: {row['segments_reason']}; interior nodes {inner[0]} … {inner[-1]} in the file"
-                if inner else f"rod {name}: {row['segments_reason']}")
+        reason = in_units(row["segments_reason"], system)  # composed in SI (the approach speed)
+        text = (f"rod {name}: {reason}; interior nodes {inner[0]} … {inner[-1]} in the file"
+                if inner else f"rod {name}: {reason}")
         console.print(text, markup=False)
         if stress is not None:
             limit = row.get("yield_strength")
@@ -238,51 +253,56 @@ def render_design_dynamics(summary: dict, console: Console, units: DisplayUnits 
         console.print(f"  ({k}) {note}", markup=False)
 
 
-def render_camshaft(summary: dict, console: Console) -> None:
+def render_camshaft(summary: dict, console: Console, units: DisplayUnits | str | None = None) -> None:
     """Print the camshaft section (:meth:`camsim.run.result.RunResult.camshaft_summary`): each
     cam's torque and contact force, the shaft's torque, work, energy excursion, flywheel,
-    motor torque, speed, and the clearances."""
+    motor torque, speed, and the clearances, in the display units ``units`` (issue 44: they were
+    N·m, J, kg·m², mm and rad/s whatever the file or --units)."""
+    system = as_display(units)
+    torque, force, length = system.shown("N*m"), system.shown("N"), system.shown("m")
     cams = summary.get("cams") or {}
     if cams:
         table = Table(title="cams on the shaft (torque T = F·ds/dθ from the simulated contact force)",
                       title_justify="left")
-        for column in ("cam", "phase [deg]", "drives", "peak |T| [N·m]", "at t [s]", "RMS T [N·m]",
-                       "contact force max [N]", "min [N]", "at t [s]"):
+        for column in ("cam", "phase [deg]", "drives", f"peak |T| [{torque[0]}]", "at t [s]", f"RMS T [{torque[0]}]",
+                       f"contact force max [{force[0]}]", f"min [{force[0]}]", "at t [s]"):
             table.add_column(escape(column), justify="left" if column in ("cam", "drives") else "right")
         for name, c in cams.items():
-            table.add_row(escape(name), _fmt(c["phase_deg"], ".5g"), escape(c["drives"] or "–"), _fmt(c["peak_torque"]),
-                          _fmt(c["peak_torque_time"], ".5f"), _fmt(c["rms_torque"]), _fmt(c["max_contact_force"]),
-                          _fmt(c["min_contact_force"]), _fmt(c["min_contact_force_time"], ".5f"))
+            table.add_row(escape(name), _fmt(c["phase_deg"], ".5g"), escape(c["drives"] or "–"),
+                          _fmt(_scaled(c["peak_torque"], torque)), _fmt(c["peak_torque_time"], ".5f"),
+                          _fmt(_scaled(c["rms_torque"], torque)), _fmt(_scaled(c["max_contact_force"], force)),
+                          _fmt(_scaled(c["min_contact_force"], force)), _fmt(c["min_contact_force_time"], ".5f"))
         console.print(table)
-    rpm = summary["mean_speed"] * 60.0 / (2.0 * math.pi)
-    table = Table(title=escape(f"camshaft ({summary['model']}, {rpm:.6g} rpm)"), title_justify="left")
+    table = Table(title=escape(f"camshaft ({summary['model']}, {system.quantity(summary['mean_speed'], 'rad/s', '.6g')})"),
+                  title_justify="left")
     for column in ("quantity", "value", "unit", "at t [s]"):
         table.add_column(escape(column), justify="left" if column == "quantity" else "right")
     reasons = summary.get("reasons", {})
     rows = [
-        ("peak |shaft torque|", summary["peak_torque"], "N·m", summary["peak_torque_time"], "peak_torque"),
-        ("RMS shaft torque", summary["rms_torque"], "N·m", None, "rms_torque"),
+        ("peak |shaft torque|", summary["peak_torque"], "N*m", summary["peak_torque_time"], "peak_torque"),
+        ("RMS shaft torque", summary["rms_torque"], "N*m", None, "rms_torque"),
         ("work per revolution (into the stations)", summary["cycle_work"], "J", None, "cycle_work"),
         ("energy excursion E_k", summary["energy_excursion"], "J", None, "energy_excursion"),
         ("drive work per revolution", summary.get("drive_work"), "J", None, "drive_work"),
-        ("peak |motor torque|", summary["peak_motor_torque"], "N·m", summary["peak_motor_torque_time"], "peak_motor_torque"),
-        ("RMS motor torque", summary["rms_motor_torque"], "N·m", None, "rms_motor_torque"),
+        ("peak |motor torque|", summary["peak_motor_torque"], "N*m", summary["peak_motor_torque_time"], "peak_motor_torque"),
+        ("RMS motor torque", summary["rms_motor_torque"], "N*m", None, "rms_motor_torque"),
     ]
     if summary.get("cs") is not None:
-        rows.append((f"flywheel inertia for C_s = {summary['cs']:g}", summary["flywheel_inertia"], "kg·m²", None,
+        rows.append((f"flywheel inertia for C_s = {summary['cs']:g}", summary["flywheel_inertia"], "kg*m^2", None,
                      "flywheel_inertia"))
     if summary["model"] == "dynamic":
         rows += [("speed min", summary["min_speed"], "rad/s", None, "min_speed"),
                  ("speed max", summary["max_speed"], "rad/s", None, "max_speed"),
                  ("(max − min)/ω̄", summary["speed_fluctuation"], "", None, "speed_fluctuation")]
     notes = []
-    for name, value, unit, when, key in rows:
+    for name, value, si_unit, when, key in rows:
+        unit, k = system.shown(si_unit)
         why = reasons.get(key)
         if value is None and why:
             notes.append(f"{name}: {why}")
-            table.add_row(escape(name), f"n/a ({len(notes)})", unit, "")
+            table.add_row(escape(name), f"n/a ({len(notes)})", unit or "-", "")
         else:
-            table.add_row(escape(name), _fmt(value), unit, _fmt(when, ".5f") if when is not None else "")
+            table.add_row(escape(name), _fmt(_scaled(value, (unit, k))), unit or "-", _fmt(when, ".5f") if when is not None else "")
     console.print(table)
     for k, note in enumerate(notes, 1):
         console.print(f"  ({k}) {note}", markup=False)
@@ -291,15 +311,19 @@ def render_camshaft(summary: dict, console: Console) -> None:
         freqs = ", ".join(f"{f:.4g}" for f in dynamics["natural_frequencies_hz"]) or "none"
         console.print(f"dynamic camshaft: {dynamics['iterations']} relaxation iterations (last speed change "
                       f"{dynamics['speed_change']:.2g} of ω̄), torsional modes {freqs} Hz, mean drive speed "
-                      f"{dynamics['mean_drive_speed'] * 60 / (2 * math.pi):.6g} rpm", markup=False)
+                      f"{system.quantity(dynamics['mean_drive_speed'], 'rad/s', '.6g')}", markup=False)
     clearances = summary.get("clearances") or {}
     if clearances:
         table = Table(title="clearances (smallest distance over the recorded motion)", title_justify="left")
-        for column in ("pair", "between", "smallest [mm]", "shaft angle [deg]", "at t [s]", "allowed [mm]", ""):
+        for column in ("pair", "between", f"smallest [{length[0]}]", "shaft angle [deg]", "at t [s]", f"allowed [{length[0]}]", ""):
             table.add_column(escape(column), justify="left" if column in ("pair", "between", "") else "right")
         for name, c in clearances.items():
-            d = c["minimum_distance"]
-            table.add_row(escape(name), escape(" – ".join(c["between"])), _fmt(None if d is None else 1e3 * d),
-                          _fmt(c["shaft_angle_deg"], ".2f"), _fmt(c["time"], ".5f"), _fmt(1e3 * c["allowed"]),
+            table.add_row(escape(name), escape(" – ".join(c["between"])), _fmt(_scaled(c["minimum_distance"], length)),
+                          _fmt(c["shaft_angle_deg"], ".2f"), _fmt(c["time"], ".5f"), _fmt(_scaled(c["allowed"], length)),
                           "COLLISION" if c["collides"] else "ok")
         console.print(table)
+
+
+def _scaled(value, shown: tuple[str, float]):
+    """An SI value (or None) in the display unit of ``shown`` (unit, factor)."""
+    return None if value is None else value * shown[1]

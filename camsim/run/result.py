@@ -14,6 +14,7 @@ studies and fits pick it up from there.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -693,8 +694,6 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                                           {machine.cams[0].name: g["cam/speed"][()]} if "cam/speed" in g else None) or None
             masses = {name: {q: g[f"masses/{name}/{q}"][()] for q in MASS_QUANTITIES} for name in g["masses"]}
         except KeyError:  # a run stored with --record or --summary-only (camsim.run.stream)
-            import json
-
             stored = json.loads(g["summary"].attrs["recorded"]) if "summary" in g and "recorded" in g["summary"].attrs else []
             raise ResultFileError(
                 f"{path}: holds only some traces ({', '.join(stored) or 'none'}; recorded with --record or "
@@ -717,10 +716,12 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
             g["camshaft/boundaries_deg"][()] if "camshaft/boundaries_deg" in g else np.zeros(0))
         located = read_extremes(g)
         residual = float(g.attrs.get("periodicity_residual", float("nan")))
+        summary_attrs = g["summary"].attrs if "summary" in g else {}
+        warnings = json.loads(summary_attrs["warnings"]) if "warnings" in summary_attrs else []  # issue 44
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
-            periodicity_residual=residual, warnings=[], no_impact=bool(g.attrs.get("no_impact", False)),
+            periodicity_residual=residual, warnings=warnings, no_impact=bool(g.attrs.get("no_impact", False)),
             boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
             element_traces={name: q for name, q in extra.items() if q}, **stations,
         )

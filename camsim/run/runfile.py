@@ -85,15 +85,23 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
     One attribute per scalar of :meth:`~camsim.run.result.RunResult.scalars` (SI; NaN where
     it does not apply) with its unit in ``units:<name>``; ``recorded``: the trace paths
     the file holds (JSON list; all of them unless the run was recorded with ``--record``
-    or ``--summary-only``); ``record_last``: revolutions of traces kept (0: all). A
-    streamed run computes the scalars over every revolution, whatever it stored.
+    or ``--summary-only``); ``record_last``: revolutions of traces kept (0: all);
+    ``warnings``: the run's warnings (JSON list, SI) and ``notes``: how the machine file was read
+    (JSON list, :attr:`Machine.notes`), both as the run printed them. A streamed run computes the
+    scalars over every revolution, whatever it stored.
     """
     import json
 
     from camsim.run.result import scalar_columns
 
+    from camsim.cam.design import design_columns
+    from camsim.run.camshaft import camshaft_columns
+
     scalars = result.scalars()
-    units = dict(scalar_columns(list(result.machine.node_names)))
+    # every scalar with its unit: the cam design's and the camshaft's too (issue 44: the page
+    # showed "peak_camshaft_torque 23.76 -", SI without a unit)
+    units = dict(scalar_columns(list(result.machine.node_names)) + design_columns(result.machine)
+                 + camshaft_columns(result.machine))
     g = group.create_group("summary", track_order=True)
     for name, value in scalars.items():
         g.attrs[name] = value
@@ -103,6 +111,10 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
         recorded = list(result.traces())
     g.attrs["recorded"] = json.dumps(list(recorded))
     g.attrs["record_last"] = int(getattr(result, "record_last", 0) or 0)
+    # Issue 44: what the run printed, so the report page shows every warning: the run's own
+    # (composed in SI, shown in the reader's units) and how its machine file was read (as printed).
+    g.attrs["warnings"] = json.dumps(list(getattr(result, "warnings", []) or []), ensure_ascii=False)
+    g.attrs["notes"] = json.dumps(list(getattr(result.machine, "notes", ()) or ()), ensure_ascii=False)
     return g
 
 

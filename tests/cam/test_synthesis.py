@@ -193,7 +193,7 @@ def test_set_reaches_the_new_keys():
     with pytest.raises(MachineFileError) as info:
         load_machine(doc, {"cam.segments[0].end.q": 1})
     assert "unknown key" in str(info.value)
-    from camsim.machine.schema import key_unit
+    from camsim.machine.keys import unit as key_unit
 
     assert key_unit("cam.segments[2].end.a") == "m/s^2"
     assert key_unit("cam.compensation.speed") == "rad/s"

@@ -32,6 +32,20 @@ COLUMNS = [
 runner = CliRunner()
 
 
+def _csv_si(header: str, cell: str, si_unit: str) -> float:
+    """A CSV cell in the unit of its header (``name [unit]``, issue 44: display units) in SI, by pint."""
+    import re
+
+    import pint
+
+    m = re.search(r"\[(.+)\]$", header)
+    value = float(cell)
+    if not m or not si_unit:
+        return value
+    unit = m.group(1).replace("²", "**2").replace("³", "**3").replace("·", "*")
+    return pint.UnitRegistry().Quantity(value, unit).to(si_unit.replace("^", "**")).magnitude
+
+
 def test_sweep_writes_h5_and_csv_that_agree(tmp_path):
     out = tmp_path / "s.h5"
     result = runner.invoke(app, ["sweep", BARKAN, "--vary", "cam.speed=420:480:30rpm", "-o", str(out), "--workers", "1", *FAST])
@@ -46,13 +60,18 @@ def test_sweep_writes_h5_and_csv_that_agree(tmp_path):
     assert list(table) == COLUMNS
     with open(tmp_path / "s.csv", newline="") as fh:
         lines = list(csv.reader(fh))
-    assert lines[0] == COLUMNS and len(lines) == 4
+    # the header names each column's unit: the machine file's units (issue 44), speeds in rpm
+    assert [h.split(" [")[0] for h in lines[0]] == COLUMNS and len(lines) == 4
+    assert lines[0][0] == "param:cam.speed [rpm]" and "peak_acceleration:F [m/s²]" in lines[0]
+    with h5py.File(out) as f:
+        units = {n: f["sweep/summary"].attrs[f"units:{n}"] for n in COLUMNS}
     for i, line in enumerate(lines[1:]):
         assert line[COLUMNS.index("status")] == table["status"][i] == "ok"
         assert line[COLUMNS.index("jump")] == ("true" if table["jump"][i] else "false")
         for name in ("param:cam.speed", "peak_acceleration:F", "min_cam_contact_force", "max_impact_velocity"):
-            x, y = float(line[COLUMNS.index(name)]), table[name][i]
-            assert (math.isnan(x) and math.isnan(y)) or x == y
+            j = COLUMNS.index(name)
+            x, y = _csv_si(lines[0][j], line[j], units[name]), table[name][i]
+            assert (math.isnan(x) and math.isnan(y)) or math.isclose(x, y, rel_tol=1e-12)
 
 
 def test_sweep_json_documented_keys(tmp_path):

@@ -5,11 +5,15 @@ No browser is needed: these fail before any page is built.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import h5py
 import pytest
 from typer.testing import CliRunner
 
 from camsim.cli import app
+
+ROOT = Path(__file__).resolve().parents[2]
 
 pytest.importorskip("bokeh", reason="bokeh not installed (pip install 'camsim[report]')")
 
@@ -100,3 +104,24 @@ def test_run_report_option_refuses_before_running(tmp_path):
     r = CliRunner().invoke(app, ["run", str(CDTM), "-o", str(h5), "--report", str(tmp_path / "no" / "r.html"), "-q"])
     assert r.exit_code == 2
     assert not h5.exists()
+
+
+def test_report_without_bokeh_is_the_install_hint(tmp_path, monkeypatch):
+    """Issue 44: `camsim report` without the report extra said "internal error (ModuleNotFoundError:
+    bokeh); this is a bug", exit 1; docs/report.md promises exit 2 and the install hint, nothing written."""
+    import sys
+
+    from typer.testing import CliRunner
+
+    from camsim.cli import app
+
+    h5 = tmp_path / "r.h5"
+    r = CliRunner().invoke(app, ["run", str(ROOT / "machines" / "ball-drop.toml"), "-o", str(h5), "-q"])
+    assert r.exit_code == 0, r.output
+    monkeypatch.setitem(sys.modules, "bokeh", None)  # as if it were not installed
+    for name in [m for m in sys.modules if m.startswith("bokeh.")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    r = CliRunner().invoke(app, ["report", str(h5), "-o", str(tmp_path / "r.html")])
+    assert r.exit_code == 2, r.output
+    assert "pip install 'camsim[report]'" in r.output and "internal error" not in r.output
+    assert not (tmp_path / "r.html").exists()

@@ -110,4 +110,4 @@ def test_report_units_option(cdtm_run, tmp_path, system, force):
     r = CliRunner().invoke(app, ["report", str(cdtm_run[0]), "-o", str(out), "--units", system])
     assert r.exit_code == 0, r.output
     text = out.read_text(encoding="utf-8")
-    assert f"simulated peak [{force}]" in text
+    assert f"simulated peak (with preload) [{force}]" in text and f"impulsive peak [{force}]" in text

@@ -141,7 +141,7 @@ def test_cli_files_agree_and_json_schema(tmp_path):
         app,
         ["study", str(MACHINE), *sum((["--dist", d] for d in DISTS), []), "-n", "8", "--method", "sobol", "--seed", "2",
          "--sensitivity", "--limit", "min_cam_contact_force<0N", "--limit", "max_cam_contact_force>=60N",
-         "--output", "rms:cam_contact/force", "--output", "max:masses/F/acceleration", "-o", str(out), "--workers", "1", "--json"],
+         "--reduce", "rms:cam_contact/force", "--reduce", "max:masses/F/acceleration", "-o", str(out), "--workers", "1", "--json"],
     )
     assert r.exit_code == 0, r.stderr
     payload = json.loads(r.stdout)

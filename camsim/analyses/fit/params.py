@@ -122,9 +122,9 @@ def override_text(key: str, value: str | float) -> str:
     """The ``KEY=VALUE`` override that sets ``key`` to a value text or an SI float (an angle
     carries ``rad``: a bare angle is read in degrees)."""
     if isinstance(value, float):
-        from camsim.machine.schema import key_unit as schema_key_unit
+        from camsim.machine.keys import unit
 
-        if schema_key_unit(key) == "rad":
+        if unit(key) == "rad":
             return f'{key}="{value!r} rad"'
         return f"{key}={value!r}"
     number = _NUMBER.match(value)
@@ -212,13 +212,15 @@ def resolve_params(source, fixed: Sequence[str], specs: Sequence[str], log_keys:
             raise InputError(f"{where}: {key} is an integer setting, not a continuous parameter; it cannot be fitted")
         low = _si_value(source, fixed, key, values[0], where)
         high = _si_value(source, fixed, key, values[1], where)
+        unit = si_unit(base, key)
+        # Quantities with their SI unit: the command prints them in the file's units (issue 44: "(SI)").
+        q = lambda v: f"{v:.6g} {unit}".rstrip() if unit != "rad" else f"{math.degrees(v):.6g} deg"  # noqa: E731
         if not low < high:
-            raise InputError(f"{where}: empty bounds: LOW ({low:.6g}) must be below HIGH ({high:.6g}) in SI")
+            raise InputError(f"{where}: empty bounds: LOW ({q(low)}) must be below HIGH ({q(high)})")
         start = _si_value(source, fixed, key, values[2], where) if len(values) == 3 else float(current)
         if not low <= start <= high:
             what = "START" if len(values) == 3 else f"the machine file's value of {key}"
-            raise InputError(f"{where}: the bounds [{low:.6g}, {high:.6g}] exclude {what} ({start:.6g}) (SI)")
-        unit = si_unit(base, key)
+            raise InputError(f"{where}: the bounds {q(low)} to {q(high)} exclude {what} ({q(start)})")
         # A fitted value travels to the loader as a bare SI number: check that it means SI.
         probe = _si_value(source, fixed, key, f"{start!r} rad" if unit == "rad" else repr(start), where)
         if not math.isclose(probe, start, rel_tol=1e-12, abs_tol=1e-300):

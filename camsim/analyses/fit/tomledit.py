@@ -22,71 +22,27 @@ import os
 import re
 from pathlib import Path
 
-from camsim.errors import InputError
+from camsim.errors import InputError, MachineFileError
+from camsim.machine import keys
 
 __all__ = ["edited_text", "fitted_text", "write_fitted", "VALUE_DIGITS"]
 
 #: Significant digits of a fitted value written into the file.
 VALUE_DIGITS = 7
-_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
 _NUMBER = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
 
 
 def _locate(doc, key: str):
-    """(container, leaf, inline) of ``key`` in the tomlkit document ``doc``."""
-    parts = []
-    for p in key.split("."):
-        m = _PART.match(p.strip())
-        if not m:
-            raise InputError(f"{key}: malformed key")
-        parts.append((m.group(1), None if m.group(2) is None else int(m.group(2))))
-    head, index = parts[0]
-    if head == "cam" and not hasattr(doc["cam"], "keys"):  # issue 38: [[cam]] tables
-        cams = doc["cam"]
-        if index is None and len(parts) == 2 and parts[1][0] in ("speed", "start_angle"):  # the shaft's
-            leaf = parts[1][0]
-            if "camshaft" in doc and (leaf in doc["camshaft"] or leaf not in cams[0]):
-                return doc["camshaft"], leaf, False
-            return cams[0], leaf, False
-        if index is not None:
-            table, rest = cams[index], parts[1:]
-        else:
-            table, rest = next(c for c in cams if c.get("name") == parts[1][0]), parts[2:]
-        if rest[0][0] == "segments":
-            return table["segments"][rest[0][1]], rest[1][0], True
-        if rest[0][0] in ("geometry", "compensation"):
-            return table[rest[0][0]], rest[1][0], True
-        return table, rest[0][0], False
-    if head == "camshaft":  # issue 38
-        if parts[1][0] == "section":
-            rows = doc["camshaft"]["section"]
-            if parts[1][1] is not None:
-                return rows[parts[1][1]], parts[2][0], False
-            return next(r for r in rows if r.get("cam") == parts[2][0]), parts[3][0], False
-        return doc["camshaft"], parts[1][0], False
-    if head == "clearance":  # issue 38
-        return next(r for r in doc["clearance"] if r.get("name") == parts[1][0]), parts[2][0], False
-    if head in ("simulation", "machine") or (head == "cam" and parts[1][0] != "segments"):
-        return doc[head], parts[1][0], False
-    if head == "cam":
-        return doc["cam"]["segments"][parts[1][1]], parts[2][0], True
-    if head in ("mass", "element"):
-        rows = doc[head]
-        if index is not None:
-            return rows[index], parts[1][0], False
-        row = next(r for r in rows if r.get("name") == parts[1][0])
-        return row, parts[2][0], False
-    if head == "initial":
-        # a mass that starts in static equilibrium has no [initial.<mass>] table: make it
-        # (issue 26: initial.<mass>.velocity is fittable as documented)
-        import tomlkit
+    """(container, leaf, inline) of ``key`` in the tomlkit document ``doc``
+    (:func:`camsim.machine.keys.address`, the one owner of the key grammar)."""
+    import tomlkit
+    from tomlkit.items import InlineTable
 
-        if "initial" not in doc:
-            doc["initial"] = tomlkit.table(is_super_table=True)
-        if parts[1][0] not in doc["initial"]:
-            doc["initial"][parts[1][0]] = tomlkit.table()
-        return doc["initial"][parts[1][0]], parts[2][0], False
-    raise InputError(f"{key}: cannot be written into the machine file")
+    def make_table(super_table: bool = False):
+        return tomlkit.table(is_super_table=super_table)
+
+    found = keys.address(doc, key, make_table=make_table)
+    return found.table, found.leaf, isinstance(found.table, InlineTable)
 
 
 def _number(value: float) -> str:
@@ -167,7 +123,7 @@ def edited_text(text: str, entries, source: str = "<string>", what: str = "fitte
     for i, (key, value, si_unit, file_value, note_of) in enumerate(entries):
         try:
             table, leaf, inline = _locate(doc, key)
-        except (KeyError, IndexError, StopIteration, TypeError):
+        except (KeyError, IndexError, StopIteration, TypeError, MachineFileError):
             raise InputError(f"{source}: {key}: not found in the machine file to write the {what} value") from None
         old = table.get(leaf)
         # Table.item() is tomlkit >= 0.13.1; the table's container has had .item() far longer.

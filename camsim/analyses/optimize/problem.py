@@ -293,12 +293,27 @@ def parse_constraint(text: str, units: dict[str, str], option: str = "--constrai
     si = units.get(expr.text, "")
     if si and not unit:
         raise InputError(f"{where}: the limit needs a unit ({expr.text} is in {si})")
+    if unit and not si and expr.text in units:
+        _number_without_unit(number, unit, expr.text, where)
     limit = _to_si(number, unit, si, where) if unit else number
     if si == "deg" and unit:  # a pressure angle is reported in degrees, not SI radians
         from camsim.units import ureg
 
         limit = float(ureg.Quantity(number, unit).to("deg").magnitude)
     return Constraint(text=text.strip(), expr=expr, op=op, limit=float(limit), unit=si)
+
+
+def _number_without_unit(number: float, unit: str, name: str, where: str) -> None:
+    """Issue 44: a unit on a quantity that has none (a count, a flag, a ratio: ``jump<=0N``) is
+    refused (exit 2), never converted to base units; a dimensionless unit (``%``) is fine."""
+    from camsim.units import ureg
+
+    try:
+        dimensionless = ureg.Quantity(number, unit).dimensionless
+    except Exception:  # noqa: BLE001 - an unknown unit
+        raise InputError(f"{where}: unknown unit '{unit}'") from None
+    if not dimensionless:
+        raise InputError(f"{where}: unit '{unit}' does not fit {name}, a number without a unit")
 
 
 def parse_speeds(text: str | None) -> list[float | None]:

@@ -273,6 +273,7 @@ def optimize(
     force: bool = False,
     progress: Callable[[int, int | None, float | None], None] | None = None,
     on_start: Callable[[int, int, str], None] | None = None,
+    on_units: Callable[[str, Any], None] | None = None,
     max_runs: int | None = None,
     max_output: float | None = None,
 ) -> OptimizeResult:
@@ -328,6 +329,10 @@ def optimize(
         ``progress(evaluations, budget, best_so_far)`` after each candidate.
     on_start : callable, optional
         ``on_start(budget, stored_runs, executor_name)`` once every check passed.
+    on_units : callable, optional
+        ``on_units(si_unit, machine)`` once the first objective's SI unit is known (from a run
+        of the machine as given), before the first candidate: what ``progress`` reports the best
+        value in (issue 44: the CLI shows it in the machine file's units).
     max_runs : int, optional
         Refuse (InputError, before anything runs) a job that could make more simulation
         runs: ``budget`` x speeds x robust samples (default
@@ -407,6 +412,8 @@ def optimize(
     except SimulationError as exc:
         raise SimulationError(f"the machine as given does not run: {exc}") from None
     units = expression_units(problem, reference)
+    if on_units is not None and problem.goals:
+        on_units(problem.goals[0].unit, ref_machine)
     scales = []
     ref_values = {v.key: v.initial for v in problem.variables}
     for c in problem.constraints:

@@ -11,7 +11,7 @@ Example::
     sensitivity = true
     set = ["simulation.sample_rate=20kHz"]
     limit = ["peak_transducer_force>2000N"]
-    output = ["rms:transducer/force"]
+    reduce = ["rms:transducer/force"]
     correlate = []
     cycles = 1
     warmup = 1
@@ -23,7 +23,7 @@ Example::
 
 Options given on the command line win over the file's: a scalar replaces it, a
 ``--dist`` for a key the file also gives replaces that entry, and ``--set``,
-``--correlate``, ``--limit`` and ``--output`` are added after the file's.
+``--correlate``, ``--limit`` and ``--reduce`` are added after the file's.
 """
 
 from __future__ import annotations
@@ -46,7 +46,8 @@ STUDY_KEYS: dict[str, type | tuple[type, ...]] = {
     "seed": int,
     "tol_sigma": (int, float),
     "correlate": list,
-    "output": list,
+    "reduce": list,
+    "output": list,  # the name of "reduce" before issue 44, still read
     "limit": list,
     "sensitivity": bool,
     "set": list,

@@ -23,7 +23,7 @@ SPEC                                          distribution
 ===========================================  =============================================
 
 Every value is converted to SI with the one unit registry (:mod:`camsim.units`), in the
-SI unit of the key's ``param:`` column (:func:`camsim.machine.schema.key_unit`); a bare number is
+SI unit of the key's ``param:`` column (:func:`camsim.machine.keys.unit`); a bare number is
 SI. Errors are :class:`~camsim.errors.InputError` naming the option, in one line.
 """
 
@@ -160,7 +160,7 @@ def parse_dist(text: str, tol_sigma: float = DEFAULT_TOL_SIGMA, option: str = "-
         STD ≤ 0, GSD ≤ 1, LOW ≥ HIGH, a non-positive median, a nominal outside its own
         tolerance, a non-finite number.
     """
-    from camsim.machine.schema import key_unit
+    from camsim.machine.keys import unit as key_unit
 
     where = f"{option} {text}"
     key, sep, spec = text.partition("=")

@@ -186,7 +186,7 @@ def _parse_window(text: str, where: str) -> tuple[float, float]:
     return float(lo), float(min(hi, 360.0))
 
 
-def parse_output(text: str, option: str = "--output") -> OutputExpr:
+def parse_output(text: str, option: str = "--reduce") -> OutputExpr:
     """Parse ``REDUCER:PATH[@FROM:TO]`` (syntax only; whether the run has the trace is checked on a run)."""
     where = f"{option} {text}"
     m = _EXPR.match(text)

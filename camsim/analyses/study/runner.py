@@ -382,7 +382,7 @@ def study(
     for text in outputs:
         e = parse_output(text)
         if e.text in [x.text for x in exprs]:
-            raise InputError(f"--output {text}: given twice")
+            raise InputError(f"--reduce {text}: given twice")
         exprs.append(e)
     settings = RunSettings(outputs=tuple(exprs), cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate)
     if scheduler is not None and dask_local is not None:
@@ -417,7 +417,7 @@ def study(
             e.evaluate(nominal_result)
         except KeyError:
             raise InputError(
-                f"--output {e.text}: the run has no trace '{e.path}' (masses/<mass>/<quantity>, elements/<element>/force, "
+                f"--reduce {e.text}: the run has no trace '{e.path}' (masses/<mass>/<quantity>, elements/<element>/force, "
                 "transducer/force, cam_contact/force, cam/<quantity>)"
             ) from None
     columns: list[tuple[str, str]] = [("run", ""), ("design", "")]

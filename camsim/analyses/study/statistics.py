@@ -26,7 +26,7 @@ import numpy as np
 
 from camsim.errors import InputError
 
-__all__ = ["PERCENTILES", "Limit", "parse_limit", "describe", "limit_probability", "N_RESAMPLES"]
+__all__ = ["PERCENTILES", "Limit", "parse_limit", "describe", "limit_probability", "N_RESAMPLES", "varies"]
 
 #: Percentiles reported for every output.
 PERCENTILES = (1, 5, 50, 95, 99)
@@ -196,3 +196,11 @@ def limit_probability(limit: Limit, values: np.ndarray) -> dict:
 def summarize(columns: Mapping[str, np.ndarray], names: Sequence[str], seed: int) -> dict[str, dict]:
     """:func:`describe` of each named output column (bootstrap seeds ``seed + i``)."""
     return {name: describe(columns[name], seed + i) for i, name in enumerate(names)}
+
+
+def varies(values) -> bool:
+    """Whether an output varies over the runs: its finite values spread by more than 1e-9 of their
+    size (a constant output's float noise, 1e-14 of it, is no spread: no histogram, issue 44)."""
+    x = np.asarray(values, dtype=float)
+    x = x[np.isfinite(x)]
+    return bool(x.size) and float(np.ptp(x)) > 1e-9 * max(float(np.max(np.abs(x))), 1e-300)

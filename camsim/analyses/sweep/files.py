@@ -30,7 +30,8 @@ def csv_cell(value: Any) -> str:
     return str(value)
 
 
-def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: str | os.PathLike[str] | None = None) -> tuple[Path, Path]:
+def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: str | os.PathLike[str] | None = None,
+                units: Any = None) -> tuple[Path, Path]:
     """Write a sweep as HDF5 (``/sweep/summary``) and the same table as CSV, atomically.
 
     The HDF5 file carries the root attributes of every camsim file (``file_kind`` =
@@ -38,8 +39,12 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
     compound table with a ``units:<column>`` attribute per column and the attributes
     ``jump_onset_rpm`` and ``first_jump_rpm`` (NaN when None). With kept traces, variant
     ``k`` (the row index, from 0) is under ``/sweep/variants/<k>/`` in the run layout.
-    The CSV has one header line with the column names and the values in SI (floats
-    written so that they read back exactly; ``nan`` where absent; ``true``/``false``).
+    The CSV, a table for a person (a spreadsheet), is in the display units ``units`` (a
+    :class:`~camsim.display.DisplayUnits`; default the machine file's own, docs/units.md): one
+    header line with each column's name and unit (``param:cam.speed [rpm]``,
+    ``peak_transducer_force [lbf]``; issue 44: it had no units and the speed in rad/s), the
+    values converted (floats written in full; ``nan`` where absent; ``true``/``false``). The
+    HDF5 table stays SI.
 
     Returns
     -------
@@ -82,12 +87,21 @@ def write_sweep(result: "SweepResult", path: str | os.PathLike[str], csv_path: s
                 g.attrs["overrides"] = list(result.overrides[k])
                 write_run_group(g, run)
                 target.check()  # a full disk stops here, not after every variant
+    shown = units if units is not None else result.machine.display_units
+    factors = [shown.shown(unit)[1] if unit else 1.0 for _, unit in result.columns]
     with writing(csv_target, "csv", owner="csv") as target, target.text() as fh:
         writer = csv.writer(fh)
-        writer.writerow([name for name, _ in result.columns])
+        writer.writerow([shown.header(name, unit) for name, unit in result.columns])
         for row in result.rows:
-            writer.writerow([csv_cell(row[name]) for name, _ in result.columns])
+            writer.writerow([csv_cell(_scaled(row[name], k)) for (name, _), k in zip(result.columns, factors)])
     return h5_path, csv_target
+
+
+def _scaled(value: Any, factor: float) -> Any:
+    """A numeric cell in its display unit; text, flags and counts as they are."""
+    if isinstance(value, (float, np.floating)) and factor != 1.0:
+        return float(value) * factor
+    return value
 
 
 def jsonable_rows(result: "SweepResult") -> list[dict[str, Any]]:

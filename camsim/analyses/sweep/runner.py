@@ -123,86 +123,24 @@ class SweepSettings:
 # --------------------------------------------------------------------------------------
 # One variant
 # --------------------------------------------------------------------------------------
-_KEY_PART = re.compile(r"^([A-Za-z_][\w\-]*)(?:\[(\d+)\])?$")
-
-
 def key_unit(key: str) -> str:
     """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
-    from camsim.machine.schema import key_unit as schema_key_unit
+    from camsim.machine.keys import unit
 
-    return schema_key_unit(key)
+    return unit(key)
 
 
 def machine_value(machine, key: str) -> Any:
     """The SI value of override key ``key`` in a loaded machine (None if not found).
 
     Reads :func:`camsim.machine.loader.machine_to_dict`, so it is the value the run used, e.g.
-    ``cam.speed`` in rad/s and a lift given as an angle already turned into metres.
+    ``cam.speed`` in rad/s and a lift given as an angle already turned into metres; the key is
+    read by :func:`camsim.machine.keys.machine_value` (the one owner of the key grammar).
     """
+    from camsim.machine import keys
     from camsim.machine.loader import machine_to_dict
 
-    d = machine_to_dict(machine)
-    parts = []
-    for p in key.split("."):
-        m = _KEY_PART.match(p.strip())
-        if not m:
-            return None
-        parts.append((m.group(1), None if m.group(2) is None else int(m.group(2))))
-    try:
-        head, head_index = parts[0]
-        cam_dict = d.get("cam")
-        if head == "cam" and "cams" in d:  # issue 38: cam.<name>.<key> (cam.speed is the shaft's)
-            names = [c["name"] for c in d["cams"]]
-            if head_index is not None:
-                cam_dict, parts = d["cams"][head_index], parts[:1] + parts[1:]
-            elif parts[1][0] in names and len(parts) > 2:
-                cam_dict, parts = d["cams"][names.index(parts[1][0])], parts[:1] + parts[2:]
-        if head == "camshaft":  # issue 38
-            if parts[1][0] == "section":
-                if parts[1][1] is not None:
-                    row, leaf = d["camshaft"]["sections"][parts[1][1]], parts[2][0]
-                else:
-                    row, leaf = next(r for r in d["camshaft"]["sections"] if r["cam"] == parts[2][0]), parts[3][0]
-                return row[leaf]
-            return d["camshaft"][parts[1][0]]
-        if head == "clearance":  # issue 38
-            return next(c for c in d["clearances"] if c["name"] == parts[1][0])[parts[2][0]]
-        if head == "cam":
-            leaf, index = parts[1]
-            if leaf == "phase":
-                return cam_dict[leaf]
-            if leaf == "segments":
-                value = cam_dict["segments"][index][parts[2][0]]
-                if len(parts) == 4:  # issue 27: cam.segments[i].end.v, .start.a, .points[k].s
-                    from camsim.cam.description import DERIVATIVE_KEYS
-
-                    name = parts[3][0]
-                    if parts[2][0] == "points":
-                        point = value[parts[2][1]]
-                        return point[name] if name in ("at", "s") else point.get(f"d{DERIVATIVE_KEYS[name]}")
-                    return value.get(DERIVATIVE_KEYS[name])
-                return value
-            if leaf in ("geometry", "compensation"):  # issue 14: cam.geometry.<key>[.<key>]; 27
-                value = cam_dict[leaf]
-                for name, _ in parts[2:]:
-                    value = value[name]
-                return value
-            return cam_dict[leaf]
-        if head == "simulation":
-            return d["simulation"][parts[1][0]]
-        if head in ("mass", "element"):
-            rows = d["masses" if head == "mass" else "elements"]
-            if head_index is not None:
-                row, leaf = rows[head_index], parts[1][0]
-            else:
-                row, leaf = next(r for r in rows if r["name"] == parts[1][0]), parts[2][0]
-            return row[leaf]
-        if head == "initial":
-            row = next(r for r in d["initial"] if r["mass"] == parts[1][0])
-            return row[parts[2][0]]
-    except (KeyError, IndexError, StopIteration, TypeError):
-        return None
-    return None
+    return keys.machine_value(machine_to_dict(machine), key)
 
 
 def _text_value(assignment: str, key: str) -> Any:
@@ -428,6 +366,7 @@ def run_sweep(
     on_start: Callable[[int, str], None] | None = None,
     output: str | os.PathLike[str] | None = None,
     resume: bool = False,
+    warn: Callable[[str], None] | None = None,
 ) -> SweepResult:
     """Run a machine over the grid of all combinations of the varied keys.
 
@@ -474,6 +413,11 @@ def run_sweep(
         With ``output``: run only the variants missing from its journal (the job must
         be the same: machine text, ranges, ``--set``, run settings); the rows are the
         ones an uninterrupted sweep gives. Without a journal: a fresh sweep.
+    warn : callable, optional
+        Called with each warning about the inputs before anything runs: a bare number read as
+        SI in the machine file, in ``--set`` or in a varied key's values
+        (:func:`camsim.machine.keys.bare_number_note`: ``--vary cam.speed = 60:600:10 → 60 to
+        600 rad/s = 573 to 5730 rpm``).
 
     Returns
     -------
@@ -510,6 +454,15 @@ def run_sweep(
         raise InputError("--refine-jump: needs a sweep of cam.speed alone (--vary cam.speed=START:STOP:STEPrpm)")
     fixed = list(fixed)
     base = source.load(fixed)  # the --set overrides alone
+    if warn is not None:  # issue 44: bare numbers are SI, and say so before anything runs
+        from camsim.display import display_units
+        from camsim.machine.keys import option_notes
+
+        shown = display_units("file", base.text, [*vary, *values])
+        written = {k.strip(): spec for k, _, spec in (t.partition("=") for t in (*vary, *values))}
+        for note in [*base.notes, *option_notes("--vary", axes[:len(vary)], shown, written),
+                     *option_notes("--values", axes[len(vary):], shown, written)]:
+            warn(note)
     # The loader's checks on the varied keys, before anything runs: the first and last
     # variants hold every key and both ends of every range.
     from camsim.run.budget import check_in_memory
