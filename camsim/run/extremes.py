@@ -251,9 +251,11 @@ def fold_jobs(jobs) -> list[dict]:
     return results
 
 
-def earliest(heights: list[tuple[float, float]]) -> tuple[float, float]:
-    """The first instant among values of one height (:func:`fold`)."""
-    return min(heights, key=lambda h: h[1])
+def earliest(heights: list[tuple[float, float]], sense: int = 1) -> tuple[float, float]:
+    """The first instant among values of one height (:func:`fold`); of values at one instant
+    (the two sides of an event: a contact's force at its release, and 0 N open), the extreme
+    one (the larger for a maximum, ``sense`` +1; the smaller for a minimum, −1)."""
+    return min(heights, key=lambda h: (h[1], -sense * h[0]))
 
 
 class _Window:
@@ -288,7 +290,7 @@ class _Window:
         self.records = []
         if not tops or not bottoms:
             return
-        top, bottom = earliest(tops), earliest(bottoms)
+        top, bottom = earliest(tops, 1), earliest(bottoms, -1)
         measure = self.element.impact_force(np.array([top[0], bottom[0]]))
         if measure is None:
             return
@@ -402,7 +404,7 @@ class ExtremesFolder:
         for j, path in enumerate(self.observables.paths):
             if not self.best[1][j] or not self.best[-1][j]:
                 continue
-            top, bottom = earliest(self.best[1][j]), earliest(self.best[-1][j])
+            top, bottom = earliest(self.best[1][j], 1), earliest(self.best[-1][j], -1)
             out[path] = {"max": Extreme(top[0], top[1] - self.t_rec), "min": Extreme(bottom[0], bottom[1] - self.t_rec)}
         return out
 
