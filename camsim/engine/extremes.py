@@ -82,14 +82,18 @@ class StretchExtremes:
         self._QT = QT
         self._dense = dense
         n_obs, N = QT.shape
-        kmax, kmin = np.argmax(QT, axis=1), np.argmin(QT, axis=1)
-        rows = np.arange(n_obs)
-        self.node_max, self.node_min = QT[rows, kmax], QT[rows, kmin]
-        self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
         h = dense.h
         moving = h > 0.0
         #: first node of each smooth piece (a break's right node starts one)
         self._starts = np.concatenate([[0], np.flatnonzero(~moving) + 1])
+        # each piece's largest and smallest node value, every observable (n_obs, pieces); the
+        # record's, and their first nodes, from them (one pass over the nodes each, not two)
+        self._piece_max = np.maximum.reduceat(QT, self._starts, axis=1)
+        self._piece_min = np.minimum.reduceat(QT, self._starts, axis=1)
+        rows = np.arange(n_obs)
+        kmax, kmin = _first_node(QT, self._starts, self._piece_max, 1), _first_node(QT, self._starts, self._piece_min, -1)
+        self.node_max, self.node_min = QT[rows, kmax], QT[rows, kmin]
+        self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
         ends = np.concatenate([self._starts[1:] - 1, [N - 1]])  # last node of each piece
         self._piece_ends = ends
         # the node whose curvature each node takes (a piece's end node: its neighbour's),
@@ -112,9 +116,6 @@ class StretchExtremes:
         self._end_step[ends[ends > 0] - 1] = True
         self._end_step &= moving
         self._excess, self._d2 = _excess_bound(QT, moving, bool(np.any(single)))
-        # each piece's largest and smallest node value, every observable (n_obs, pieces)
-        self._piece_max = np.maximum.reduceat(QT, self._starts, axis=1)
-        self._piece_min = np.minimum.reduceat(QT, self._starts, axis=1)
         self.upper = self.node_max + self._excess
         self.lower = self.node_min - self._excess
         self._scale = np.maximum(np.abs(self.node_max), np.abs(self.node_min))
@@ -175,6 +176,21 @@ class StretchExtremes:
         observable ``j`` over this stretch; values within ``tie`` of it are one height, and
         the earliest of them is returned (a plateau's first node)."""
         return refine_requests([(self, j, sense, tie)])[0]
+
+
+def _first_node(QT: np.ndarray, starts: np.ndarray, piece: np.ndarray, sense: int) -> np.ndarray:
+    """Per observable, the first node of its largest (sense +1) or smallest (−1) value: the
+    first piece that holds it, then that piece's first such node (``piece``: each piece's
+    extreme, n_obs × pieces)."""
+    n_obs, N = QT.shape
+    best = np.argmax(piece, axis=1) if sense > 0 else np.argmin(piece, axis=1)
+    ends = np.concatenate([starts[1:], [N]])
+    out = np.empty(n_obs, dtype=int)
+    for j in range(n_obs):
+        a, b = int(starts[best[j]]), int(ends[best[j]])
+        seg = QT[j, a:b]
+        out[j] = a + int(np.argmax(seg) if sense > 0 else np.argmin(seg))
+    return out
 
 
 def _excess_bound(QT: np.ndarray, moving: np.ndarray, single: bool) -> tuple[np.ndarray, np.ndarray | None]:
@@ -247,7 +263,8 @@ def _screen_column(rec: StretchExtremes, j: int, sense: int, excess: float, tol:
         up = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
         full = (np.flatnonzero(up > q_best + tol) + 2, float(np.max(up)) if up.size else -np.inf)
         near = np.zeros(0, dtype=int)
-    extra = np.setdiff1d(np.concatenate([near - 1, near, [best - 1, best]]), forced, assume_unique=False)
+    # (a step also among the forced ones is bounded twice, alike: cheaper than excluding it)
+    extra = np.unique(np.concatenate([near - 1, near, [best - 1, best]]))
     extra = extra[(extra >= 0) & (extra < N - 1)]
     extra = extra[rec._dense.h[extra] > 0.0]
     if extra.size:
@@ -259,7 +276,7 @@ def _screen_column(rec: StretchExtremes, j: int, sense: int, excess: float, tol:
     local = np.concatenate(parts_local)
     chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
     limit = max(q_best, float(np.max(local)) if local.size else -np.inf)
-    cands = np.sort(steps[chosen])
+    cands = np.unique(steps[chosen])
     if full is None:
         return cands, limit
     return np.union1d(cands, full[0]), max(limit, full[1])
