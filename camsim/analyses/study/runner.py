@@ -84,6 +84,9 @@ def run_sample(source, overrides: Sequence[str], settings: RunSettings) -> tuple
     """Load, run and reduce one sampled machine; never raises for a run that fails.
 
     The task every executor runs (module level, so process pools and Dask can ship it).
+    A worker loads the machine text with its unit conversions kept from run to run
+    (camsim.units), and runs :func:`camsim.run.evaluation.evaluate` when no trace is
+    reduced (the summary without traces), :func:`~camsim.run.simulation.simulate` otherwise.
 
     Returns
     -------
@@ -93,11 +96,15 @@ def run_sample(source, overrides: Sequence[str], settings: RunSettings) -> tuple
     None
         (The executors' second slot, which a sweep uses for traces.)
     """
+    from camsim.run.evaluation import evaluate
     from camsim.run.simulation import simulate
 
     try:
         machine = source.load(overrides)
-        result = simulate(machine, cycles=settings.cycles, warmup_cycles=settings.warmup_cycles, sample_rate=settings.sample_rate)
+        # without trace reductions a run is a design evaluation: its summary without traces
+        # (camsim.run.evaluation, issue 42), the same scalars as a full run
+        run = simulate if settings.outputs else evaluate
+        result = run(machine, cycles=settings.cycles, warmup_cycles=settings.warmup_cycles, sample_rate=settings.sample_rate)
         row = run_scalars(result)
         for expr in settings.outputs:
             row[expr.text] = expr.evaluate(result)

@@ -204,12 +204,16 @@ def run_variant(source: MachineSource, overrides: Sequence[str], settings: Sweep
     result : RunResult or None
         The run, when ``settings.keep_traces`` and the run succeeded.
     """
+    from camsim.run.evaluation import evaluate
     from camsim.run.simulation import simulate
 
     machine = None
     try:
         machine = source.load(overrides)
-        result = simulate(
+        # a variant whose traces are not kept is a design evaluation: its summary without
+        # traces (camsim.run.evaluation, issue 42), the same scalars as a full run
+        run = simulate if settings.keep_traces else evaluate
+        result = run(
             machine,
             cycles=settings.cycles,
             warmup_cycles=settings.warmup_cycles,
