@@ -33,7 +33,7 @@ UREG = registry()
 #: SI unit text of each dimension (what camsim's code and files write).
 SI_OF = {
     "length": "m", "velocity": "m/s", "acceleration": "m/s**2", "jerk": "m/s**3", "length/time^4": "m/s**4",
-    "length/time^5": "m/s**5", "length/time^6": "m/s**6", "force": "N", "stiffness": "N/m", "damping": "N*s/m",
+    "length/time^5": "m/s**5", "length/time^6": "m/s**6", "force": "N", "stiffness": "N/m", "damping": "N*s/m", "quadratic_damping": "N*s**2/m**2",
     "mass": "kg", "pressure": "Pa", "torque": "N*m", "energy": "J", "angle": "rad", "angular_speed": "rad/s",
     "inertia": "kg*m**2", "density": "kg/m**3", "area": "m**2", "slowness": "s/m",
 }

@@ -34,8 +34,8 @@ def test_registering_a_name_twice_is_refused():
 
 def test_key_laws_come_from_the_schemas():
     laws = elements.key_laws("contact")
-    assert laws["stiffness"] == ("linear", "adams-impact")
-    assert set(laws["restitution"]) == {"linear", "power", "restitution", "hertz"}  # linear: issue 12; hertz: 39
+    assert laws["stiffness"] == ("linear", "adams-impact", "elastogap")  # elastogap: issue 43
+    assert set(laws["restitution"]) == {"linear", "power", "restitution", "hertz", "elastogap"}  # linear: issue 12; hertz: 39; elastogap: 43
     assert laws["gap"] == elements.laws_of("contact")
 
 

@@ -76,7 +76,13 @@ def _shown(p: Param, element) -> bool:
     if p.dimension == "string" or p.key in ("damping", "damping_ratio", "reference_mass"):
         return False
     value = getattr(element, p.attribute)
+    if p.key in _SHOWN_WHEN_SET and not value:
+        return False
     return value is not None and value is not False
+
+
+#: Keys a later camsim added whose default leaves the element as it was: shown only when set.
+_SHOWN_WHEN_SET = ("quadratic_damping",)
 
 
 def _param_text(p: Param, value, element, u: DisplayUnits) -> str:

@@ -46,6 +46,7 @@ _SI_TEXT: dict[str, tuple[str, float]] = {
     "N": ("force", 1.0), "kN": ("force", 1e3),
     "N/m": ("stiffness", 1.0),
     "N*s/m": ("damping", 1.0), "N·s/m": ("damping", 1.0), "N s/m": ("damping", 1.0),
+    "N*s^2/m^2": ("quadratic_damping", 1.0), "N·s²/m²": ("quadratic_damping", 1.0),
     "kg": ("mass", 1.0),
     "Pa": ("pressure", 1.0), "MPa": ("pressure", 1e6), "GPa": ("pressure", 1e9),
     "N*m": ("torque", 1.0), "N·m": ("torque", 1.0), "N m": ("torque", 1.0),
@@ -87,6 +88,7 @@ SI: dict[str, Unit] = {
     "force": _u("N", 1.0),
     "stiffness": _u("N/m", 1.0),
     "damping": _u("N·s/m", 1.0),
+    "quadratic_damping": _u("N·s²/m²", 1.0),
     "mass": _u("kg", 1.0),
     "pressure": _u("MPa", 1e6),
     "torque": _u("N·m", 1.0),
@@ -111,6 +113,7 @@ US: dict[str, Unit] = {
     "force": _u("lbf", LBF),
     "stiffness": _u("lbf/in", LBF / INCH),
     "damping": _u("lbf·s/in", LBF / INCH),
+    "quadratic_damping": _u("lbf·s²/in²", LBF / INCH**2),
     "mass": _u("lb", POUND),
     "pressure": _u("psi", LBF / INCH**2),
     "torque": _u("lbf·in", LBF * INCH),
@@ -184,6 +187,7 @@ def compose(base: Mapping[str, Unit]) -> dict[str, Unit]:
         k_force = k
     out["stiffness"] = Unit(f"{force.text}/{k_force.text}", force.size / k_force.size)
     out["damping"] = Unit(f"{force.text}·s/{k_force.text}", force.size / k_force.size)
+    out["quadratic_damping"] = Unit(f"{force.text}·s²/{k_force.text}²", force.size / k_force.size**2)
     if force.text == "lbf" and k_force.text == "in":
         out["pressure"] = Unit("psi", LBF / INCH**2)
     elif k_force.text == "m" and force.text == "N":

@@ -39,6 +39,7 @@ _DIMENSIONALITY = {
     "[length] * [mass] / [time] ** 2": "force",
     "[mass] / [time] ** 2": "stiffness",
     "[mass] / [time]": "damping",
+    "[mass] / [length]": "quadratic_damping",  # N·s²/m² (spec §10)
     "[length] / [time]": "velocity",
     "[length] / [time] ** 2": "acceleration",
     "[length] / [time] ** 3": "jerk",

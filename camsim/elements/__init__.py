@@ -36,11 +36,12 @@ from camsim.elements.power_contact import PowerContact  # isort: skip
 from camsim.elements.rigid_contact import RigidContact  # isort: skip
 from camsim.elements.adams_impact import AdamsImpactContact  # isort: skip
 from camsim.elements.hertz_contact import HertzContact  # isort: skip
+from camsim.elements.elastogap_contact import ElastoGapContact  # isort: skip
 from camsim.elements.lash import Lash  # isort: skip
 from camsim.elements.rod import Rod  # isort: skip
 
 __all__ = [
-    "AdamsImpactContact", "CAM", "HertzContact", "Rod", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
+    "AdamsImpactContact", "CAM", "ElastoGapContact", "HertzContact", "Rod", "COMMON_PARAMS", "FIXED_NODES", "FORCE_TOL", "GROUND", "LENGTH_TOL",
     "Branch", "Contact", "Damping", "Element", "GuardKind", "Lash", "LinearContact", "Outcome", "Param",
     "PowerContact", "PreloadedLink", "RigidContact", "Spring",
     "classes", "element_class", "pair_mass", "element_types", "key_laws", "laws_of", "param", "register", "type_keys",

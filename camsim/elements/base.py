@@ -127,6 +127,9 @@ COMMON_PARAMS: tuple[Param, ...] = (
     Param("type", "string", "element kind", required=True),
     Param("between", "nodes", "[lower, upper] node names (ground, cam or masses); deflection d = x_upper − x_lower", required=True),
 )
+#: The quadratic damping of springs and links (spec §10).
+QUADRATIC_DAMPING = Param("quadratic_damping", "quadratic_damping", "c_q: f_q = c_q·ḋ·|ḋ| added to the force "
+                          "(nonlinear: the element is integrated to tolerance)", default=0.0, minimum=0.0)
 #: Keys of viscously damped kinds.
 DAMPING_PARAMS: tuple[Param, ...] = (
     Param("damping", "damping", "viscous coefficient c (or damping_ratio, not both)", minimum=0.0),
@@ -292,6 +295,17 @@ class Element:
     def is_nonlinear(self, branch: Branch | None) -> bool:
         """True when the branch's force is nonlinear (integrated as F_nl)."""
         return False
+
+    def linear_part(self, branch: Branch | None, damping: dict[str, float]) -> tuple[float, float, float] | None:
+        """(k, c, f0) of a nonlinear branch's linear part (its rest is F_nl): a spring with
+        quadratic damping keeps its stiffness in the linear system, so the grid and the
+        natural frequencies see it; None when the whole force is F_nl."""
+        return None
+
+    def nonlinear_at_rest(self, branch: Branch | None) -> bool:
+        """Whether a nonlinear branch's F_nl acts at rest (False: it vanishes with the
+        relative velocity, as quadratic damping does: the static equilibrium is linear)."""
+        return True
 
     def acts(self, branch: Branch | None) -> bool:
         """Whether a nonlinear branch's F_nl acts on the masses (False: it is only watched —

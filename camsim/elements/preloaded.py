@@ -11,18 +11,22 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from camsim.elements.affine import Affine
-from camsim.elements.base import DAMPING_PARAMS, LENGTH_TOL, Branch, Element, GuardKind, Outcome, Param, pair_mass, register
+from camsim.elements.base import (DAMPING_PARAMS, LENGTH_TOL, QUADRATIC_DAMPING, Branch, Element, GuardKind, Outcome,
+                                   Param, pair_mass, register)
 from camsim.elements.events import EventKind
+from camsim.elements.quadratic import QuadraticDamping
 
 
 @register
 @dataclass(frozen=True)
-class PreloadedLink(Element):
-    """Over-travel link: ``push_stiffness``, ``pull_stiffness`` [N/m], ``preload`` P [N] > 0."""
+class PreloadedLink(QuadraticDamping, Element):
+    """Over-travel link: ``push_stiffness``, ``pull_stiffness`` [N/m], ``preload`` P [N] > 0,
+    ``quadratic_damping`` c_q [N·s²/m²] on both branches."""
 
     push_stiffness: float = 0.0
     pull_stiffness: float = 0.0
     preload: float = 0.0
+    quadratic_damping: float = 0.0
 
     type_name: ClassVar[str] = "preloaded"
     summary: ClassVar[str] = "over-travel link: joined f = k_push·d, separated f = P + k_pull·(d − P/k_push)"
@@ -35,6 +39,7 @@ class PreloadedLink(Element):
         Param("preload", "force", "P, the tension at which the parts separate", required=True, minimum=0.0, strict=True,
               example='"28.12 lbf"'),
         *DAMPING_PARAMS,
+        QUADRATIC_DAMPING,
     )
 
     @property
@@ -56,6 +61,9 @@ class PreloadedLink(Element):
             k = self.pull_stiffness
             return k, damping["c_pull"], self.preload - k * self.separation_deflection
         return self.push_stiffness, damping["c_push"], 0.0
+
+    def force(self, branch, d, d_rate, damping, v_impact):
+        return super().force(branch, d, d_rate, damping, v_impact) + self.quadratic_force(d_rate)
 
     def guards(self, branch, ctx):
         d, _ = ctx.deflection()

@@ -111,8 +111,9 @@ class CamForceWatch:
             if i in config.power_contacts:
                 sigma = element.contact_side(branch)[0] * float(element.acts(branch))
                 Fn[0, config.power_contacts.index(i)] -= on_upper * sigma
-                continue
-            law = model.linear_branch(i, branch)
+                law = element.linear_part(branch, model.damping[i])  # its linear part, if any
+            else:
+                law = model.linear_branch(i, branch)
             if law is None:
                 continue
             k_, c_, f0 = law

@@ -403,6 +403,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             "c": "N*s/m",
             "c_push": "N*s/m",
             "c_pull": "N*s/m",
+            "quadratic_damping": "N*s^2/m^2",
             "sample_rate": "Hz",
             "gravity": "m/s^2",
         },

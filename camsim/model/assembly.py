@@ -222,8 +222,11 @@ class Model:
                 continue
             if self.elements[i].is_nonlinear(branch):
                 power.append(i)
-                continue
-            law = self.linear_branch(i, branch)
+                # a nonlinear element may keep a linear part in the linear system (a spring
+                # with quadratic damping: its stiffness sets the grid and the modes)
+                law = self.elements[i].linear_part(branch, self.damping[i])
+            else:
+                law = self.linear_branch(i, branch)
             if law is None:
                 continue
             k, c, f0 = law

@@ -58,6 +58,8 @@ __all__ = [
     "hc_alpha_lankarani_nikravesh",
     "hc_first_integral",
     "hc_rebound",
+    "elastogap_damping_ratio",
+    "elastogap_restitution",
     "linear_damping_ratio",
     "linear_restitution",
     "reduced_mass",
@@ -284,6 +286,85 @@ def linear_damping_ratio(e: float) -> float:
     while math.log(linear_restitution(hi)) > target:
         hi *= 2.0
     return brentq(lambda z: math.log(linear_restitution(z)) - target, 0.0, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500)
+
+
+# ---------------------------------------------------------------------- ElastoGap
+@functools.lru_cache(maxsize=256)
+def elastogap_restitution(zeta: float) -> float:
+    """Rebound of an isolated impact on Modelica's ElastoGap law (n = 1) [-].
+
+    F = k·δ + clip(c·δ̇, −k·δ, k·δ) for a reduced mass m arriving at v; in τ = ω·t
+    (ω = √(k/m)), δ in units of v/ω and ζ = c/(2√(k·m)), three phases in closed form:
+
+    1. the approach's clip, F = 2kδ: δ = sin(√2·τ)/√2, δ̇ = cos(√2·τ), until
+       2ζ·δ̇ = δ, i.e. √2·τ₁ = arctan(2√2·ζ);
+    2. the law, δ'' + 2ζ·δ̇ + δ = 0 (its exact 2 × 2 exponential), until the force
+       δ + 2ζ·δ̇ reaches zero (Brent's method on the exact solution, to rounding);
+    3. the rebound's clip, F = 0: the bodies part at the velocity reached, e = −δ̇₂.
+
+    Parameters
+    ----------
+    zeta : float
+        Damping ratio c/(2√(k·m)) ≥ 0 [-].
+
+    Returns
+    -------
+    float
+        e(ζ), 1 at ζ = 0, decreasing.
+    """
+    from scipy.linalg import expm
+    from scipy.optimize import brentq
+
+    z = float(zeta)
+    if z < 0 or math.isnan(z):
+        raise ValueError(f"damping ratio must be >= 0, got {zeta!r}")
+    if z == 0.0:
+        return 1.0
+    if math.isinf(z):
+        return 0.0
+    x1 = math.atan(2.0 * math.sqrt(2.0) * z)
+    y1 = np.array([math.sin(x1) / math.sqrt(2.0), math.cos(x1)])
+    M = np.array([[0.0, 1.0], [-1.0, -2.0 * z]])
+
+    def state(tau):
+        return expm(M * tau) @ y1
+
+    def force(tau):
+        y = state(tau)
+        return y[0] + 2.0 * z * y[1]
+
+    # the force falls to zero within a few natural periods or decay times
+    step, tau = 0.05, 0.0
+    while force(tau + step) > 0.0:
+        tau += step
+        if tau > 1e4 * (1.0 + z):
+            raise ValueError(f"no rebound found for damping ratio {zeta!r}")
+        step = min(step * 1.2, 0.5 * (1.0 + z))
+    root = brentq(force, tau, tau + step, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=500)
+    return float(min(max(-state(root)[1], 0.0), 1.0))
+
+
+def elastogap_damping_ratio(e: float) -> float:
+    """ζ for which an isolated impact on the ElastoGap law (n = 1) rebounds with ``e`` [-]
+    (:func:`elastogap_restitution` inverted by Brent's method on ln e); 0 for e = 1, ``inf``
+    for e = 0."""
+    from scipy.optimize import brentq
+
+    e = float(e)
+    if not 0.0 <= e <= 1.0 or math.isnan(e):
+        raise ValueError(f"restitution must lie in [0, 1], got {e!r}")
+    if e == 1.0:
+        return 0.0
+    if e == 0.0:
+        return math.inf
+    target = math.log(e)
+    hi = 1.0
+    while math.log(max(elastogap_restitution(hi), 1e-300)) > target:
+        hi *= 2.0
+        if hi > 1e8:
+            return math.inf
+    return brentq(lambda zz: math.log(max(elastogap_restitution(zz), 1e-300)) - target, 0.0, hi, xtol=1e-15,
+                  rtol=1e-13, maxiter=500)
 
 
 def reduced_mass(machine, element) -> float:

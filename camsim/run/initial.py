@@ -53,7 +53,9 @@ def static_equilibrium(model: Model, integrator: Integrator, t0: float) -> State
         rhs = config.B[nq:] @ u + config.b[nq:]
         if not nq:  # every free mass held by stuck rigid contacts: nothing to solve
             q = np.zeros(0)
-        elif config.linear:
+        elif config.linear or not any(model.elements[i].nonlinear_at_rest(model.branch_of(branches, i))
+                                      for i in config.power_contacts):
+            # linear, or every nonlinear force vanishes at rest (quadratic damping): F_nl = 0
             try:
                 q = np.linalg.solve(A21, -rhs)
             except np.linalg.LinAlgError:

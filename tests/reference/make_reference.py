@@ -70,6 +70,10 @@ def machine_digest(machine) -> str:
                 del seg[key]
     if d["cam"].get("compensation", 0) is None:
         del d["cam"]["compensation"]
+    # Quadratic damping (issue 43) at its default 0 adds nothing.
+    for row in d["elements"]:
+        if row.get("quadratic_damping", None) == 0.0:
+            del row["quadratic_damping"]
     sim = {k: v for k, v in d["simulation"].items() if k != "sample_rate"}
     physics = {"cam": d["cam"], "masses": d["masses"], "elements": d["elements"],
                "initial": d["initial"], "simulation": sim}
