@@ -49,6 +49,10 @@ class Branch(str, Enum):
     BILATERAL = "bilateral"  # no-impact variant: cam contact that never opens
     CLOSED_DEEP = "closed-deep"  # a closed contact past a kink of its law (Adams IMPACT beyond its damping ramp)
     CLAMPED = "clamped"  # penetrating, the law's force clamped at zero (watched, not acting; issue 34)
+    FREE = "free"  # a friction pair left out (the static equilibrium it starts stuck in)
+    HELD = "held"  # a friction pair stuck: a constraint at the deflection it stuck at (spec §10)
+    SLIDING_UP = "sliding-up"  # a friction pair sliding with ḋ > 0
+    SLIDING_DOWN = "sliding-down"  # a friction pair sliding with ḋ < 0
 
 
 class GuardKind(StrEnum):
@@ -66,6 +70,11 @@ class GuardKind(StrEnum):
     KINK_DOWN = "kink-down"
     CLAMP = "clamp"
     UNCLAMP = "unclamp"
+    # A friction pair (spec §10): its sliding velocity reaches zero (the engine's stick test);
+    # its holding force reaches +F_B or −F_B (it slips up or down).
+    HALT = "halt"
+    SLIP_UP = "slip-up"
+    SLIP_DOWN = "slip-down"
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ class EventKind(StrEnum):
     RELEASE = "release"  #: a contact opens
     SEPARATION = "separation"  #: a preloaded link separates
     REJOIN = "rejoin"  #: a preloaded link closes again (an impact, annotated like one)
-    STICK = "stick"  #: a rigid contact becomes persistent
+    STICK = "stick"  #: a rigid contact becomes persistent; a friction pair sticks
+    SLIP = "slip"  #: a stuck friction pair breaks away (spec §10)
     JUMP = "jump"  #: a driven mass's cam contact force turns negative (a warning row)
 
     @property

@@ -94,6 +94,7 @@ class EngineContext:
         self.t_ref = t_ref
         self.events: list[Event] = []
         self._maps: dict[tuple[Branch, ...], StepMaps] = {}
+        self._held_maps: dict = {}  # (branches, holds) -> StepMaps (stuck friction pairs)
         self._deltas: dict[tuple[tuple[Branch, ...], int], tuple[Affine, Affine]] = {}
         self._instant_count = 0
         self._instant_time = -math.inf
@@ -243,6 +244,16 @@ class EngineContext:
         return out
 
     def maps(self, config: Configuration) -> StepMaps:
+        if config.holds:
+            # a stuck friction pair's hold moves only the constant term b: the maps of its
+            # branches with that term replaced (no matrix exponential per stick)
+            maps = self._held_maps.get(config.key)
+            if maps is None:
+                maps = self.maps(self.model.configuration(config.branches)).with_constant(config)
+                if len(self._held_maps) > 1024:
+                    self._held_maps.clear()
+                self._held_maps[config.key] = maps
+            return maps
         maps = self._maps.get(config.branches)
         if maps is None:
             maps = StepMaps(config, self.h)
@@ -266,7 +277,7 @@ class EngineContext:
         """Penetration δ = gap − d of contact i and its rate δ̇, as affine maps (built once
         per configuration and contact: every sample of a closed power-law contact's force
         reads them)."""
-        key = (config.branches, i)
+        key = (config.key, i)
         hit = self._deltas.get(key)
         if hit is None:
             d, rate = self._deflection(config, i)
@@ -275,6 +286,8 @@ class EngineContext:
                 hit = Affine(d.Cz, d.Du, d.Fn, d.e - gap), rate
             else:
                 hit = Affine(-d.Cz, -d.Du, -d.Fn, gap - d.e), Affine(-rate.Cz, -rate.Du, -rate.Fn, -rate.e)
+            if len(self._deltas) > 4096:
+                self._deltas.clear()
             self._deltas[key] = hit
         return hit
 
@@ -284,7 +297,7 @@ class EngineContext:
         so a configuration entered again reuses its guards and their stacked matrices."""
         model = self.model
         contexts = [_GuardContext(self, config, state, i) for i in model.switching]
-        key = (config.branches, tuple(model.elements[i].guard_key(state.branches[pos], c)
+        key = (config.key, tuple(model.elements[i].guard_key(state.branches[pos], c)
                                       for pos, (i, c) in enumerate(zip(model.switching, contexts))))
         hit = self._guard_cache.get(key)
         if hit is not None:
@@ -363,7 +376,7 @@ class EngineContext:
         fn = self.nonlinear_forces(config, z[None, :], u, previous.v_impacts)
         x = config.x(z[None, :], u, fn)[0]
         v = config.v(z[None, :], u, fn)[0]
-        return State(t, x, v, previous.branches, dict(previous.v_impacts))
+        return State(t, x, v, previous.branches, dict(previous.v_impacts), previous.holds)
 
     def nonlinear_forces(self, config: Configuration, z: np.ndarray, u: np.ndarray, v_impacts) -> np.ndarray:
         """Forces of closed power-law contacts on samples (N, p)."""

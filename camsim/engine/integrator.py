@@ -21,6 +21,7 @@ import numpy as np
 from camsim.errors import SimulationError, ZenoError
 from camsim.elements import Branch, GuardKind
 from camsim.elements.affine import N_INPUT
+from camsim.engine import friction
 from camsim.engine.base import Stepper
 from camsim.engine.context import GRID_SNAP, EngineContext
 from camsim.engine.linear import LinearStepper
@@ -96,7 +97,7 @@ class Integrator(EngineContext):
         when ``t_stop`` was reached). The exact linear stepper crosses the cam's breaks
         inside the stretch; the others stop at the next one.
         """
-        config = self.model.configuration(state.branches)
+        config = self.model.configuration(state.branches, state.holds)
         guards = self.guards(state, config)
         u0 = self.inputs(np.array([state.t]))[0]
         z0 = config.state_from_input(state.x, state.v, u0)
@@ -156,7 +157,10 @@ class Integrator(EngineContext):
         branches = list(state.branches)
         v_imp = dict(state.v_impacts)
         if guard.kind != GuardKind.UNLIFT and Branch.STUCK in model.branch_options(i):
-            return resolve_rigid(self, state, i, guard.kind)  # issue 12 hook: rigid contacts as one LCP
+            # issue 12 hook: rigid contacts as one LCP; an impulse may start or stop a friction pair
+            return friction.after_impulse(self, resolve_rigid(self, state, i, guard.kind))
+        if guard.kind == GuardKind.HALT:
+            return friction.halt(self, state, i)  # spec §10: the stick test
         _, rate = self.relative_rate(state, i)
         d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0::N_INPUT]))
         outcome = model.elements[i].outcome_at(guard.kind, rate, d)  # issue 12 hook: two-sided elements
@@ -166,12 +170,13 @@ class Integrator(EngineContext):
             branches[pos] = outcome.branch
         if outcome.v_impact is not None:
             v_imp[i] = outcome.v_impact
-        return State(state.t, state.x.copy(), state.v.copy(), tuple(branches), v_imp)
+        holds = friction.pruned(model, branches, state.holds) if state.holds else ()  # a slipping pair lets go
+        return State(state.t, state.x.copy(), state.v.copy(), tuple(branches), v_imp, holds)
 
     def violated(self, state: State) -> Guard | None:
         """A guard of the state's configuration that is already violated, if any (the first
         in the elements' order)."""
-        config = self.model.configuration(state.branches)
+        config = self.model.configuration(state.branches, state.holds)
         u = self.inputs(np.array([state.t]))
         z = config.state_from_input(state.x, state.v, u[0])
         guards = self.guards(state, config)

@@ -184,10 +184,10 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
 
     integ = integrator
     steppers = integ.__dict__.setdefault("_power_steppers", {})
-    stepper = steppers.get(config.branches)
+    stepper = steppers.get(config.key)
     if stepper is None:
         stepper = ClosedContact(integ, config)
-        steppers[config.branches] = stepper
+        steppers[config.key] = stepper
     h = integ.h
     chi = stepper.chi(state.v_impacts)
     A, B, b, L = config.A, config.B, config.b, stepper.L
@@ -247,7 +247,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             pieces.append((stretch.t, stretch.z, stretch.u))
         # the full state only where an event needs it (elsewhere a placeholder, as below)
         end = integ._state_from(config, z_end, t_end, cur) if fired is not None else State(
-            t_end, cur.x, cur.v, cur.branches, cur.v_impacts)
+            t_end, cur.x, cur.v, cur.branches, cur.v_impacts, cur.holds)
         return t_end, z_end, fired, end
 
     while True:
@@ -275,7 +275,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
                     mask = integ._on_grid(taken[0][:-1])
                     pieces.append((taken[0][:-1][mask], taken[1][:-1][mask], taken[2][:-1][mask]))
                 t, z = t_c, z_c
-                cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
+                cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts, cur.holds)
                 first = False
                 if hit or calm or t >= t_stop - TIME_EPS:
                     break
@@ -467,7 +467,7 @@ def advance_power(integrator, state, config, z0, guards, t_stop, record):
             mask = integ._on_grid(nodes[:-1])
             pieces.append((nodes[:-1][mask], Z[:-1][mask], U[:-1][mask]))
         t, z = nodes[-1], Z[-1]
-        cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts)
+        cur = State(t, cur.x, cur.v, cur.branches, cur.v_impacts, cur.holds)
         first = False
         r_prev = (float(X[-1, 0]), float(X[-1, 1]) / h, kq, cq)
         window = min(window * 2, MAX_WINDOW)

@@ -204,7 +204,7 @@ def resolve(integrator, state, trigger: int, kind: str):
     open_branches = tuple(open_branches)
 
     def open_accelerations(v_now, uu=u):
-        config = model.configuration(open_branches)
+        config = model.configuration(open_branches, state.holds)
         z = config.state_from_input(state.x, v_now, uu)
         fn = integrator.nonlinear_forces(config, z[None, :], uu[None, :], state.v_impacts)
         acc = config.a(z[None, :], uu[None, :], fn)[0]
@@ -286,7 +286,7 @@ def resolve(integrator, state, trigger: int, kind: str):
         elif now == Branch.OPEN and was_stuck:
             integrator._record(t, i, EventKind.RELEASE, -w_plus[k])
         branches[pos] = now
-    return State(t, x, v, tuple(branches), dict(state.v_impacts))
+    return State(t, x, v, tuple(branches), dict(state.v_impacts), state.holds)
 
 
 def _chattering(integrator, i: int, t: float) -> bool:

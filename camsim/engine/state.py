@@ -101,6 +101,9 @@ class State:
     v: np.ndarray
     branches: tuple[Branch, ...]
     v_impacts: dict[int, float]
+    #: The deflection each stuck friction pair is held at: ((element index, d [m]), ...) in
+    #: index order (spec §10; part of the configuration, :meth:`Model.configuration`).
+    holds: tuple[tuple[int, float], ...] = ()
 
 
 def cubic_root(g0: float, g1: float, d0: float, d1: float) -> float:

@@ -365,6 +365,16 @@ class StepMaps:
                     keep.append(i)
                 self.keep = np.array(keep, dtype=int)
 
+    def with_constant(self, config: Configuration) -> "StepMaps":
+        """These maps for a configuration that differs from theirs only in its constant term
+        b (a stuck friction pair held at another deflection): Φ, Γ, W and the modal form are
+        shared, g0 = Γ₀·b is its own."""
+        import copy
+
+        out = copy.copy(self)
+        out.g0 = self.Gamma[0] @ config.b if config.dim else np.zeros(0)
+        return out
+
     def propagate(self, z0: np.ndarray, D: np.ndarray) -> np.ndarray:
         """States after each full step: z_{k+1} = Φ z_k + Σ_j Γ_j E_kj; returns (K, m).
 

@@ -80,7 +80,7 @@ class CamForceWatch:
         """(F_c, dF_c/dt or None) of a driven mass (default the first) in a configuration as
         affine maps of (z, u, F_nl)."""
         driven = driven or self.model.driven
-        key = (config.branches, driven)
+        key = (config.key, driven)
         hit = self._affines.get(key)
         if hit is not None:
             return hit
@@ -132,6 +132,8 @@ class CamForceWatch:
             integ = self.integrator
             rate = integ._rate(config, Affine(Cz, Du, np.zeros_like(Fn), e))
         hit = (value, rate)
+        if len(self._affines) > 4096:
+            self._affines.clear()
         self._affines[key] = hit
         return hit
 

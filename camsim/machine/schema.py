@@ -201,6 +201,10 @@ def _element_params() -> dict[str, Param]:
             seen = out.setdefault(p.key, p)
             if {seen.dimension, p.dimension} == {"stiffness", "power_coefficient"}:
                 continue  # adams-impact's stiffness is N/m^n (spec §3): N/m when n = 1
+            if {seen.dimension, p.dimension} == {"number", "power_coefficient"}:
+                # `coefficient`: a power law's C [N/m^a], a friction pair's μ (spec §10); the
+                # unit of a key path follows the machine (camsim.analyses.sweep.runner.key_unit)
+                continue
             if seen.unit != p.unit:  # one key, one unit: key_unit needs no element type
                 raise AssertionError(f"element key {p.key!r} has units {seen.unit!r} and {p.unit!r}")
     return out

@@ -34,6 +34,9 @@ from camsim.physics.restitution import reduced_mass
 from camsim.machine.description import Machine
 
 
+#: Configurations with stuck friction pairs kept (each stick holds its own deflection).
+HELD_CONFIGURATIONS = 256
+
 
 @dataclass
 class ElementGeometry:
@@ -73,6 +76,13 @@ class Configuration:
     p0: np.ndarray  # (n,)
     p_s: np.ndarray  # (n, cams)
     cache: dict = field(default_factory=dict, repr=False)
+    #: The deflections stuck friction pairs are held at ((element index, d [m]), ...).
+    holds: tuple[tuple[int, float], ...] = ()
+
+    @property
+    def key(self):
+        """What identifies it among a model's configurations: the branches (and the holds)."""
+        return (self.branches, self.holds) if self.holds else self.branches
 
     @property
     def dim(self) -> int:
@@ -143,6 +153,7 @@ class Model:
         self.damping = [e.damping_coefficients(lambda e=e: self.reference_mass(e),
                                                lambda e=e: reduced_mass(machine, e)) for e in elements]  # issue 12
         self._configs: dict[tuple[Branch, ...], Configuration] = {}
+        self._held: dict = {}  # (branches, holds) -> configuration with stuck friction pairs
         #: compound element name → the indices of its parts in :attr:`elements` (issue 39)
         self.parts = {name: [i for i, e in enumerate(elements) if e.parent() == name] for name in self.compounds}
 
@@ -197,15 +208,30 @@ class Model:
         return self.elements[index].is_constraint(branch)
 
     # ------------------------------------------------------------------ assembly
-    def configuration(self, branches: tuple[Branch, ...]) -> Configuration:
-        """The (cached) linear system for one combination of branches."""
-        config = self._configs.get(branches)
+    def configuration(self, branches: tuple[Branch, ...], holds: tuple[tuple[int, float], ...] = ()) -> Configuration:
+        """The (cached) linear system for one combination of branches.
+
+        ``holds``: the deflection d [m] each stuck friction pair holds, ((element index, d),
+        ...) in index order (a pair held without one holds d = 0). A stuck pair is a
+        constraint like a stuck rigid contact, at its own deflection: each stick makes a
+        configuration of its own (kept among the last :data:`HELD_CONFIGURATIONS`).
+        """
+        if not holds:
+            config = self._configs.get(branches)
+            if config is None:
+                config = self._assemble(branches)
+                self._configs[branches] = config
+            return config
+        key = (branches, holds)
+        config = self._held.get(key)
         if config is None:
-            config = self._assemble(branches)
-            self._configs[branches] = config
+            config = self._assemble(branches, holds)
+            if len(self._held) >= HELD_CONFIGURATIONS:
+                self._held.pop(next(iter(self._held)))
+            self._held[key] = config
         return config
 
-    def _assemble(self, branches: tuple[Branch, ...]) -> Configuration:
+    def _assemble(self, branches: tuple[Branch, ...], holds: tuple[tuple[int, float], ...] = ()) -> Configuration:
         n = self.n
         K = np.zeros((n, n))
         C = np.zeros((n, n))
@@ -247,7 +273,9 @@ class Model:
         if rigid:
             J = np.array([sides[i][0] * self.geometry[i].G for i in rigid])
             j_s = np.array([sides[i][0] * self.geometry[i].g_s for i in rigid]).reshape(len(rigid), nc)
-            r0 = np.array([sides[i][0] * sides[i][1] for i in rigid])  # σ·(G·x + g_s·s) = σ·gap
+            held = dict(holds)
+            # σ·(G·x + g_s·s) = σ·gap; a stuck friction pair: G·x + g_s·s = its hold
+            r0 = np.array([held[i] if i in held else sides[i][0] * sides[i][1] for i in rigid])
             if np.linalg.matrix_rank(J) < len(rigid):
                 raise InputError(
                     "rigid contacts " + ", ".join(self.elements[i].name for i in rigid)
@@ -321,7 +349,7 @@ class Model:
             lam = Affine(np.zeros((0, m)), np.zeros((0, self.n_input)), np.zeros((0, p)), np.zeros(0))
         return Configuration(
             branches=branches, A=A, B=B, b=b, L=L, power_contacts=tuple(power), stuck_contacts=tuple(rigid),
-            x=x_map, v=v_map, a=a_map, lam=lam, N=N, p0=p0, p_s=p_s,
+            x=x_map, v=v_map, a=a_map, lam=lam, N=N, p0=p0, p_s=p_s, holds=holds,
         )
 
     # ------------------------------------------------------------------ element quantities

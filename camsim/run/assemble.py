@@ -39,7 +39,7 @@ def period_end(run: RunSetup, state: State) -> dict | None:
     model, integrator = run.model, run.integrator
     t = np.array([state.t])
     u = integrator.inputs(t)
-    config = model.configuration(state.branches)
+    config = model.configuration(state.branches, state.holds)
     z = config.state_from_input(state.x, state.v, u[0])[None, :]
     fn = integrator.nonlinear_forces(config, z, u, state.v_impacts)
     x, v, a = config.x(z, u, fn), config.v(z, u, fn), config.a(z, u, fn)

@@ -13,6 +13,7 @@ import numpy as np
 from camsim.errors import InputError
 from camsim.elements.affine import N_INPUT
 from camsim.elements import Branch
+from camsim.engine import friction
 from camsim.engine.integrator import Integrator, State
 from camsim.model.assembly import Model
 
@@ -229,7 +230,7 @@ def _one_contact_static(A21, L2, base, contact):
 def _consistent_branches(model: Model, integrator: Integrator, state: State) -> tuple[Branch, ...]:
     """Branches implied by positions at rest (static equilibrium iteration)."""
     branches = list(state.branches)
-    config = model.configuration(state.branches)
+    config = model.configuration(state.branches, state.holds)
     u = integrator.inputs(np.array([state.t]))
     z = config.state_from_input(state.x, state.v, u[0])
     # the constraint forces balance the closed power-law contacts' forces too
@@ -257,7 +258,7 @@ def initial_state(model: Model, integrator: Integrator, t0: float) -> State:
         branches = tuple(model.branch_options(i)[0] for i in model.switching)
         state = State(t0, np.zeros(model.n), np.zeros(model.n), branches, {})
     if not given:
-        return state
+        return friction.start(integrator, state)
     x, v = state.x.copy(), state.v.copy()
     for name, ic in given.items():
         k = model.index[name]
@@ -275,4 +276,4 @@ def initial_state(model: Model, integrator: Integrator, t0: float) -> State:
             branches.append(model.elements[i].branch_from_state(d, model.no_impact))
         except ValueError as exc:
             raise InputError(f"{machine.source}: initial: {exc}") from None
-    return State(t0, x, v, tuple(branches), {})
+    return friction.start(integrator, State(t0, x, v, tuple(branches), {}))

@@ -107,15 +107,12 @@ def parse_param(text: str) -> tuple[str, list[str]]:
 
 def si_unit(machine, key: str) -> str:
     """SI unit of ``key`` in ``machine`` (``N/m^a`` for a power-law coefficient)."""
-    from camsim.analyses.sweep.runner import key_unit, machine_value
+    from camsim.analyses.sweep.runner import key_unit
 
     leaf = key.rsplit(".", 1)[-1]
-    if leaf == "coefficient":
-        exponent = machine_value(machine, key[: -len(leaf)] + "exponent")
-        return f"N/m^{exponent:g}" if isinstance(exponent, float) else ""
     if leaf == "duration" and key.startswith("cam."):
         return "rad"
-    return key_unit(key)
+    return key_unit(key, machine)
 
 
 def override_text(key: str, value: str | float) -> str:

@@ -123,10 +123,17 @@ class SweepSettings:
 # --------------------------------------------------------------------------------------
 # One variant
 # --------------------------------------------------------------------------------------
-def key_unit(key: str) -> str:
-    """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves)."""
+def key_unit(key: str, machine=None) -> str:
+    """SI unit of the ``param:<key>`` column (``""`` for numbers and unknown leaves).
+
+    ``coefficient`` is a power law's C [N/m^a] or a friction pair's μ (a number): with the
+    ``machine`` it is the element's own (``N/m^1.5``, or ``""``)."""
     from camsim.machine.keys import unit
 
+    leaf = key.rsplit(".", 1)[-1]
+    if leaf == "coefficient" and machine is not None:
+        exponent = machine_value(machine, key[: -len(leaf)] + "exponent")
+        return f"N/m^{exponent:g}" if isinstance(exponent, float) else ""
     return unit(key)
 
 
@@ -313,11 +320,12 @@ class SweepResult:
         return _column_array(self.rows, name, dict(self.columns).get(name, ""))
 
 
-def sweep_columns(keys: Sequence[str], masses: Sequence[str]) -> list[tuple[str, str]]:
-    """The column names and SI units of a sweep over ``keys`` of a machine with ``masses``."""
+def sweep_columns(keys: Sequence[str], masses: Sequence[str], machine=None) -> list[tuple[str, str]]:
+    """The column names and SI units of a sweep over ``keys`` of a machine with ``masses``
+    (``machine``: the base machine, for keys whose unit depends on it)."""
     from camsim.run.result import scalar_columns
 
-    return [(f"param:{k}", key_unit(k)) for k in keys] + scalar_columns(list(masses)) + [STATUS_COLUMN]
+    return [(f"param:{k}", key_unit(k, machine)) for k in keys] + scalar_columns(list(masses)) + [STATUS_COLUMN]
 
 
 def _complete_row(row: dict[str, Any], columns: Sequence[tuple[str, str]]) -> dict[str, Any]:
@@ -485,7 +493,7 @@ def run_sweep(
     settings = SweepSettings(cycles=cycles, warmup_cycles=warmup_cycles, sample_rate=sample_rate, keep_traces=keep_traces)
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
-    columns = sweep_columns(keys, list(base.node_names))
+    columns = sweep_columns(keys, list(base.node_names), base)
     from camsim.cam.design import (
         design_columns,  # issue 14: design columns with [cam.geometry]
     )
