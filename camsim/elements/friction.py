@@ -187,6 +187,8 @@ class Friction(Element):
     # ------------------------------------------------------------------ guards and events
     def guards(self, branch, ctx):
         if branch == HELD:
+            if ctx.index in ctx.config.saturated:
+                return []  # beside a stuck contact, carrying ±F_B: the contact's release ends it
             lam = ctx.constraint_force()  # f = −λ
             f_b = self.holding_force
             return [(GuardKind.SLIP_UP, Affine(lam.Cz, lam.Du, lam.Fn, lam.e + f_b), FORCE_TOL),

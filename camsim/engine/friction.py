@@ -63,12 +63,15 @@ def holding_force(ctx, state: State, i: int) -> tuple[float, State]:
     config = model.configuration(branches, holds)
     z = config.state_from_input(state.x, state.v, u)
     fn = ctx.nonlinear_forces(config, z[None, :], u[None, :], state.v_impacts)
-    lam = float(config.lam(z[None, :], u[None, :], fn)[0, config.stuck_contacts.index(i)])
+    if i in config.saturated:  # held beside a stuck contact: it carries ±F_B, the contact the rest
+        f = config.saturated[i]
+    else:
+        f = -float(config.lam(z[None, :], u[None, :], fn)[0, config.stuck_contacts.index(i)])
     x = config.x(z[None, :], u[None, :], fn)[0]
     v = config.v(z[None, :], u[None, :], fn)[0]
     v_imp = dict(state.v_impacts)
     v_imp.pop(i, None)
-    return -lam, State(state.t, x, v, branches, v_imp, holds)
+    return f, State(state.t, x, v, branches, v_imp, holds)
 
 
 def halt(ctx, state: State, i: int) -> State:

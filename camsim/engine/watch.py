@@ -108,7 +108,9 @@ class CamForceWatch:
                 w = -on_upper * sigma
                 Cz, Du, Fn, e = Cz + w * lam.Cz, Du + w * lam.Du, Fn + w * lam.Fn, e + w * lam.e
                 continue
-            if i in config.power_contacts:
+            if i in config.saturated:  # a stuck friction pair beside a stuck contact: ±F_B
+                law = (0.0, 0.0, config.saturated[i])
+            elif i in config.power_contacts:
                 sigma = element.contact_side(branch)[0] * float(element.acts(branch))
                 Fn[0, config.power_contacts.index(i)] -= on_upper * sigma
                 law = element.linear_part(branch, model.damping[i])  # its linear part, if any

@@ -78,6 +78,9 @@ class Configuration:
     cache: dict = field(default_factory=dict, repr=False)
     #: The deflections stuck friction pairs are held at ((element index, d [m]), ...).
     holds: tuple[tuple[int, float], ...] = ()
+    #: Stuck friction pairs that share their load with stuck rigid contacts: element index →
+    #: the force they carry [N] (tension-positive, ±F_B; :meth:`Model._saturated`).
+    saturated: dict = field(default_factory=dict)
 
     @property
     def key(self):
@@ -263,6 +266,13 @@ class Model:
                 k_s[:, q] -= k * geo.G * geo.g_s[q]
                 c_s[:, q] -= c * geo.G * geo.g_s[q]
             F0 -= f0 * geo.G
+        # Stuck friction pairs that hold what stuck rigid contacts already hold (a part on a
+        # stop and on its guide): the pair carries its break-away force first and the
+        # contacts the rest (spec §10); it is then a constant force, not a constraint.
+        saturated = self._saturated(rigid, branches)
+        for i, f in saturated.items():
+            rigid.remove(i)
+            F0 -= f * self.geometry[i].G
         # Power-law contact force F (compressive) acts +F on the upper node: Q = F·G; a
         # contact on side σ of a two-sided element (a lash) acts σ·F·G (issue 12 hook).
         sides = {i: self.elements[i].contact_side(self.branch_of(branches, i)) for i in (*power, *rigid)}
@@ -349,8 +359,35 @@ class Model:
             lam = Affine(np.zeros((0, m)), np.zeros((0, self.n_input)), np.zeros((0, p)), np.zeros(0))
         return Configuration(
             branches=branches, A=A, B=B, b=b, L=L, power_contacts=tuple(power), stuck_contacts=tuple(rigid),
-            x=x_map, v=v_map, a=a_map, lam=lam, N=N, p0=p0, p_s=p_s, holds=holds,
+            x=x_map, v=v_map, a=a_map, lam=lam, N=N, p0=p0, p_s=p_s, holds=holds, saturated=saturated,
         )
+
+    def _saturated(self, rigid: list[int], branches) -> dict[int, float]:
+        """Stuck friction pairs among the constraints ``rigid`` whose rows depend on the
+        others' (see :meth:`_assemble`): element index → the force it carries, −F_B or +F_B
+        (tension-positive), the sense that relieves the contact it shares the load with."""
+        pairs = [i for i in rigid if self.elements[i].type_name == "friction"]
+        if not pairs:
+            return {}
+        rows = {i: self.elements[i].contact_side(self.branch_of(branches, i))[0]
+                * np.concatenate([self.geometry[i].G, self.geometry[i].g_s]) for i in rigid}
+        keep = [i for i in rigid if i not in pairs]
+        out: dict[int, float] = {}
+        for i in pairs:
+            trial = np.array([rows[j] for j in (*keep, i)])
+            if np.linalg.matrix_rank(trial) == len(keep) + 1:
+                keep.append(i)
+                continue
+            contacts = [j for j in keep if j not in pairs]
+            if not contacts:
+                keep.append(i)  # dependent on other pairs only: the over-constraint error names them
+                continue
+            base = np.array([rows[j] for j in contacts])
+            beta = np.linalg.lstsq(base.T, rows[i], rcond=None)[0]
+            k = int(np.argmax(np.abs(beta)))
+            # the pair's force −f·row relieves contact k (which pushes +λ·row_k): f = −F_B·sign(β_k)
+            out[i] = -self.elements[i].holding_force * float(np.sign(beta[k]))
+        return out
 
     # ------------------------------------------------------------------ element quantities
     def deflection(self, index: int, x: np.ndarray, s) -> np.ndarray:
@@ -395,6 +432,8 @@ class Model:
             if i in config.stuck_contacts:
                 out[:, i] = element.reported_constraint_force(self.branch_of(branches, i),
                                                               lam[:, config.stuck_contacts.index(i)])
+            elif i in config.saturated:
+                out[:, i] = config.saturated[i]
             else:
                 out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i))
         return out
