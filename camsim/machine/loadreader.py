@@ -100,6 +100,7 @@ class LoadReader(CamReader):
             raise self.error(where, 'expected a non-empty array of tables ([{ motion = "rise", law = "cycloidal", '
                              'duration = "30 deg", change = "200 N" }, ...])')
         result = []
+        closing = None  # the one rise or fall without a change: it closes the program
         for j, row in enumerate(value):
             p = f"{where}[{j}]"
             self.check_keys(row, LOAD_SEGMENT_KEYS, p)
@@ -122,8 +123,11 @@ class LoadReader(CamReader):
                 change = self.quantity(row, "change", p, "force")
             elif motion == "dwell":
                 change = 0.0
+            elif closing is None:
+                closing, change = j, 1.0  # the row that closes the program: its change follows below
             else:
-                raise self.error(f"{p}.change", 'missing required key (e.g. change = "200 N")')
+                raise self.error(f"{p}.change", f'missing required key (e.g. change = "200 N"); only one rise or fall '
+                                 f"may leave it out to close the program, and {where}[{closing}] does")
             if motion == "dwell" and change != 0.0:
                 raise self.error(f"{p}.change", f"a dwell has no change, got {_fmt(row['change'])}")
             if motion != "dwell" and not change > 0.0:
@@ -133,6 +137,18 @@ class LoadReader(CamReader):
         total_deg = math.degrees(sum(s.duration for s in result))
         if abs(total_deg - 360.0) > DURATION_TOLERANCE_DEG:
             raise self.error(where, f"durations add up to {total_deg:.9g} deg, not 360 deg")
+        if closing is not None:
+            others = [s for k, s in enumerate(result) if k != closing]
+            net = sum(s.lift for s in others if s.motion == "rise") - sum(s.lift for s in others if s.motion == "fall")
+            row = result[closing]
+            change = net if row.motion == "fall" else -net
+            if not change > 0.0:
+                raise self.error(f"{where}[{closing}]", f"a {row.motion} without a change closes the program, but the "
+                                 f"other rows already leave it at {_si_text(net, 'N')} above its start: it would "
+                                 f"need a change of {_si_text(change, 'N')}")
+            from dataclasses import replace
+
+            result[closing] = replace(row, lift=change)
         rises = sum(s.lift for s in result if s.motion == "rise")
         falls = sum(s.lift for s in result if s.motion == "fall")
         if abs(rises - falls) > LIFT_TOLERANCE * max(rises, falls, 1e-6):

@@ -61,7 +61,7 @@ TABLES: dict[str, tuple[Param, ...]] = {
               "a dwell"),
         Param("duration", "angle", "> 0; bare number = degrees", required=True),
         Param("change", "force", "> 0 for a rise or fall (a fall's change is how much the force decreases); "
-              "absent or 0 for a dwell"),
+              "absent or 0 for a dwell; one rise or fall may leave it out: its change closes the program"),
         Param("continuity", "integer", "`polynomial`: as `cam.segments`", default=3),
         Param("start", "table", "`polynomial`/`spline`: end conditions at the start, "
               "`{ v = \"…\", a = …, j = …, d4 … d6 }` as force rates (N/s, N/s², …) at the shaft's speed"),
