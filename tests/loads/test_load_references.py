@@ -372,3 +372,30 @@ def test_a_sine_is_zero_before_its_start(start):
     x_sin = c * (np.sin(w * s + phase) - np.sin(phase) * np.cos(wn * s) - w / wn * np.cos(phase) * np.sin(wn * s))
     exact = np.where(t >= start, x_off + x_sin, 0.0)
     assert np.max(np.abs(r.masses["M"]["displacement"] - exact)) <= 1e-9 * np.max(np.abs(exact))
+
+
+# ---------------------------------------------------------------------- through a stuck rigid contact
+def test_a_load_lifts_a_mass_off_a_rigid_seat_at_the_closed_form_instant(tmp_path):
+    """A mass pressed on a rigid seat (law = "restitution", e = 0) by a preloaded spring (force
+    −(P + k·x) on it) and pulled up by a load ramping at r = F1/T1 from 0: while it rests the
+    seat carries λ = P − r·t (the load enters the constraint force through the null space, like
+    gravity but in time); it releases when λ = 0, at t* = P/r, and then, with τ = t − t*,
+    m·ẍ + k·x = r·τ from rest: x = r/k·(τ − sin(ω_n·τ)/ω_n). Release instant to 1e-9 s, the seat's
+    force and the motion to 1e-9 of their peaks."""
+    preload, f1, t1 = 30.0, 120.0, 0.2
+    rate = f1 / t1
+    (tmp_path / "pull.csv").write_text(f"time [s], force [N]\n0, 0\n{t1}, {f1}\n")
+    seat = '[[element]]\nname = "seat"\ntype = "contact"\nlaw = "restitution"\nrestitution = 0.0\n' \
+           'between = ["ground", "M"]\ngap = "0 m"\n'
+    text = _spring_mass('table = "pull.csv"', 'duration = "0.15 s"\nsample_rate = "10 kHz"', extra=seat)
+    text = text.replace(f'stiffness = "{K!r} N/m"', f'stiffness = "{K!r} N/m"\npreload = "{preload} N"')
+    r = simulate(load_machine_text(text, base_dir=tmp_path))
+    t_star = preload / rate
+    releases = [e for e in r.events if e.kind == "release"]
+    assert len(releases) == 1 and abs(releases[0].time - t_star) <= 1e-9
+    t = r.time
+    before = t < t_star
+    assert np.max(np.abs(r.elements["seat"][before] - (preload - rate * t[before]))) <= 1e-9 * preload
+    tau = np.maximum(t - t_star, 0.0)
+    exact = rate / K * (tau - np.sin(W_N * tau) / W_N)
+    assert np.max(np.abs(r.masses["M"]["displacement"] - exact)) <= 1e-9 * np.max(np.abs(exact))
