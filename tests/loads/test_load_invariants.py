@@ -16,13 +16,26 @@ to 1e-12), reused as they are:
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "invariants"))
-import invariant_checks as inv  # noqa: E402
+
+def _invariant_checks():
+    """tests/invariants/invariant_checks.py, loaded by its path (no folder on sys.path: each test
+    folder's conftest stays its own)."""
+    name = "camsim_invariant_checks"
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, Path(__file__).parents[1] / "invariants" / "invariant_checks.py")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
+
+
+inv = _invariant_checks()
 
 LBF = 0.45359237 * 9.80665
 LB = 0.45359237
