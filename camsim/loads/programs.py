@@ -29,6 +29,7 @@ recorded revolution): the program is told the simulation time ``t_offset`` of th
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -88,6 +89,19 @@ class _Rows:
         f = np.where(inside & (x == self.x[k]), self.f[k], f)
         return f, np.where(inside, slope, 0.0)
 
+    def value_at(self, x: float, side: str) -> tuple[float, float]:
+        """:meth:`values` at one abscissa, in floats (the same rule)."""
+        tol = 64.0 * _EPS * max(abs(x), self.scale)
+        xs = self._x_list
+        i = (bisect.bisect_left(xs, x - tol) if side == "left" else bisect.bisect_right(xs, x + tol)) - 1
+        n = len(xs)
+        if i < 0:
+            return float(self.f[0]), 0.0
+        if i >= n - 1:
+            return float(self.f[-1]), 0.0
+        slope = float(self.slope[i + 1])
+        return (float(self.f[i]) if x == xs[i] else float(self.f[i]) + slope * (x - xs[i])), slope
+
 
 # ---------------------------------------------------------------------- time programs
 class ConstantLoad:
@@ -144,7 +158,16 @@ class SineLoad:
         return out
 
     def channels_at(self, t: float, side: str = "right") -> np.ndarray:
-        return self.channels(np.array([float(t)]), side)[0]
+        """:meth:`channels` at one instant, in floats."""
+        t = float(t)
+        tol = 64.0 * _EPS * max(abs(t), 1.0)
+        if (t <= self.t_start + tol) if side == "left" else (t < self.t_start - tol):
+            return np.zeros(4)
+        s, w = self.sine, self.omega
+        arg = w * (t - self.t_start) + s.phase
+        sin, cos = math.sin(arg), math.cos(arg)
+        a = s.amplitude
+        return np.array([s.offset + a * sin, a * w * cos, -a * w * w * sin, -a * w**3 * cos])
 
     def break_times(self, t_start: float, t_end: float) -> np.ndarray:
         return _window(np.array([self.t_start]), t_start, t_end, max(abs(self.t_start), 1.0))
@@ -176,7 +199,9 @@ class TimeTable:
         return out
 
     def channels_at(self, t: float, side: str = "right") -> np.ndarray:
-        return self.channels(np.array([float(t)]), side)[0]
+        """:meth:`channels` at one instant, in floats."""
+        f, slope = self.rows.value_at(float(t), side)
+        return np.array([f, slope, 0.0, 0.0])
 
     def break_times(self, t_start: float, t_end: float) -> np.ndarray:
         return _window(self.rows.x, t_start, t_end, max(abs(t_start), abs(t_end), 1.0))
@@ -209,7 +234,16 @@ class AngleTable:
         return f.reshape(theta.shape), slope.reshape(theta.shape), z, z.copy()
 
     def lift_at(self, theta: float, side: str = "right"):
-        return tuple(float(v[0]) for v in self.lift(np.array([float(theta)]), side))
+        """:meth:`lift` at one angle, in floats (the same rule)."""
+        theta = float(theta)
+        phi = theta % _TWO_PI
+        tol = 64.0 * _EPS * max(abs(theta), _TWO_PI)
+        if side == "left" and phi < tol:
+            phi += _TWO_PI
+        elif side != "left" and phi > _TWO_PI - tol:
+            phi -= _TWO_PI
+        f, slope = self.rows.value_at(phi, side)
+        return f, slope, 0.0, 0.0
 
     def break_angles(self) -> np.ndarray:
         """Angles [rad] in [0, 2π) of the rows (where dF/dθ may jump)."""
