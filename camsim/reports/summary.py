@@ -138,7 +138,7 @@ def render_loads(summary: dict, console: Console, system: DisplayUnits) -> None:
     over = next(iter(loads.values()))["work_over"]
     table = Table(title="process loads", title_justify="left")
     for col in ("load", "on", "program", f"max [{f_unit}]", "at t [s]", f"min [{f_unit}]", "at t [s]",
-                f"work per {'cycle' if over == 'revolution' else 'record'} [{w_unit}]"):
+                f"work {'per cycle' if over == 'revolution' else 'over the record'} [{w_unit}]"):
         table.add_column(escape(col), justify="left" if col in ("load", "on", "program") else "right")
     for name, row in loads.items():
         cells = [escape(name), escape(row["on"]), escape(row["program"])]

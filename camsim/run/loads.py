@@ -18,9 +18,10 @@ samples, so it does not depend on the sample rate:
   the cam and the loads, and neither F nor ẋ has a kink inside one, so the rule is exact to
   rounding (1e-13 relative);
 * for a free mass while a closed power-law contact makes the stretch nonlinear, the state
-  between nodes is known only by integrating again; there the two-point Hermite rule
-  h/2·(g₀ + g₁) + h²/12·(ġ₀ − ġ₁) on the nodes' values and rates (g = F·ẋ, ġ = Ḟ·ẋ + F·ẍ),
-  fourth order, is used.
+  between nodes is known only by integrating again; there the two-point Hermite rule of
+  order six on the nodes' values and their first two rates,
+  h/2·(g₀ + g₁) + h²/10·(ġ₀ − ġ₁) + h³/120·(g̈₀ + g̈₁) (g = F·ẋ, ġ = Ḟ·ẋ + F·ẍ,
+  g̈ = F̈·ẋ + 2Ḟ·ẍ + F·x⃛, the jerk from the equations and the contacts' tangents), is used.
 
 :class:`LoadWork` accumulates it stretch by stretch, for the in-memory and the streamed run
 alike (:func:`camsim.run.extremes.digest` feeds it).
@@ -137,8 +138,11 @@ class LoadWork:
         self._hermite(ctx, dense, steps, lo, hi, b[steps] - a[steps], free)
 
     def _hermite(self, ctx, dense, steps, lo, hi, width, free) -> None:
-        """The two-point Hermite rule on the nodes of a nonlinear stretch (the window's edges
-        inside a step: their states by DOP853 from the step's start node)."""
+        """The two-point Hermite rule of order six on the nodes of a nonlinear stretch:
+        h/2·(g₀ + g₁) + h²/10·(ġ₀ − ġ₁) + h³/120·(g̈₀ + g̈₁), g = F·ẋ, ġ = Ḟ·ẋ + F·ẍ,
+        g̈ = F̈·ẋ + 2Ḟ·ẍ + F·x⃛, the mass's jerk x⃛ from the configuration's equations and the
+        closed contacts' tangents (the window's edges inside a step: their states by DOP853
+        from the step's start node)."""
         config = dense.config
         ends = []
         for frac in (lo, hi):
@@ -149,15 +153,39 @@ class LoadWork:
             if inner.size:
                 z_e, u_e = dense.states(steps[inner], frac[inner][:, None])
                 Z[inner], U[inner] = z_e[:, 0], u_e[:, 0]
-            fn = ctx.nonlinear_forces(config, Z, U, dense.v_impacts)
-            ends.append((U, config.v(Z, U, fn), config.a(Z, U, fn)))
-        (U0, v0, a0), (U1, v1, a1) = ends
+            ends.append((U, *self._kinematics(ctx, config, Z, U, dense.v_impacts)))
+        (U0, v0, a0, j0), (U1, v1, a1, j1) = ends
+        h = width
         for k in free:
             c, i = self._cols[k], self._free[k]
-            g0, g1 = U0[:, c] * v0[:, i], U1[:, c] * v1[:, i]
-            d0 = U0[:, c + 1] * v0[:, i] + U0[:, c] * a0[:, i]
-            d1 = U1[:, c + 1] * v1[:, i] + U1[:, c] * a1[:, i]
-            self.work[k] += float(np.sum(0.5 * width * (g0 + g1) + width**2 / 12.0 * (d0 - d1)))
+            g = [U[:, c] * v[:, i] for U, v in ((U0, v0), (U1, v1))]
+            d = [U[:, c + 1] * v[:, i] + U[:, c] * a[:, i] for U, v, a in ((U0, v0, a0), (U1, v1, a1))]
+            dd = [U[:, c + 2] * v[:, i] + 2.0 * U[:, c + 1] * a[:, i] + U[:, c] * j[:, i]
+                  for U, v, a, j in ((U0, v0, a0, j0), (U1, v1, a1, j1))]
+            self.work[k] += float(np.sum(0.5 * h * (g[0] + g[1]) + h**2 / 10.0 * (d[0] - d[1])
+                                         + h**3 / 120.0 * (dd[0] + dd[1])))
+
+    @staticmethod
+    def _kinematics(ctx, config, Z, U, v_impacts):
+        """Velocities, accelerations and jerks of the free masses at states Z with inputs U (a
+        nonlinear configuration): ȧ = a_z·ż + a_u·u̇ + a_F·Ḟ_nl, each closed contact's
+        Ḟ = ∂F/∂δ·δ̇ + ∂F/∂δ̇·δ̈ (its tangent)."""
+        from camsim.elements.affine import input_rate
+
+        fn = ctx.nonlinear_forces(config, Z, U, v_impacts)
+        v, a = config.v(Z, U, fn), config.a(Z, U, fn)
+        zdot = Z @ config.A.T + U @ config.B.T + config.b + (fn @ config.L.T if config.L.shape[1] else 0.0)
+        udot = input_rate(U)
+        fdot = np.zeros_like(fn)
+        for k, i in enumerate(config.power_contacts):
+            delta, rate = ctx._delta(config, i)
+            d = delta(Z, U)[:, 0]
+            dd = rate(Z, U)[:, 0]
+            ddd = zdot @ rate.Cz[0] + udot @ rate.Du[0]
+            _, kt, ct = ctx.model.elements[i].nonlinear_tangent(d, dd, v_impacts.get(i))
+            fdot[:, k] = kt * dd + ct * ddd
+        jerk = zdot @ config.a.Cz.T + udot @ config.a.Du.T + (fdot @ config.a.Fn.T if fn.shape[1] else 0.0)
+        return v, a, jerk
 
     def values(self) -> dict[str, float]:
         """Each load's work [J] over the window (NaN when the run did not cover it)."""
