@@ -10,7 +10,11 @@ load gives [F, Ḟ, F̈, F⃛]. Every program here answers what a cam program an
 * ``break_times(t0, t1)`` — the instants in (t0, t1) where F or a derivative is not smooth:
   a segment program's joins and its laws' inner kinks, a table's rows, a sine's start. The
   engine stops a stretch at each (a node pair with the limits from both sides), so between
-  them the input is smooth and its step polynomial exact.
+  them the input is smooth and its step polynomial exact;
+* ``shortest`` — the longest engine step [s] over which that step polynomial (degree 7, from
+  the channels at both ends) carries the program exactly: 1/64 of its shortest rise or fall,
+  or of a sine's period (as the cam's, :func:`camsim.run.simulation.cam_input_step`); ∞ for a
+  constant or a table (linear between rows).
 
 The programs:
 
@@ -109,7 +113,6 @@ class ConstantLoad:
 
     def __init__(self, force: float):
         self.force = float(force)
-        self.peak = abs(self.force)
         self.shortest = math.inf
 
     def channels(self, t, side: str = "right") -> np.ndarray:
@@ -139,7 +142,6 @@ class SineLoad:
         self.sine = sine
         self.omega = _TWO_PI * float(sine.frequency)
         self.t_start = float(t_offset) + float(sine.start)
-        self.peak = abs(float(sine.offset)) + abs(float(sine.amplitude))
         self.shortest = 1.0 / float(sine.frequency) / STEPS_PER_MOTION
 
     def _on(self, t: np.ndarray, side: str) -> np.ndarray:
@@ -188,7 +190,6 @@ class TimeTable:
     def __init__(self, table, t_offset: float = 0.0):
         self.t_offset = float(t_offset)
         self.rows = _Rows(np.asarray(table.x, dtype=float) + self.t_offset, table.force, 1.0)
-        self.peak = float(np.max(np.abs(self.rows.f)))
         self.shortest = math.inf  # linear between rows: the step polynomial is exact
 
     def channels(self, t, side: str = "right") -> np.ndarray:
@@ -217,7 +218,6 @@ class AngleTable:
 
     def __init__(self, table):
         self.rows = _Rows(table.x, table.force, _TWO_PI)
-        self.peak = float(np.max(np.abs(self.rows.f)))
 
     def _wrap(self, theta: np.ndarray, side: str) -> np.ndarray:
         phi = np.mod(theta, _TWO_PI)
@@ -257,7 +257,6 @@ class _SegmentProfile:
     def __init__(self, segments, base: float, speed: float):
         self.program = CamProgram(Cam(speed=speed, segments=tuple(segments), ratio=1.0, start_angle=0.0))
         self.base = float(base)
-        self.peak = abs(self.base) + sum(abs(s.lift) for s in segments)
         motions = [s.duration for s in segments if s.motion != "dwell"]
         self.shortest_angle = min(motions) if motions else math.inf
 
@@ -295,7 +294,6 @@ class AngleLoad:
         self.speed = float(speed)
         self.period = _TWO_PI / self.speed
         self.warp = warp
-        self.peak = profile.peak
         self.shortest = getattr(profile, "shortest_angle", math.inf) / self.speed / STEPS_PER_MOTION
         self._breaks = profile.break_angles()
 
