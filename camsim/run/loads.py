@@ -33,6 +33,8 @@ import math
 
 import numpy as np
 
+from camsim.elements.affine import N_INPUT
+
 __all__ = ["WORK_POINTS", "LoadWork", "load_columns", "load_row", "load_summary", "load_traces", "program_text"]
 
 #: Gauss–Legendre points per step of the work integral.
@@ -77,16 +79,12 @@ class LoadWork:
     ----------
     model : Model
     window : (float, float)
-        The interval [s] on the simulation clock.
-    revolution : bool
-        Whether the window is one revolution (else: the record of a machine without a cam,
-        or a record shorter than a revolution).
+        The interval [s] on the simulation clock (:func:`work_window`).
     """
 
-    def __init__(self, model, window: tuple[float, float], revolution: bool):
+    def __init__(self, model, window: tuple[float, float]):
         self.model = model
         self.lo, self.hi = float(window[0]), float(window[1])
-        self.revolution = revolution
         self.work = np.zeros(model.n_loads)
         self.covered = 0.0
         # per load: the column of its F, and the input column of ṡ (a driven mass) or the
@@ -116,26 +114,23 @@ class LoadWork:
         width = (b[steps] - a[steps])[:, None]
         sigma = lo[:, None] + (hi - lo)[:, None] * _SIGMA[None, :]  # (S, P) fractions of each step
         free = [k for k, i in enumerate(self._free) if i is not None]
-        # inputs at the Gauss points from their laws (the limit from the left at a step's end)
-        times = t[steps][:, None] + h[:, None] * sigma
-        ends = np.broadcast_to(t[steps + 1][:, None], times.shape)
-        U = ctx.analytic_inputs_at(times.reshape(-1), ends.reshape(-1)).reshape(times.shape + (-1,))
-        for k, q in enumerate(self._driven):
-            if q is not None:
-                g = U[:, :, self._cols[k]] * U[:, :, 4 * q + 1]
-                self.work[k] += float(np.sum(width * (g @ _WEIGHT)[:, None]))
-        if not free:
-            return
+        driven = [k for k, q in enumerate(self._driven) if q is not None]
         config = st.config
-        if st.exact:
-            Zs, Us = dense.states(steps, sigma)
+        if free and st.exact:  # the exact states and, from their laws, the inputs at the Gauss points
+            Zs, U = dense.states(steps, sigma)
             S, P, m = Zs.shape
-            v = config.v(Zs.reshape(S * P, m), Us.reshape(S * P, -1)).reshape(S, P, -1)
+            v = config.v(Zs.reshape(S * P, m), U.reshape(S * P, -1)).reshape(S, P, -1)
             for k in free:
-                g = Us[:, :, self._cols[k]] * v[:, :, self._free[k]]
-                self.work[k] += float(np.sum(width[:, 0] * (g @ _WEIGHT)))
-            return
-        self._hermite(ctx, dense, steps, lo, hi, b[steps] - a[steps], free)
+                self.work[k] += float(np.sum(width[:, 0] * ((U[:, :, self._cols[k]] * v[:, :, self._free[k]]) @ _WEIGHT)))
+        elif driven:  # the inputs at the Gauss points from their laws (the left limit at a step's end)
+            times = t[steps][:, None] + h[:, None] * sigma
+            ends = np.broadcast_to(t[steps + 1][:, None], times.shape)
+            U = ctx.analytic_inputs_at(times.reshape(-1), ends.reshape(-1)).reshape(times.shape + (-1,))
+        for k in driven:
+            speed = U[:, :, N_INPUT * self._driven[k] + 1]  # ṡ of the cam that drives the mass
+            self.work[k] += float(np.sum(width[:, 0] * ((U[:, :, self._cols[k]] * speed) @ _WEIGHT)))
+        if free and not st.exact:
+            self._hermite(ctx, dense, steps, lo, hi, b[steps] - a[steps], free)
 
     def _hermite(self, ctx, dense, steps, lo, hi, width, free) -> None:
         """The two-point Hermite rule of order six on the nodes of a nonlinear stretch:

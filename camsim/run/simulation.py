@@ -207,7 +207,7 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
         from camsim.run.loads import LoadWork, work_window
 
         window, whole = work_window(machine, t_rec, t_end, period if has_cam else None)
-        run = replace(run, load_work=LoadWork(model, window, whole))
+        run = replace(run, load_work=LoadWork(model, window))
         work_stop = window[1] if whole else None  # the revolution's end is a node of the solution
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)
