@@ -9,14 +9,16 @@ recorded time for a machine without a cam), ẋ the velocity of the mass it acts
 cam for a driven mass). It is integrated on the engine's solution, not on the output
 samples, so it does not depend on the sample rate:
 
-* every step between two nodes of a stretch (the engine's grid, its breaks and events, the
-  window's ends) is integrated by Gauss–Legendre with :data:`WORK_POINTS` points (exact for
-  polynomials of degree 2·WORK_POINTS − 1), at which F and, for a driven mass, ṡ come from
-  their laws and, for a free mass in a linear configuration, ẋ from the exact state (the
-  Taylor series of the configuration's exact solution, :mod:`camsim.engine.dense`). Steps are
-  at most 1/12 period of the highest natural frequency and 1/64 of the shortest motion of
-  the cam and the loads, and neither F nor ẋ has a kink inside one, so the rule is exact to
-  rounding (1e-13 relative);
+* on every step between two nodes of a stretch (the engine's grid, its breaks and events, the
+  window's ends), for a **driven mass** F·ṡ is integrated by Gauss–Legendre with
+  :data:`WORK_POINTS` points (exact for polynomials of degree 2·WORK_POINTS − 1), F and ṡ
+  from their laws; steps are at most 1/64 of the shortest motion of the cam and the loads and
+  neither has a kink inside one, so the rule is exact to rounding;
+* for a **free mass in a linear configuration** the integral is the exact one of the step's
+  solution: the state over the step is the Taylor series of the configuration's exact
+  solution (:func:`camsim.engine.taylor.taylor_coefficients`, a polynomial in σ = τ/h), ẋ an
+  affine map of it and of the input, F the input's own polynomial over the step (what the
+  engine integrates), and ∫F·ẋ of two polynomials is summed term by term;
 * for a free mass while a closed power-law contact makes the stretch nonlinear, the state
   between nodes is known only by integrating again; there the two-point Hermite rule of
   order six on the nodes' values and their first two rates,
@@ -34,6 +36,7 @@ import math
 import numpy as np
 
 from camsim.elements.affine import N_INPUT
+from camsim.engine.stepping import _FACT, _P, step_input_derivatives, taylor_rows
 
 __all__ = ["WORK_POINTS", "LoadWork", "load_columns", "load_row", "load_summary", "load_traces", "program_text"]
 
@@ -42,6 +45,20 @@ WORK_POINTS = 6
 _X, _W = np.polynomial.legendre.leggauss(WORK_POINTS)
 _SIGMA = 0.5 * (_X + 1.0)
 _WEIGHT = 0.5 * _W
+
+
+_ORDERS = np.arange(_P + 1)
+
+
+def _integral(f: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """∫ f(σ)·g(σ) dσ from ``lo`` to ``hi`` of each row's polynomials, exactly: f (S, J) and g
+    (S, K) their coefficients of σ⁰, σ¹, …; → (S,)."""
+    J, K = f.shape[1], g.shape[1]
+    c = np.zeros((f.shape[0], J + K - 1))
+    for j in range(J):
+        c[:, j : j + K] += f[:, j : j + 1] * g
+    n = np.arange(1, J + K)
+    return np.sum(c * (hi[:, None] ** n - lo[:, None] ** n) / n, axis=1)
 
 
 def load_columns(machine) -> list[tuple[str, str]]:
@@ -105,32 +122,63 @@ class LoadWork:
         if not steps.size:
             return
         self.covered += float(np.sum(b[steps] - a[steps]))
-        from camsim.engine.dense import DenseStretch
-
-        dense = DenseStretch(ctx, st.config, st.branches, st.v_impacts, st.exact, t, st.z, st.u, None)
         h = t[steps + 1] - t[steps]
-        lo = (a[steps] - t[steps]) / h
+        lo = (a[steps] - t[steps]) / h  # the part of each step inside the window, as fractions σ
         hi = (b[steps] - t[steps]) / h
-        width = (b[steps] - a[steps])[:, None]
-        sigma = lo[:, None] + (hi - lo)[:, None] * _SIGMA[None, :]  # (S, P) fractions of each step
-        free = [k for k, i in enumerate(self._free) if i is not None]
         driven = [k for k, q in enumerate(self._driven) if q is not None]
-        config = st.config
-        if free and st.exact:  # the exact states and, from their laws, the inputs at the Gauss points
-            Zs, U = dense.states(steps, sigma)
-            S, P, m = Zs.shape
-            v = config.v(Zs.reshape(S * P, m), U.reshape(S * P, -1)).reshape(S, P, -1)
-            for k in free:
-                self.work[k] += float(np.sum(width[:, 0] * ((U[:, :, self._cols[k]] * v[:, :, self._free[k]]) @ _WEIGHT)))
-        elif driven:  # the inputs at the Gauss points from their laws (the left limit at a step's end)
+        if driven:  # F·ṡ, both from their laws at Gauss–Legendre points (the left limit at a step's end)
+            sigma = lo[:, None] + (hi - lo)[:, None] * _SIGMA[None, :]
             times = t[steps][:, None] + h[:, None] * sigma
             ends = np.broadcast_to(t[steps + 1][:, None], times.shape)
-            U = ctx.analytic_inputs_at(times.reshape(-1), ends.reshape(-1)).reshape(times.shape + (-1,))
-        for k in driven:
-            speed = U[:, :, N_INPUT * self._driven[k] + 1]  # ṡ of the cam that drives the mass
-            self.work[k] += float(np.sum(width[:, 0] * ((U[:, :, self._cols[k]] * speed) @ _WEIGHT)))
-        if free and not st.exact:
+            Ug = ctx.analytic_inputs_at(times.reshape(-1), ends.reshape(-1)).reshape(times.shape + (-1,))
+            for k in driven:
+                g = Ug[:, :, self._cols[k]] * Ug[:, :, N_INPUT * self._driven[k] + 1]
+                self.work[k] += float(np.sum((hi - lo) * h * (g @ _WEIGHT)))
+        free = [k for k, i in enumerate(self._free) if i is not None]
+        if not free:
+            return
+        # the input over each step: the engine's own polynomial of it (degree 7, from the channels
+        # at the step's ends), as coefficients in σ = τ/h: (S, n_input, 8)
+        D = step_input_derivatives(st.u[steps], st.u[steps + 1], h, ctx.h)
+        U = taylor_rows(D) * (h[:, None] ** _ORDERS / _FACT[: _P + 1])[:, None, :]
+        config = st.config
+        if not st.exact:
+            from camsim.engine.dense import DenseStretch
+
+            dense = DenseStretch(ctx, config, st.branches, st.v_impacts, False, t, st.z, st.u, None)
             self._hermite(ctx, dense, steps, lo, hi, b[steps] - a[steps], free)
+            return
+        from camsim.engine.taylor import TAYLOR_NORM, _balanced, taylor_coefficients
+
+        short = h * _balanced(config)[4] <= TAYLOR_NORM
+        vmap = config.v
+        if np.any(short):
+            # the exact state over each step as a polynomial in σ (the Taylor series of the
+            # configuration's exact solution): ẋ = v_z·z + v_u·u is one too, and ∫F·ẋ exact
+            C = taylor_coefficients(config, st.z[steps[short]], D[short], h[short])  # (S, K, m)
+            Us = U[short]
+            for k in free:
+                i = self._free[k]
+                v = C @ vmap.Cz[i]
+                du = np.einsum("c,scj->sj", vmap.Du[i], Us)
+                width = max(v.shape[1], du.shape[1])
+                v = np.pad(v, ((0, 0), (0, width - v.shape[1])))
+                v[:, : du.shape[1]] += du
+                v[:, 0] += vmap.e[i]
+                self.work[k] += float(np.sum(h[short] * _integral(Us[:, self._cols[k]], v, lo[short], hi[short])))
+        if not np.all(short):  # a step too long for the series: Gauss–Legendre on its exact states
+            from camsim.engine.dense import DenseStretch
+
+            dense = DenseStretch(ctx, config, st.branches, st.v_impacts, True, t, st.z, st.u, None)
+            longs = np.flatnonzero(~short)
+            sigma = lo[longs, None] + (hi - lo)[longs, None] * _SIGMA[None, :]
+            Zs, Ug = dense.states(steps[longs], sigma)
+            S, P, m = Zs.shape
+            v = vmap(Zs.reshape(S * P, m), Ug.reshape(S * P, -1)).reshape(S, P, -1)
+            width = (hi - lo)[longs] * h[longs]
+            for k in free:
+                g = Ug[:, :, self._cols[k]] * v[:, :, self._free[k]]
+                self.work[k] += float(np.sum(width * (g @ _WEIGHT)))
 
     def _hermite(self, ctx, dense, steps, lo, hi, width, free) -> None:
         """The two-point Hermite rule of order six on the nodes of a nonlinear stretch:
