@@ -36,7 +36,7 @@ import math
 import numpy as np
 
 from camsim.elements.affine import N_INPUT
-from camsim.engine.stepping import _FACT, _P, step_input_derivatives, taylor_rows
+from camsim.engine.stepping import _P, step_input_derivatives
 
 __all__ = ["WORK_POINTS", "LoadWork", "load_columns", "load_row", "load_summary", "load_traces", "program_text"]
 
@@ -47,7 +47,46 @@ _SIGMA = 0.5 * (_X + 1.0)
 _WEIGHT = 0.5 * _W
 
 
-_ORDERS = np.arange(_P + 1)
+def _scales(h: np.ndarray, n: int) -> np.ndarray:
+    """h^k/k! for k = 0 … n − 1 of each step: (S, n)."""
+    return np.cumprod(np.concatenate([np.ones((h.size, 1)), h[:, None] / np.arange(1, n)[None, :]], axis=1), axis=1)
+
+
+def _velocity_series(config, i: int, z0: np.ndarray, D: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """The velocity of free mass ``i`` over each step as a polynomial in σ = τ/h: its
+    coefficients (S, K + 1), from the Taylor series of the linear configuration's exact
+    solution with the input the steps' polynomials (the series of
+    :func:`camsim.engine.taylor.taylor_coefficients`, in its balanced coordinates, for one row
+    of the state: e_{k+1} = h/(k+1)·(A_b·e_k + (B_b·u⁽ᵏ⁾ + [k = 0]·b_b)·h^k/k!), and ẋ_i =
+    v_z·z + v_u·u + v_e)."""
+    from camsim.engine.taylor import _balanced, _terms
+
+    T, Ab, Bb, bb, norm = _balanced(config)
+    S = z0.shape[0]
+    K = _terms(float(np.max(h)) * norm)
+    n_in = Bb.shape[1]
+    order = np.tile(np.arange(N_INPUT), n_in // N_INPUT)  # each channel's derivative order in its group
+    first = (_P + 1) * np.repeat(np.arange(n_in // N_INPUT), N_INPUT)  # its group's first column in D
+    cz, du = config.v.Cz[i] * T, config.v.Du[i]
+    out = np.zeros((S, K + 1))
+    e = z0 / T
+    out[:, 0] = e @ cz + config.v.e[i]
+    hk = np.ones(S)  # h^k/k!
+    AbT, BbT = Ab.T, Bb.T
+    for k in range(K):
+        nxt = e @ AbT
+        if k <= _P:  # u⁽ᵏ⁾: channel (q, d) is D[:, 8q + d + k] while d + k ≤ 7, zero after
+            live = order + k <= _P
+            uk = np.zeros((S, n_in))
+            uk[:, live] = D[:, first[live] + order[live] + k]
+            out[:, k] += (uk @ du) * hk
+            nxt += (uk @ BbT) * hk[:, None]
+        if k == 0:
+            nxt += bb
+        e = nxt * (h / (k + 1))[:, None]
+        hk = hk * h / (k + 1)
+        out[:, k + 1] = e @ cz
+    return out
 
 
 def _integral(f: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -58,6 +97,8 @@ def _integral(f: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> n
     for j in range(J):
         c[:, j : j + K] += f[:, j : j + 1] * g
     n = np.arange(1, J + K)
+    if np.all(lo == 0.0) and np.all(hi == 1.0):  # whole steps (all but a window's edges)
+        return c @ (1.0 / n)
     return np.sum(c * (hi[:, None] ** n - lo[:, None] ** n) / n, axis=1)
 
 
@@ -137,10 +178,6 @@ class LoadWork:
         free = [k for k, i in enumerate(self._free) if i is not None]
         if not free:
             return
-        # the input over each step: the engine's own polynomial of it (degree 7, from the channels
-        # at the step's ends), as coefficients in σ = τ/h: (S, n_input, 8)
-        D = step_input_derivatives(st.u[steps], st.u[steps + 1], h, ctx.h)
-        U = taylor_rows(D) * (h[:, None] ** _ORDERS / _FACT[: _P + 1])[:, None, :]
         config = st.config
         if not st.exact:
             from camsim.engine.dense import DenseStretch
@@ -148,24 +185,18 @@ class LoadWork:
             dense = DenseStretch(ctx, config, st.branches, st.v_impacts, False, t, st.z, st.u, None)
             self._hermite(ctx, dense, steps, lo, hi, b[steps] - a[steps], free)
             return
-        from camsim.engine.taylor import TAYLOR_NORM, _balanced, taylor_coefficients
+        # the input over each step: the engine's own polynomial of it (degree 7, from the channels
+        # at the step's ends): D[:, 8q + j] the j-th derivative of group q's value at its start
+        D = step_input_derivatives(st.u[steps], st.u[steps + 1], h, ctx.h)
+        from camsim.engine.taylor import TAYLOR_NORM, _balanced
 
         short = h * _balanced(config)[4] <= TAYLOR_NORM
-        vmap = config.v
         if np.any(short):
-            # the exact state over each step as a polynomial in σ (the Taylor series of the
-            # configuration's exact solution): ẋ = v_z·z + v_u·u is one too, and ∫F·ẋ exact
-            C = taylor_coefficients(config, st.z[steps[short]], D[short], h[short])  # (S, K, m)
-            Us = U[short]
             for k in free:
-                i = self._free[k]
-                v = C @ vmap.Cz[i]
-                du = np.einsum("c,scj->sj", vmap.Du[i], Us)
-                width = max(v.shape[1], du.shape[1])
-                v = np.pad(v, ((0, 0), (0, width - v.shape[1])))
-                v[:, : du.shape[1]] += du
-                v[:, 0] += vmap.e[i]
-                self.work[k] += float(np.sum(h[short] * _integral(Us[:, self._cols[k]], v, lo[short], hi[short])))
+                v = _velocity_series(config, self._free[k], st.z[steps[short]], D[short], h[short])
+                group = self._cols[k] // N_INPUT
+                f = D[short, (_P + 1) * group : (_P + 1) * (group + 1)] * _scales(h[short], _P + 1)
+                self.work[k] += float(np.sum(h[short] * _integral(f, v, lo[short], hi[short])))
         if not np.all(short):  # a step too long for the series: Gauss–Legendre on its exact states
             from camsim.engine.dense import DenseStretch
 
@@ -174,7 +205,7 @@ class LoadWork:
             sigma = lo[longs, None] + (hi - lo)[longs, None] * _SIGMA[None, :]
             Zs, Ug = dense.states(steps[longs], sigma)
             S, P, m = Zs.shape
-            v = vmap(Zs.reshape(S * P, m), Ug.reshape(S * P, -1)).reshape(S, P, -1)
+            v = config.v(Zs.reshape(S * P, m), Ug.reshape(S * P, -1)).reshape(S, P, -1)
             width = (hi - lo)[longs] * h[longs]
             for k in free:
                 g = Ug[:, :, self._cols[k]] * v[:, :, self._free[k]]
