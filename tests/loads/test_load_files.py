@@ -309,3 +309,22 @@ def test_plot_and_report_show_the_loads(station):
     back = open_result(out)
     key = "load_work:press"
     assert f"data-key='{key}' data-si='{back.scalars()[key]!r}'" in html
+
+
+def test_a_sweep_varies_a_load_and_reports_each_loads_scalars(station):
+    """``sweep --values load.hold.force=…`` (and a rise's change, the closing fall following):
+    each variant's row holds the load scalars (max_load, min_load, load_work with their units);
+    the constant's extremes are the swept values and its work on the driven follower zero (the
+    closed form), whatever the value."""
+    out = station.parent / "sw.h5"
+    result = runner.invoke(app, ["sweep", str(station), "--values", "load.hold.force=-10N,-40N", "--values",
+                                 "load.press.segments[1].change=30N,90N", "-o", str(out), "--workers", "1", "--json"])
+    assert result.exit_code == 0, result.stderr
+    rows = list(csv.DictReader((station.parent / "sw.csv").open()))
+    assert len(rows) == 4
+    header = rows[0].keys()
+    assert {"max_load:hold [N]", "min_load:hold [N]", "load_work:press [J]"} <= set(header)
+    for row in rows:
+        assert float(row["min_load:hold [N]"]) == float(row["param:load.hold.force [N]"])
+        assert abs(float(row["load_work:hold [J]"])) < 1e-12
+        assert float(row["max_load:press [N]"]) == pytest.approx(float(row["param:load.press.segments[1].change [N]"]) - 5.0)

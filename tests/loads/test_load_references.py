@@ -426,3 +426,24 @@ def test_a_load_lifts_a_mass_off_a_rigid_seat_at_the_closed_form_instant(tmp_pat
     tau = np.maximum(t - t_star, 0.0)
     exact = rate / K * (tau - np.sin(W_N * tau) / W_N)
     assert np.max(np.abs(r.masses["M"]["displacement"] - exact)) <= 1e-9 * np.max(np.abs(exact))
+
+
+def test_work_per_cycle_on_a_mass_held_on_the_cam_by_a_rigid_contact():
+    """The follower of the driven test above, not driven but held on the cam by a rigid
+    contact (law = "restitution", e = 0) and its preloaded spring: while the contact rests its
+    motion is the cam's, ẋ = ṡ, through the constraint (the velocity reads the cam input, not
+    only the state), so the segment load's work per cycle is the same closed form,
+    400 N·h·2/3, and the contact never opens (no release)."""
+    text = _driven(PRESS).replace('drives = "M1"\n', "").replace("[simulation]", """[[element]]
+name = "roller"
+type = "contact"
+law = "restitution"
+restitution = 0.0
+between = ["cam", "M1"]
+gap = "0 m"
+[simulation]""").replace(f'preload = "{PRELOAD} N"', 'preload = "900 N"')
+    r = simulate(load_machine_text(text))
+    assert not [e for e in r.events if e.kind == "release"]
+    theta = OMEGA * r.time
+    assert np.max(np.abs(r.masses["M1"]["displacement"] - _cam(theta)[0])) <= 1e-12
+    assert abs(r.load_work["press"] - 400.0 * LIFT * 2.0 / 3.0) <= 1e-12 * 400.0 * LIFT
