@@ -447,3 +447,25 @@ gap = "0 m"
     theta = OMEGA * r.time
     assert np.max(np.abs(r.masses["M1"]["displacement"] - _cam(theta)[0])) <= 1e-12
     assert abs(r.load_work["press"] - 400.0 * LIFT * 2.0 / 3.0) <= 1e-12 * 400.0 * LIFT
+
+
+@pytest.mark.slow
+def test_an_angle_load_on_a_dynamic_camshaft_follows_its_cams_own_angle():
+    """On a dynamic camshaft (machines/camshaft-line-dynamic.toml, issue 38) a cam's angle is the
+    shaft's solution θ(t), not θ0 + ω·t: a load over the feeder's angle is its program at the
+    feeder's recorded angle (``/cams/feeder/angle``), the chain rule giving its rates, to 1e-9 N
+    (about 20 s: the waveform relaxation of the shaft)."""
+    from pathlib import Path
+
+    from camsim.cam.program import CamProgram
+    from camsim.cam.description import Cam
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "machines" / "camshaft-line-dynamic.toml").read_text() + PRESS.replace(
+        'name = "press"', 'name = "push"\ncam = "feeder"').replace('"M1"', '"F1"')
+    machine = load_machine_text(text, base_dir=root / "machines", overrides=['simulation.sample_rate="5 kHz"'])
+    r = simulate(machine)
+    theta = np.radians(r.cams["feeder"]["angle"])
+    program = CamProgram(Cam(speed=machine.cams[0].speed, segments=machine.load("push").segments))
+    assert np.max(np.abs(r.loads["push"] - (20.0 + program.lift(theta)[0]))) <= 1e-9
+    assert np.max(np.abs(r.loads["push"] - _press(theta))) <= 1e-9
