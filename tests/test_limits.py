@@ -124,21 +124,24 @@ def test_names_every_table_can_hold(table, old, new, tmp_path):
 
 
 def test_the_named_tables_are_one_registry():
-    """A new named table (a coming [[load]]) is one line in camsim.machine.names.TABLES."""
+    """A new named table is one line in camsim.machine.names.TABLES ([[load]] was, issue 43; a
+    hypothetical [[gauge]] here)."""
     from camsim.errors import MachineFileError
     from camsim.machine import names
 
     def error(key, message):
         return MachineFileError("f.toml", key, message)
 
-    doc = {"load": [{"name": "L/1"}]}
+    with pytest.raises(MachineFileError, match=r"load\[0\]\.name"):
+        names.check_names({"load": [{"name": "L/1"}]}, error)
+    doc = {"gauge": [{"name": "G/1"}]}
     names.check_names(doc, error)  # not a named table yet: nothing checked
-    names.TABLES["load"] = "/loads/<name>/... in the result"
+    names.TABLES["gauge"] = "/gauges/<name>/... in the result"
     try:
-        with pytest.raises(MachineFileError, match=r"load\[0\]\.name"):
+        with pytest.raises(MachineFileError, match=r"gauge\[0\]\.name"):
             names.check_names(doc, error)
     finally:
-        del names.TABLES["load"]
+        del names.TABLES["gauge"]
 
 
 @pytest.mark.parametrize("command", [

@@ -20,7 +20,7 @@ def plot_command(
         help=(
             "Which plots (comma-separated or repeated): svaj (cam s, v, a, j against cam angle [deg]), "
             "masses (displacement, velocity, acceleration of each mass against time [s], "
-            "impacts marked), forces (element, cam-contact and transducer forces; a negative cam-contact "
+            "impacts marked), forces (element, cam-contact, transducer and process-load forces; a negative cam-contact "
             "force, i.e. jump, is shaded), compare (impact vs no-impact with the % difference), sweep (peaks "
             "against the swept parameter), design (with [cam.geometry]: pressure angle [deg], surface radius of "
             "curvature, contact normal force, Hertz stress, camshaft torque), camshaft (several cams or a [camshaft]: "

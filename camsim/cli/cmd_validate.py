@@ -225,6 +225,7 @@ def _print_machine(machine: Machine, u: DisplayUnits) -> None:
                 + (f"{e.interior_nodes()[0]} ... {e.interior_nodes()[-1]}" if e.interior_nodes() else "none"),
                 markup=False)
 
+    _print_loads(machine, u)
     sim = machine.simulation
     run = (f"{sim.duration:.6g} s recorded" if sim.duration is not None else f"{sim.cycles} cycle(s) recorded")
     err_console.print(
@@ -235,6 +236,38 @@ def _print_machine(machine: Machine, u: DisplayUnits) -> None:
         err_console.print(
             f"initial {escape(ic.mass)}: displacement {_g(ic.displacement, 'm', u)}, velocity {_g(ic.velocity, 'm/s', u)}"
         )
+
+
+def _print_loads(machine: Machine, u: DisplayUnits) -> None:
+    """The ``[[load]]`` tables (issue 43): each load's mass and program, in ``u``."""
+    if not machine.loads:
+        return
+    table = Table(title="process loads (force positive along +x)", title_justify="left")
+    for col in ("name", "on", "program", "values"):
+        table.add_column(col)
+    for load in machine.loads:
+        angle = f" over the angle of cam {load.cam}" if load.cam else ""
+        if load.kind == "force":
+            program, values = "constant", _g(load.force, "N", u)
+        elif load.kind == "segments":
+            program = f"segments{angle or ' over the shaft angle'}"
+            rows = [f"{s.motion} {s.law or ''} {_g(s.duration, 'rad', u)}".replace("  ", " ")
+                    + (f" {'+' if s.motion == 'rise' else '-'}{_g(s.lift, 'N', u)}" if s.motion != "dwell" else "")
+                    for s in load.segments]
+            values = f"base {_g(load.base, 'N', u)}; " + "; ".join(rows)
+        elif load.kind == "table":
+            t = load.table
+            program = f"{t.over} table {t.source}{angle}"
+            span = (f"{_g(t.x[0], 'rad', u)} to {_g(t.x[-1], 'rad', u)}" if t.over == "angle"
+                    else f"{t.x[0]:.6g} s to {t.x[-1]:.6g} s")
+            values = f"{len(t.x)} rows, {span}, force {_g(min(t.force), 'N', u)} to {_g(max(t.force), 'N', u)}"
+        else:
+            s = load.sine
+            program = "sine"
+            values = (f"amplitude {_g(s.amplitude, 'N', u)}, frequency {s.frequency:.6g} Hz, phase "
+                      f"{_g(s.phase, 'rad', u)}, offset {_g(s.offset, 'N', u)}, from {s.start:.6g} s")
+        table.add_row(*(escape(x) for x in (load.name, load.on, program, values)))
+    err_console.print(table)
 
 
 # What the command reads and writes (camsim.cli.contracts; the conformance suite's source).

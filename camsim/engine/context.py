@@ -265,11 +265,12 @@ class EngineContext:
         """Deflection d = x_upper − x_lower of element i and its rate, as affine maps."""
         geo = self.model.geometry[i]
         G = geo.G.reshape(1, -1)
+        cams = N_INPUT * geo.g_s.size  # the cams' channels (the loads' follow them: no deflection)
         du = np.zeros((1, self.n_input))
-        du[0, 0::N_INPUT] = geo.g_s
+        du[0, 0:cams:N_INPUT] = geo.g_s
         d = Affine.combine([(G, config.x)], const=np.zeros(1), du=du)
         du = np.zeros((1, self.n_input))
-        du[0, 1::N_INPUT] = geo.g_s
+        du[0, 1:cams:N_INPUT] = geo.g_s
         rate = Affine.combine([(G, config.v)], const=np.zeros(1), du=du)
         return d, rate
 

@@ -94,6 +94,9 @@ class CamForceWatch:
         mass = model.driven_masses[driven]
         Du[0, channel(model.drives[driven], 2)] = mass
         e[0] = mass * model.gravity
+        for k, load in enumerate(getattr(model, "loads", ())):  # issue 43: F_c = m·s̈ − Σ f − loads on it
+            if load.on == driven:
+                Du[0, model.load_column(k)] -= 1.0
         for i, element in enumerate(model.elements):
             if driven not in element.nodes:
                 continue
@@ -121,8 +124,9 @@ class CamForceWatch:
             k_, c_, f0 = law
             # f = k·d + c·ḋ + f0, d = G·x + g_s·s, ḋ = G·v + g_s·ṡ; F_c gains +f (upper), −f (lower)
             geo = model.geometry[i]
-            d = Affine.combine([(geo.G.reshape(1, -1), config.x)], const=np.zeros(1), du=_du(0, geo.g_s))
-            rate = Affine.combine([(geo.G.reshape(1, -1), config.v)], const=np.zeros(1), du=_du(1, geo.g_s))
+            d = Affine.combine([(geo.G.reshape(1, -1), config.x)], const=np.zeros(1), du=_du(0, geo.g_s, model.n_input))
+            rate = Affine.combine([(geo.G.reshape(1, -1), config.v)], const=np.zeros(1),
+                                  du=_du(1, geo.g_s, model.n_input))
             w = on_upper
             Cz = Cz + w * (k_ * d.Cz + c_ * rate.Cz)
             Du = Du + w * (k_ * d.Du + c_ * rate.Du)
@@ -328,10 +332,11 @@ class CamForceWatch:
         return (zdot @ value.Cz.T + udot @ value.Du.T)[:, 0]
 
 
-def _du(order: int, coefficients: np.ndarray) -> np.ndarray:
-    """An input row with ``coefficients`` (one per cam) on each cam's channel ``order``."""
-    du = np.zeros((1, coefficients.size * N_INPUT))
-    du[0, order::N_INPUT] = coefficients
+def _du(order: int, coefficients: np.ndarray, width: int) -> np.ndarray:
+    """An input row of ``width`` columns with ``coefficients`` (one per cam) on each cam's
+    channel ``order`` (the loads' groups after the cams' carry none)."""
+    du = np.zeros((1, width))
+    du[0, order : coefficients.size * N_INPUT : N_INPUT] = coefficients
     return du
 
 

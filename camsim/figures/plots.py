@@ -337,7 +337,7 @@ def plot_mass(group: h5py.Group, mass: str, quantity: str, time_window=None, ang
 
 def plot_force(group: h5py.Group, path: str, time_window=None, angle_window=None, title: str = "",
                units: DisplayUnits | None = None) -> Figure:
-    """An element, cam-contact or transducer force against time.
+    """An element, cam-contact, transducer or process-load force against time.
 
     Impacts of the element are marked on element forces; a negative cam contact force
     (the follower leaves the cam: jump) is shaded.
@@ -522,6 +522,7 @@ def figures_for_file(
             paths = [f"elements/{e}/force" for e in names_with(f, "elements", "force")]
             paths += [p for p in ("cam_contact/force", "transducer/force") if p in f]
             paths += [f"cams/{c}/contact_force" for c in (f["cams"] if "cams" in f else ()) if f"cams/{c}/contact_force" in f]
+            paths += [f"loads/{name}/force" for name in names_with(f, "loads", "force")]  # issue 43: process loads
             if not paths and explicit:
                 raise ResultFileError(f"{f.filename}: --what forces: no element, cam-contact or transducer forces in the file")
             for p in paths:

@@ -146,8 +146,14 @@ class CamReader(Reader):
     _DERIVATIVE_DIMENSIONS = {1: "velocity", 2: "acceleration", 3: "jerk", 4: "length/time^4",
                               5: "length/time^5", 6: "length/time^6"}
 
-    def synthesis_keys(self, row: dict, path: str, law: str | None, duration: float, speed: float) -> dict:
-        """The keys of a polynomial, constant-velocity or spline segment, in SI (Segment fields)."""
+    def synthesis_keys(self, row: dict, path: str, law: str | None, duration: float, speed: float,
+                       dimensions: dict[int, str] | None = None, value: str = "length") -> dict:
+        """The keys of a polynomial, constant-velocity or spline segment, in SI (Segment fields).
+
+        ``dimensions``: order → dimension of the derivative conditions (default the cam's: velocity,
+        acceleration, …); ``value``: the dimension of a point's ``s`` (a load's program: ``force``,
+        its rates force/time^k, issue 43)."""
+        dims = dimensions or self._DERIVATIVE_DIMENSIONS
         out: dict[str, Any] = {}
         for key, laws in self._SYNTHESIS_KEYS.items():
             if key in row and law not in laws:
@@ -161,7 +167,7 @@ class CamReader(Reader):
                 raise self.error(f"{path}.degree", f"must be odd (3, 5, 7, …), got {degree}")
             out["degree"] = degree
         if "velocity" in row:
-            out["velocity"] = self.quantity(row, "velocity", path, "velocity", minimum=0.0, strict=True)
+            out["velocity"] = self.quantity(row, "velocity", path, dims[1], minimum=0.0, strict=True)
         for side in ("start", "end"):
             if side in row:
                 table = row[side]
@@ -170,7 +176,7 @@ class CamReader(Reader):
                     raise self.error(where, f"expected a table {{ v = ..., a = ... }}, got {_fmt(table)}")
                 self.check_keys(table, tuple(DERIVATIVE_KEYS), where)
                 out[side] = tuple(sorted(
-                    (order, self.quantity(table, key, where, self._DERIVATIVE_DIMENSIONS[order]))
+                    (order, self.quantity(table, key, where, dims[order]))
                     for key, order in DERIVATIVE_KEYS.items() if key in table))
         if "points" in row:
             points = row["points"]
@@ -184,8 +190,8 @@ class CamReader(Reader):
                 if not 0.0 < at < duration:
                     raise self.error(f"{where}.at", f"{math.degrees(at):.6g} deg is outside the segment "
                                      f"(strictly between 0 and its duration {math.degrees(duration):.6g} deg)")
-                s = self.quantity(point, "s", where, "length")
-                derivs = tuple((order, self.quantity(point, key, where, self._DERIVATIVE_DIMENSIONS[order]))
+                s = self.quantity(point, "s", where, value)
+                derivs = tuple((order, self.quantity(point, key, where, dims[order]))
                                for key, order in (("v", 1), ("a", 2)) if key in point)
                 if law == "spline" and (s is None or derivs):
                     raise self.error(where, "a spline point gives s only (the lift there)")

@@ -49,6 +49,9 @@ from camsim.cam.description import (  # noqa: E402,F401 - re-exported
     SegmentPoint,
 )
 
+# issue 43: process loads ([[load]]) live with their programs (camsim/loads/)
+from camsim.loads.description import Load, LoadTable, Sine  # noqa: E402,F401 - re-exported
+
 #: Standard gravity [m/s^2] (CGPM 1901), used for ``gravity = true``.
 STANDARD_GRAVITY = 9.80665
 
@@ -141,6 +144,8 @@ class Machine:
     elements : tuple of Element
     simulation : Simulation
     initial : tuple of InitialCondition
+    loads : tuple of Load
+        ``[[load]]`` tables (spec §10), in file order: the order of the engine's load inputs.
     source : str
         The file the machine came from (for messages), ``"<string>"`` otherwise.
     text : str
@@ -164,6 +169,7 @@ class Machine:
     camshaft: Camshaft | None = None
     clearances: tuple[Clearance, ...] = ()
     multi_cam: bool = False
+    loads: tuple[Load, ...] = ()  # issue 43
     #: Warnings about how the file was read, one line each: a bare number taken as SI where the
     #: file otherwise writes units (:func:`camsim.machine.keys.bare_number_note`, issue 44).
     notes: tuple[str, ...] = field(default=(), compare=False)
@@ -243,6 +249,13 @@ class Machine:
         driven = self.driven_masses
         return tuple(m for m in self.masses if m.name not in driven)
 
+    def load(self, name: str) -> Load:
+        """The ``[[load]]`` called ``name``."""
+        for load in self.loads:
+            if load.name == name:
+                return load
+        raise KeyError(name)
+
     def element(self, name: str) -> Element:
         for e in self.elements:
             if e.name == name:
@@ -252,7 +265,7 @@ class Machine:
 __all__ = [
     "CAM", "FIXED_NODES", "GROUND", "Contact", "Damping", "Element", "LinearContact", "PowerContact",
     "PreloadedLink", "RigidContact", "Spring", "Cam", "Camshaft", "CamshaftSection", "Clearance", "ClearancePart",
-    "CamTable", "InitialCondition", "Machine", "Mass",
+    "CamTable", "InitialCondition", "Load", "LoadTable", "Machine", "Mass", "Sine",
     "Segment", "SegmentPoint", "Compensation", "Simulation", "LAWS", "SYNTHESIS_LAWS", "DERIVATIVE_KEYS",
     "MOTIONS", "STANDARD_GRAVITY",
 ]

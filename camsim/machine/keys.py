@@ -7,7 +7,8 @@ A key path names one value of a machine document, as ``--set``, ``--vary``, ``--
     mass.M2.mass                 element.seat.stiffness         element[3].gap
     simulation.cycles            initial.M3.velocity            cam.geometry.base_radius
     cam.feed.phase               camshaft.section.feed.stiffness
-    clearance.jaw_pusher.minimum
+    clearance.jaw_pusher.minimum load.press.force               load.press.segments[1].change
+    load.shaker.sine.amplitude   load[0].base
 
 The first part names a **table kind** (:class:`TableKind`, registered by its head in
 :data:`KINDS`): it knows where a path lands in a parsed document (:meth:`TableKind.address`:
@@ -15,8 +16,8 @@ the table and the leaf, created when missing, with one-line errors naming the ke
 suggesting the nearest valid one), which schema key it is (:meth:`TableKind.param`: its
 dimension and SI unit), its value in a loaded machine (:meth:`TableKind.value`, over
 :func:`camsim.machine.loader.machine_to_dict`) and every path a document offers
-(:meth:`TableKind.paths`). A new table (``[[load]]`` with ``load.<name>.force``) is one
-subclass registered here; nothing else parses key paths.
+(:meth:`TableKind.paths`). A new table is one subclass registered here (``[[load]]`` with
+``load.<name>.force``, issue 43: :class:`_Load`); nothing else parses key paths.
 
 A bare number where a key has a unit is SI by the file format; :func:`bare_number_note` is
 the one warning that says so, with the value in the file's units
@@ -490,6 +491,109 @@ class _Initial(TableKind):
         driven = {r.get("drives") for r in rows if isinstance(r, dict)}
         return [f"initial.{name}.{k}" for name in _named_rows(doc.get("mass")) if name not in driven
                 for k in schema.keys("initial")]
+
+
+@register
+class _Load(TableKind):
+    """``load.<name>.<key>`` or ``load[i].<key>``; ``.segments[i].<key>`` (``.start.v``, ``.points[k].s``) and
+    ``.sine.<key>`` (issue 43)."""
+
+    head, example = "load", 'load.<name>.force="150 N"'
+    _TOP = ("name", "on", "force", "base", "table", "cam")
+
+    def _rest(self, parts: list[Part]) -> list[Part]:
+        return parts[1:] if parts[0][1] is not None else parts[2:]
+
+    def address(self, ctx, parts):
+        rows = ctx.doc.get("load")
+        if not isinstance(rows, list):
+            raise ctx.error("the file has no [[load]]")
+        if parts[0][1] is not None:
+            index = parts[0][1]
+            if index >= len(rows) or not isinstance(rows[index], dict):
+                raise ctx.error(f"no load[{index}]: the file has {len(rows)} (indices start at 0)")
+        else:
+            found = [i for i, r in enumerate(rows) if isinstance(r, dict) and r.get("name") == parts[1][0]]
+            if parts[1][1] is not None or not found:
+                raise ctx.error(f"no load named '{parts[1][0]}'; {_suggest(parts[1][0], list(_named_rows(rows)))}")
+            index = found[0]
+        row, rest, prefix = rows[index], self._rest(parts), f"load[{index}]"
+        if not rest:
+            raise ctx.error(f"name a key of the load, e.g. {self.example}")
+        (leaf, leaf_index), more = rest[0], rest[1:]
+        if leaf == "sine" and leaf_index is None and len(more) == 1 and more[0][1] is None:
+            if more[0][0] not in schema.keys("load.sine"):
+                raise ctx.unknown([f"{prefix}.sine.{k}" for k in schema.keys("load.sine")], more[0][0])
+            return Address(ctx.table(row, "sine", f"{prefix}.sine"), more[0][0], f"{prefix}.sine.{more[0][0]}")
+        if leaf == "segments" and leaf_index is not None and more:
+            segments = row.get("segments")
+            if not isinstance(segments, list) or leaf_index >= len(segments) or not isinstance(segments[leaf_index], dict):
+                count = len(segments) if isinstance(segments, list) else 0
+                raise ctx.error(f"no segment {leaf_index}: the load has {count} (indices start at 0)")
+            return self._segment(ctx, segments[leaf_index], f"{prefix}.segments[{leaf_index}]", more)
+        if leaf not in self._TOP or leaf_index is not None or more:
+            raise ctx.unknown([f"{prefix}.{k}" for k in self._TOP] + [f"{prefix}.segments[0].change",
+                                                                       f"{prefix}.sine.amplitude"], ctx.key)
+        return Address(row, leaf, f"{prefix}.{leaf}")
+
+    def _segment(self, ctx, seg: dict, where: str, more: list[Part]) -> Address:
+        (name, index) = more[0]
+        if len(more) == 1 and index is None:
+            if name not in schema.keys("load.segments"):
+                raise ctx.unknown([f"{where}.{k}" for k in schema.keys("load.segments")], name)
+            return Address(seg, name, f"{where}.{name}")
+        if len(more) == 2 and more[1][1] is None:
+            leaf = more[1][0]
+            if name in ("start", "end") and index is None and leaf in schema.keys("load.segments.end"):
+                return Address(ctx.table(seg, name, f"{where}.{name}"), leaf, f"{where}.{name}.{leaf}")
+            points = seg.get("points")
+            if name == "points" and index is not None and isinstance(points, list) and index < len(points) \
+                    and isinstance(points[index], dict) and leaf in schema.keys("load.segments.points"):
+                return Address(points[index], leaf, f"{where}.points[{index}].{leaf}")
+        raise ctx.error(f"address a segment key, e.g. {where}.change, {where}.end.v or {where}.points[0].s")
+
+    def param(self, parts):
+        names = [n for n, _ in self._rest(parts)]
+        if len(names) == 1:
+            return _find(schema.TABLES["load"], names[0])
+        table = {("sine", 2): "load.sine", ("segments", 2): "load.segments"}.get((names[0], len(names)))
+        if names[0] == "segments" and len(names) == 3:
+            table = "load.segments.points" if names[1] == "points" else "load.segments.end"
+        return _find(schema.TABLES[table], names[-1]) if table else None
+
+    def value(self, machine, parts):
+        rows = machine["loads"]
+        row = rows[parts[0][1]] if parts[0][1] is not None else next(r for r in rows if r["name"] == parts[1][0])
+        rest = self._rest(parts)
+        (leaf, index), more = rest[0], rest[1:]
+        if leaf == "sine":
+            return row["sine"][more[0][0]]
+        if leaf == "segments":
+            seg = row["segments"][index]
+            if len(more) == 1:
+                return seg[more[0][0]]
+            from camsim.cam.description import DERIVATIVE_KEYS
+
+            name, k = more[1][0], more[0][1]
+            if more[0][0] == "points":
+                point = seg["points"][k]
+                return point[name] if name in ("at", "s") else point.get(f"d{DERIVATIVE_KEYS[name]}")
+            return seg[more[0][0]].get(DERIVATIVE_KEYS[name])
+        return row[leaf]
+
+    def paths(self, doc):
+        out = []
+        for name, row in _named_rows(doc.get("load")).items():
+            wanted = {"on": True, "force": "force" in row, "base": "segments" in row,
+                      "cam": "segments" in row or "table" in row}
+            out += [f"load.{name}.{k}" for k, offered in wanted.items() if offered]
+            segments = row.get("segments")
+            for i, _ in enumerate(segments if isinstance(segments, list) else ()):
+                out += [f"load.{name}.segments[{i}].{k}" for k in schema.keys("load.segments")
+                        if k not in ("start", "end", "points")]
+            if isinstance(row.get("sine"), dict):
+                out += [f"load.{name}.sine.{k}" for k in schema.keys("load.sine")]
+        return out
 
 
 # ---------------------------------------------------------------------- the entry points

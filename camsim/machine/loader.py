@@ -406,6 +406,12 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             "quadratic_damping": "N*s^2/m^2",
             "sample_rate": "Hz",
             "gravity": "m/s^2",
+            "force": "N",
+            "change": "N",
+            "base": "N",
+            "amplitude": "N",
+            "offset": "N",
+            "frequency": "Hz",
         },
         "cam": cam_dict,
         "masses": [
@@ -425,6 +431,23 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             for i in machine.initial
         ],
         **_shaft_dict(machine),
+        "loads": [_load_dict(load) for load in machine.loads],  # issue 43
+    }
+
+
+def _load_dict(load) -> dict[str, Any]:
+    """One ``[[load]]`` as :func:`machine_to_dict` describes it (SI: N, rad, s, Hz)."""
+    import dataclasses
+
+    return {
+        "name": load.name, "on": load.on, "kind": load.kind, "force": load.force, "base": load.base, "cam": load.cam,
+        "table": load.table.source if load.table is not None else None,
+        "segments": [{"motion": s.motion, "law": s.law, "duration": s.duration, "change": s.lift,
+                      "continuity": s.continuity, "degree": s.degree, "velocity": s.velocity,
+                      "start": dict(s.start), "end": dict(s.end),
+                      "points": [{"at": p.at, "s": p.s, **{f"d{k}": v for k, v in p.derivatives}} for p in s.points]}
+                     for s in load.segments],
+        "sine": dataclasses.asdict(load.sine) if load.sine is not None else None,
     }
 
 

@@ -8,7 +8,7 @@ id: letters, digits, ``_`` and ``-``, starting with a letter or ``_``, at most
 :data:`MAX_LENGTH` characters (before, ``M/3`` validated and ran, then ``report`` failed with
 "internal error (StopIteration)" and ``plot`` left it out silently).
 
-:data:`TABLES` lists the named tables; a new table of named rows (a coming ``[[load]]``) is one
+:data:`TABLES` lists the named tables; a new table of named rows (``[[load]]``, issue 43) is one
 line there.
 """
 
@@ -30,6 +30,7 @@ TABLES: dict[str, str] = {
     "element": "/elements/<name>/... in the result",
     "cam": "/cam/<name>/... in the result",
     "material": "materials = [...] of a contact",
+    "load": "/loads/<name>/force in the result",
 }
 
 

@@ -36,6 +36,63 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("initial", "table", "initial state of free masses"),
         Param("material", "array of tables", "materials of the file, by name, for rods and Hertz contacts "
               "(besides the library; below)"),
+        Param("load", "array of tables", "process loads: external forces on masses (`[[load]]`, below)"),
+    ),
+    # issue 43: [[load]] (spec §10)
+    "load": (
+        Param("name", "string", "unique among elements and loads; names `/loads/<name>/force`", required=True),
+        Param("on", "mass name", "the mass the force acts on (positive along +x); on a driven mass it enters the "
+              "cam contact force", required=True),
+        Param("force", "force", "a constant force; exactly one of `force`, `segments`, `table`, `sine`"),
+        Param("segments", "array of tables", "a program over the cam angle written like the cam's segment table, "
+              "`change` in place of `lift` (table below); durations add up to 360°, the changes close"),
+        Param("base", "force", "the segment program's force at its 0°", default=0.0),
+        Param("table", "string", "path of a CSV of `angle [deg]` or `time [s]` against `force [N]`, relative to "
+              "the machine file; linear between rows, an abscissa written twice is a step; an angle table is "
+              "periodic and covers 0–360°, a time table holds its last value"),
+        Param("sine", "table", "`{ amplitude, frequency, phase, offset, start }`: harmonic in time from `start`, "
+              "zero before (table below)"),
+        Param("cam", "string", "the cam whose angle drives an angle program (`segments`, an angle `table`) with "
+              "`[[cam]]` tables; default the shaft's angle"),
+    ),
+    "load.segments": (
+        Param("motion", "string", "`rise`, `fall` or `dwell`", required=True),
+        Param("law", "string", "any cam law (as `cam.segments`), synthesised ones included; **not allowed** for "
+              "a dwell"),
+        Param("duration", "angle", "> 0; bare number = degrees", required=True),
+        Param("change", "force", "> 0 for a rise or fall (a fall's change is how much the force decreases); "
+              "absent or 0 for a dwell; one rise or fall may leave it out: its change closes the program"),
+        Param("continuity", "integer", "`polynomial`: as `cam.segments`", default=3),
+        Param("start", "table", "`polynomial`/`spline`: end conditions at the start, "
+              "`{ v = \"…\", a = …, j = …, d4 … d6 }` as force rates (N/s, N/s², …) at the shaft's speed"),
+        Param("end", "table", "the same at the segment's end"),
+        Param("points", "array of tables", "`polynomial`/`spline`: `[{ at = \"30 deg\", s = \"40 N\" }, …]`, "
+              "`s` the force there (from `base`), `v`, `a` its rates"),
+        Param("velocity", "force/time", "`constant-velocity`: the force's rate at the shaft's speed (> 0, its sense "
+              "is the motion's); the change is then velocity·duration/speed"),
+        Param("degree", "integer", "`spline`: odd, ≥ 3", default=5),
+    ),
+    "load.segments.end": (
+        Param("v", "force/time", "first time derivative of the force at this end, at the shaft's speed"),
+        Param("a", "force/time^2", "second derivative"),
+        Param("j", "force/time^3", "third derivative"),
+        Param("d4", "force/time^4", "fourth derivative"),
+        Param("d5", "force/time^5", "fifth derivative"),
+        Param("d6", "force/time^6", "sixth derivative"),
+    ),
+    "load.segments.points": (
+        Param("at", "angle", "from the segment's start, strictly inside it; bare number = degrees", required=True),
+        Param("s", "force", "the force there, measured like the program (from `base`); required for a spline"),
+        Param("v", "force/time", "its rate there (polynomial only)"),
+        Param("a", "force/time^2", "its second derivative there (polynomial only)"),
+    ),
+    "load.sine": (
+        Param("amplitude", "force", "A", required=True),
+        Param("frequency", "frequency", "> 0; f", required=True, minimum=0.0, strict=True),
+        Param("phase", "angle", "φ; bare number = degrees", default=0.0),
+        Param("offset", "force", "added to the sine", default=0.0),
+        Param("start", "time", "where the force starts, on the result's time base (0 at the first recorded "
+              "revolution); zero before", default=0.0),
     ),
     # issue 39: [[material]]
     "material": (
@@ -216,7 +273,7 @@ ELEMENT_PARAMS = _element_params()
 _SHOWN = {
     "stiffness": "force/length", "damping": "N·s/m", "number": "number", "bool": "boolean", "nodes": "[node, node]",
     "power_coefficient": "force/length^a", "angular_speed": "angular speed", "mass name": "mass name",
-    "slowness": "time/length (s/m)", "material": "material name", "materials": "[material, material]",
+    "slowness": "time/length (s/m)", "material": "material name", "force/time": "force/time (N/s)", "materials": "[material, material]",
     "torsional_stiffness": "torque/angle (N·m/rad)",
     "torsional_damping": "torque·time/angle (N·m·s/rad)", "inertia": "mass·length² (kg·m²)", "torque": "torque (N·m)",
 }

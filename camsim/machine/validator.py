@@ -4,7 +4,8 @@ Every value is parsed with :func:`camsim.units.to_si` and checked for its dimens
 range against the schema; every problem raises :class:`camsim.errors.MachineFileError`
 naming the file and the key path (``element[3].stiffness``, ``cam.segments[2].lift``) with a
 one-line message. :mod:`camsim.machine.loader` is the entry point. The cam tables are read
-by :mod:`camsim.machine.camreader`, the camshaft and clearances by :mod:`camsim.machine.shaft`.
+by :mod:`camsim.machine.camreader`, the camshaft and clearances by :mod:`camsim.machine.shaft`, the
+``[[load]]`` tables by :mod:`camsim.machine.loadreader`.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from camsim.machine.description import (
     Mass,
     Simulation,
 )
+from camsim.machine.loadreader import LoadReader
 from camsim.machine.materials import MaterialKeys
 from camsim.machine.reading import _fmt, _suggest  # noqa: F401 - _suggest re-exported
 from camsim.machine.shaft import ShaftReader
@@ -48,7 +50,7 @@ _DAMPING_KEYS = ("damping", "damping_ratio", "reference_mass")
 SCHEMA_VERSION = 1
 
 
-class _Validator(ShaftReader, MaterialKeys):
+class _Validator(ShaftReader, LoadReader, MaterialKeys):
     """Walk a parsed document and build the Machine, raising on the first problem."""
 
     def __init__(self, source: str, base_dir: Path):
@@ -87,6 +89,7 @@ class _Validator(ShaftReader, MaterialKeys):
         self.connectivity(masses, elements, cams)
         elements = self.distributed(elements, masses, cam, simulation, initial, cams=cams)  # issue 39: rods
         clearances = self.clearances(doc, mass_names, cams)
+        loads = self.loads(doc, mass_names, cams, [e.name for e in elements])  # issue 43: [[load]]
         return Machine(
             name=name,
             cam=cam,
@@ -99,6 +102,7 @@ class _Validator(ShaftReader, MaterialKeys):
             camshaft=camshaft,
             clearances=tuple(clearances),
             multi_cam=multi,
+            loads=tuple(loads),
         )
 
     # -- masses -------------------------------------------------------------------

@@ -7,8 +7,11 @@ stuck), so for a *configuration* — one branch per switching element — the st
     ż = A·z + B·u(t) + b + L·F_nl,        u = [s₁, ṡ₁, s̈₁, s⃛₁, s₂, …]
 
 where u is the motion of every cam on the model axis (four channels per cam, cam by cam:
-:mod:`camsim.elements.affine`; one cam, or none, gives u = [s, ṡ, s̈, s⃛]) and F_nl the
-forces of power-law contacts that are closed (the only nonlinear terms). Rigid (restitution) contacts that are stuck
+:mod:`camsim.elements.affine`; one cam, or none, gives u = [s, ṡ, s̈, s⃛]), then one group
+[F, Ḟ, F̈, F⃛] per process load (``[[load]]``, issue 43: a load enters B like gravity, as a
+generalized force on its mass, but time-dependent; a load on a driven mass enters the cam
+contact force only), and F_nl the forces of power-law contacts that are closed (the only
+nonlinear terms). Rigid (restitution) contacts that are stuck
 are constraints: the configuration then uses reduced coordinates q with
 x = N·q + p0 + P_s·s (N an orthonormal null-space basis, s the cams' displacements), and
 z = [q, q̇].
@@ -108,8 +111,10 @@ class Configuration:
         return np.concatenate([q, qd])
 
     def state_from_input(self, x: np.ndarray, v: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Reduced state z from full positions, velocities and one cam-input row u (4·c,)."""
-        return self.state_from_full(x, v, u[0::N_INPUT], u[1::N_INPUT])
+        """Reduced state z from full positions, velocities and one input row u (the cams' 4·c
+        channels, then the loads')."""
+        cams = N_INPUT * self.p_s.shape[1]
+        return self.state_from_full(x, v, u[0:cams:N_INPUT], u[1:cams:N_INPUT])
 
 
 class Model:
@@ -137,8 +142,13 @@ class Model:
         self.cam_names: list[str] = [getattr(c, "name", CAM) for c in cams] or [CAM]
         self.cam_index = {name: q for q, name in enumerate(self.cam_names)}
         self.n_cams = len(self.cam_names)
-        #: Columns of the cam input u.
-        self.n_input = N_INPUT * self.n_cams
+        #: The process loads (issue 43), in the order of their input groups after the cams'.
+        self.loads = tuple(getattr(machine, "loads", ()))
+        self.n_loads = len(self.loads)
+        #: Columns of the cams' channels in u (the loads' follow).
+        self.n_cam_input = N_INPUT * self.n_cams
+        #: Columns of the input u: four per cam, then four per load.
+        self.n_input = N_INPUT * (self.n_cams + self.n_loads)
         #: Driven mass → the index of the cam that drives it.
         self.drives: dict[str, int] = {c.drives: q for q, c in enumerate(cams) if c.drives}
         self.driven = next(iter(self.drives), None)  # the first driven mass (one-cam machines: the one)
@@ -189,6 +199,23 @@ class Model:
             if node != GROUND and node not in self.cam_index:
                 return self.machine.mass_of(node)
         raise InputError(f"element {element.name}: no mass to reference its damping ratio to")
+
+    def load_column(self, index: int) -> int:
+        """Column of load ``index``'s force F in the input u (its Ḟ, F̈, F⃛ follow)."""
+        return self.n_cam_input + N_INPUT * index
+
+    def load_values(self, u: np.ndarray) -> np.ndarray:
+        """Every load's force [N] from input rows u (..., n_input): (..., loads)."""
+        return np.asarray(u)[..., self.n_cam_input::N_INPUT]
+
+    def _load_forces(self) -> np.ndarray:
+        """Generalized force of a unit force of each load on the free masses: (n, loads)
+        (a column of zeros for a load on a driven mass: the cam carries it)."""
+        out = np.zeros((self.n, self.n_loads))
+        for k, load in enumerate(self.loads):
+            if load.on in self.index:
+                out[self.index[load.on], k] = 1.0
+        return out
 
     # ------------------------------------------------------------------ element laws
     def linear_branch(self, index: int, branch: Branch | None) -> tuple[float, float, float] | None:
@@ -322,6 +349,9 @@ class Model:
             B[nq:, N_INPUT * q] = Mr_inv @ f_s[q]
             B[nq:, N_INPUT * q + 1] = Mr_inv @ f_sd[q]
             B[nq:, N_INPUT * q + 2] = Mr_inv @ f_sdd[q]
+        loads = self._load_forces()  # issue 43: a load is a generalized force like gravity, in time
+        for k in range(self.n_loads):
+            B[nq:, self.load_column(k)] = Mr_inv @ (N.T @ loads[:, k])
         b = np.zeros(m)
         b[nq:] = Mr_inv @ f_0
         L = np.zeros((m, len(power)))
@@ -350,6 +380,8 @@ class Model:
             for q in range(nc):
                 Du_F[:, N_INPUT * q] = k_s[:, q]
                 Du_F[:, N_INPUT * q + 1] = c_s[:, q]
+            for k in range(self.n_loads):
+                Du_F[:, self.load_column(k)] = loads[:, k]
             F_map = Affine.combine(
                 [(-K, x_map), (-C, v_map)], const=F0, du=Du_F
             )
@@ -438,11 +470,12 @@ class Model:
                 out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i))
         return out
 
-    def cam_contact_force(self, forces: np.ndarray, sddot: np.ndarray, driven: str | None = None) -> np.ndarray | None:
-        """Force the cam must exert on a driven mass: m·s̈ − Σ forces on it (+ m·g) [N].
+    def cam_contact_force(self, forces: np.ndarray, sddot: np.ndarray, driven: str | None = None,
+                          loads: np.ndarray | None = None) -> np.ndarray | None:
+        """Force the cam must exert on a driven mass: m·s̈ − Σ forces on it − Σ loads on it (+ m·g) [N].
 
         ``driven``: the mass (default the first driven one); ``sddot`` its cam's s̈ (N,), or
-        every cam's (N, cams)."""
+        every cam's (N, cams); ``loads``: every load's force (N, loads) (:meth:`load_values`)."""
         driven = driven or self.driven
         if not driven:
             return None
@@ -457,6 +490,11 @@ class Model:
             # tension f: −f on upper, +f on lower; contact F: +F on upper, −F on lower.
             on_driven = sign_on_upper if element.upper == driven else -sign_on_upper
             total = total - on_driven * forces[:, i]
+        for k, load in enumerate(self.loads):  # issue 43: a load on the driven mass, along +x
+            if load.on == driven:
+                if loads is None:
+                    raise ValueError(f"the cam contact force on {driven} needs the force of load {load.name}")
+                total = total - loads[:, k]
         return total
 
     def natural_modes(self, branches: tuple[Branch, ...]) -> list[tuple[float, float]]:

@@ -227,6 +227,9 @@ def _trace_groups(view: RunView) -> list[tuple[str, str, list[str]]]:
     contact += [p for p in paths if p.startswith("cams/") and p.endswith("/contact_force")]  # issue 38
     if contact:
         groups.append(("Cam contact and transducer force", "contact", contact))
+    loads = [p for p in paths if p.startswith("loads/")]  # issue 43: process loads
+    if loads:
+        groups.append(("Process loads", "loads", loads))
     return groups
 
 
@@ -234,7 +237,7 @@ def _series_label(path: str) -> str:
     parts = path.split("/")
     if path.startswith("elements/") and len(parts) > 2 and parts[2] != "force":  # a rod's end forces, stress
         return f"{parts[1]} {parts[2].replace('_', ' ')}"
-    if path.startswith("masses/") or path.startswith("elements/"):
+    if path.startswith("masses/") or path.startswith("elements/") or path.startswith("loads/"):
         return parts[1]
     if path.startswith("cams/"):  # issue 38
         return f"cam {parts[1]}"
@@ -458,6 +461,11 @@ def run_sections(source: Source) -> list[Section]:
     shaft = camshaft_section(source, view)
     if shaft is not None:
         out.append(shaft)
+    from camsim.reports.loads import loads_section  # issue 43
+
+    loads = loads_section(source, view)
+    if loads is not None:
+        out.append(loads)
     out.append(machine_section(source, attr_text(f, "machine_toml")))
     return out
 

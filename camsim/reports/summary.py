@@ -59,6 +59,7 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
         table.add_row(*row)
     console.print(table)
     render_rods(summary, console, system)
+    render_loads(summary, console, system)
     if summary["peak_transducer_force"]:
         p = summary["peak_transducer_force"]
         console.print(f"peak transducer force: {system.quantity(p['value'], 'N')} at t = {p['time']:.5f} s", markup=False)
@@ -124,6 +125,34 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
     )
     for warning in result.warnings:
         console.print(f"warning: {in_units(warning, system)}", style="yellow", markup=False)
+
+
+def render_loads(summary: dict, console: Console, system: DisplayUnits) -> None:
+    """The process loads (issue 43): each one's mass, program, located largest and smallest
+    force with when, and its work per cycle (over the record without a revolution)."""
+    loads = summary.get("loads")
+    if not loads:
+        return
+    f_unit, f_scale = system.shown("N")
+    w_unit, w_scale = system.shown("J")
+    over = next(iter(loads.values()))["work_over"]
+    table = Table(title="process loads", title_justify="left")
+    for col in ("load", "on", "program", f"max [{f_unit}]", "at t [s]", f"min [{f_unit}]", "at t [s]",
+                f"work {'per cycle' if over == 'revolution' else 'over the record'} [{w_unit}]"):
+        table.add_column(escape(col), justify="left" if col in ("load", "on", "program") else "right")
+    for name, row in loads.items():
+        cells = [escape(name), escape(row["on"]), escape(row["program"])]
+        for which in ("max", "min"):
+            hit = row[which]
+            cells += [_fmt(hit["value"] * f_scale), _fmt(hit["time"], ".5f")] if hit else ["–", "–"]
+        cells.append(_fmt(row["work"] * w_scale) if row["work"] is not None else "–")
+        table.add_row(*cells)
+    console.print(table)
+    if over == "revolution":
+        console.print("work per cycle: ∫F·ẋ dt over the first recorded revolution, on the solution (docs/machine-file.md, "
+                      "loads); positive when the load drives the mass", markup=False)
+    else:
+        console.print("work over the record (no whole revolution recorded): ∫F·ẋ dt on the solution", markup=False)
 
 
 def render_rods(summary: dict, console: Console, system: DisplayUnits) -> None:

@@ -108,6 +108,7 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
         machine=machine, **traces, events=events,
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
         boundaries_deg=boundaries_deg(run), located=located,
+        load_work=run.load_work.values() if run.load_work is not None else None,  # issue 43
     )
     if machine.clearances:  # issue 38: a collision of two stations' parts is a warning row
         from camsim.run.camshaft import CamshaftAccumulator
@@ -131,7 +132,8 @@ def assemble_summary(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     traces = empty_traces(run)
     cam_force_warnings(run, events, located, traces, traces["time"])
     return RunResult(machine=run.machine, **traces, events=events, periodicity_residual=float("nan"),
-                     warnings=run.warnings, no_impact=run.no_impact, boundaries_deg=boundaries_deg(run), located=located)
+                     warnings=run.warnings, no_impact=run.no_impact, boundaries_deg=boundaries_deg(run), located=located,
+                     load_work=run.load_work.values() if run.load_work is not None else None)
 
 
 def cam_force_warnings(run: RunSetup, events, located, traces: dict, time: np.ndarray) -> None:

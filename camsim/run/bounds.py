@@ -22,7 +22,10 @@ sum of
   the height of a ballistic flight at that speed, v²/(2g);
 * the initial displacements (static equilibrium and ``[initial]``), and, for a machine
   given an ``[initial]`` state (which may hold a free body), the free flight v·t + g·t²/2
-  over the whole run.
+  over the whole run;
+* with process loads (issue 43): their peaks among the forces, the flight of the lightest free
+  mass under all of them for the whole run, and a sine's periods counted as revolutions (a
+  sine at resonance grows linearly, as a cam does).
 
 Every term is a displacement the machine can produce by itself; the sum bounds any of
 them with margin. The factor (1 + revolutions) lets an undamped machine driven at
@@ -182,6 +185,11 @@ def physical_bounds(model, cam, state, t_end: float) -> Bounds:
                 lengths += abs(value)
             elif p.dimension == "force":
                 forces += abs(value)
+    loads = getattr(machine, "loads", ())  # issue 43: process loads push like preloads, and may throw
+    forces += sum(load.peak for load in loads)
+    for load in loads:  # a sine at resonance grows linearly, like a cam's: per period of it
+        if load.kind == "sine":
+            revolutions = max(revolutions, t_end * float(load.sine.frequency))
     free_mass = sum(machine.mass_of(n) for n in model.free_names)
     laws = _stiffnesses(model)
     k_min = min((k for _, k, _ in laws), default=0.0)
@@ -193,6 +201,10 @@ def physical_bounds(model, cam, state, t_end: float) -> Bounds:
         scale += v_top * v_top / (2.0 * g)
     if machine.initial:
         scale += v_top * t_end + 0.5 * g * t_end * t_end
+    if loads and model.n:  # the lightest free mass thrown by every load at once, for the whole run
+        lightest = min(machine.mass_of(n) for n in model.free_names)
+        if lightest > 0.0:
+            scale += 0.5 * sum(load.peak for load in loads) / lightest * t_end * t_end
     scale = max(scale, 1e-3)  # a machine of zero size (no lift, no gap, no load) still moves
     limit = BOUND_FACTOR * (1.0 + revolutions) * scale
     suspects = tuple(_suspect(model, name, laws) for name in model.free_names)

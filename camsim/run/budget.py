@@ -121,6 +121,7 @@ def count_traces(machine) -> int:
     n += sum(len(e.result_quantities) or 1 for e in machine.elements)  # a rod: its ends' forces and stress
     if any(getattr(e, "transducer", False) for e in machine.elements):
         n += 1
+    n += len(getattr(machine, "loads", ()))  # issue 43: /loads/<name>/force
     return n
 
 

@@ -46,6 +46,9 @@ class Observables:
         self.compound_traces = [(name, q) for name, compound in model.compounds.items()
                                 for q in compound.result_quantities]
         paths += [f"elements/{name}/{q}" for name, q in self.compound_traces]
+        #: issue 43: each load's force (an input; its extremes located like every other)
+        self.loads = [load.name for load in model.loads]
+        paths += [f"loads/{name}/force" for name in self.loads]
         multi = machine.multi_cam
         self.has_cam_contact = bool(model.driven) and not multi
         if self.has_cam_contact:
@@ -106,6 +109,7 @@ class Observables:
         cols = [traces["masses"][name][q] for name in run.machine.node_names for q in MASS_QUANTITIES]
         cols += [forces[:, i] for i in self.elements]
         cols += [traces["element_traces"][name][q] for name, q in self.compound_traces]
+        cols += [traces["loads"][name] for name in self.loads]
         if self.has_cam_contact:
             cols.append(traces["cam_contact_force"])
         if self.transducer:
@@ -151,6 +155,8 @@ def digest(run: RunSetup, st, samples: bool = True):
     from camsim.run.samples import node_quantities, stretch_samples
 
     quantities = node_quantities(run, st)
+    if run.load_work is not None:  # issue 43: each load's work, on the exact solution
+        run.load_work.add(run.integrator, st)
     record = None
     if run.observables is not None:
         QT = run.observables.rows(*quantities[:3], st.u, quantities[3])

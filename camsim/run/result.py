@@ -179,6 +179,11 @@ class RunResult:
     shaft_speed, cam_speeds, drive_torque : ndarray, dict, ndarray or None
         A dynamic camshaft: the drive side's speed [rad/s], each cam's [rad/s], the drive's
         torque [N·m] (None on a rigid shaft).
+    loads : dict
+        Process loads (``[[load]]``, issue 43): name → force [N], positive along +x.
+    load_work : dict or None
+        Each load's work ∫F·ẋ dt over the first recorded revolution (the record without a
+        cam) [J], integrated on the solution (:mod:`camsim.run.loads`); None when not computed.
     """
 
     machine: Machine
@@ -213,6 +218,8 @@ class RunResult:
     #: Traces of compound elements, which have no single force: name → {quantity: samples};
     #: a rod's ``force_lower``, ``force_upper`` [N] and ``max_stress`` [Pa] (issue 39).
     element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    loads: dict[str, np.ndarray] = field(default_factory=dict)  # issue 43
+    load_work: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -261,6 +268,8 @@ class RunResult:
             out["cam_contact/force"] = Trace(self.cam_contact_force, "N", "force of the cam on the driven mass")
         if self.transducer_force is not None:
             out["transducer/force"] = Trace(self.transducer_force, "N", "force read by the transducer")
+        for name, data in self.loads.items():  # issue 43
+            out[f"loads/{name}/force"] = Trace(data, "N", f"process load {name} (positive along +x)")
         from camsim.cam.design import design_traces  # issue 14: cam design traces with [cam.geometry]
 
         for path, (data, units, long_name) in design_traces(self).items():
@@ -299,6 +308,9 @@ class RunResult:
         from camsim.run.camshaft import camshaft_columns  # issue 38
 
         units.update(camshaft_columns(self.machine))
+        from camsim.run.loads import load_columns  # issue 43
+
+        units.update(load_columns(self.machine))
         if key in units:
             return units[key]
         raise KeyError(f"no trace or scalar {path!r} in this result")
@@ -435,6 +447,9 @@ class RunResult:
         out.update(design_row(self))
         if self.camshaft_accumulator() is not None:  # issue 38
             out.update(self.camshaft_accumulator().row(self.located))
+        from camsim.run.loads import load_row  # issue 43
+
+        out.update(load_row(self))
         return out
 
     def camshaft_accumulator(self, cs: float | None = None):
@@ -575,6 +590,11 @@ class RunResult:
             if self.shaft_dynamics is not None:
                 shaft["dynamics"] = self.shaft_dynamics
             out["camshaft"] = shaft
+        from camsim.run.loads import load_summary  # issue 43
+
+        loads = load_summary(self)
+        if loads is not None:
+            out["loads"] = loads
         return out
 
     def rod_summary(self) -> dict[str, dict]:
@@ -717,13 +737,17 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
         located = read_extremes(g)
         residual = float(g.attrs.get("periodicity_residual", float("nan")))
         summary_attrs = g["summary"].attrs if "summary" in g else {}
+        loads = {load.name: g[f"loads/{load.name}/force"][()] for load in machine.loads
+                 if f"loads/{load.name}/force" in g}  # issue 43
+        work = {load.name: float(summary_attrs[f"load_work:{load.name}"]) for load in machine.loads
+                if f"load_work:{load.name}" in summary_attrs} or None
         warnings = json.loads(summary_attrs["warnings"]) if "warnings" in summary_attrs else []  # issue 44
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=warnings, no_impact=bool(g.attrs.get("no_impact", False)),
             boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
-            element_traces={name: q for name, q in extra.items() if q}, **stations,
+            element_traces={name: q for name, q in extra.items() if q}, loads=loads, load_work=work, **stations,
         )
 
 

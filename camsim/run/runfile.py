@@ -5,7 +5,7 @@ comparison)::
 
     time, cam/{angle,displacement,velocity,acceleration,jerk,boundaries_deg},
     masses/<name>/{displacement,velocity,acceleration}, elements/<name>/force,
-    cam_contact/force, transducer/force, events, extremes
+    cam_contact/force, transducer/force, loads/<name>/force, events, extremes
 
 Every trace has ``units`` and ``long_name`` attributes and ``time`` attached as its
 dimension scale. Files are written atomically and deterministically.
@@ -100,8 +100,10 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
     scalars = result.scalars()
     # every scalar with its unit: the cam design's and the camshaft's too (issue 44: the page
     # showed "peak_camshaft_torque 23.76 -", SI without a unit)
+    from camsim.run.loads import load_columns  # issue 43
+
     units = dict(scalar_columns(list(result.machine.node_names)) + design_columns(result.machine)
-                 + camshaft_columns(result.machine))
+                 + camshaft_columns(result.machine) + load_columns(result.machine))
     g = group.create_group("summary", track_order=True)
     for name, value in scalars.items():
         g.attrs[name] = value

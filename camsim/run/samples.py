@@ -56,6 +56,9 @@ class RunSetup:
     #: The observables whose extremes the engine locates (camsim.run.extremes.Observables;
     #: None: not observed).
     observables: object = None
+    #: Each load's work over the first recorded revolution, accumulated stretch by stretch
+    #: (camsim.run.loads.LoadWork; None without loads, issue 43).
+    load_work: object = None
 
 
 def node_quantities(run: RunSetup, st: Stretch, rows=slice(None)):
@@ -124,7 +127,8 @@ def stretch_samples(run: RunSetup, st: Stretch, quantities=None):
 def derived_traces(run: RunSetup, x, v, a, u, forces) -> dict:
     """The per-mass, per-element, cam-contact and transducer traces of samples (the part of
     :func:`sample_traces` that the located extremes evaluate too, :mod:`camsim.run.extremes`):
-    ``masses``, ``elements``, ``cam_contact_force``, ``transducer_force``, ``element_traces``."""
+    ``masses``, ``elements``, ``cam_contact_force``, ``transducer_force``, ``element_traces``,
+    ``loads`` (each load's force, issue 43: it enters the cam contact force of a driven mass)."""
     machine, model = run.machine, run.model
     masses: dict[str, dict[str, np.ndarray]] = {}
     for name in machine.node_names:  # the masses, then the rods' interior nodes (issue 39)
@@ -140,13 +144,16 @@ def derived_traces(run: RunSetup, x, v, a, u, forces) -> dict:
         element_traces[name] = compound.result_traces(forces[:, model.parts[name]])
     transducer_idx = [i for i, e in enumerate(model.elements) if getattr(e, "transducer", False)]
     transducer = forces[:, transducer_idx].sum(axis=1) if transducer_idx else None
-    out = {"masses": masses, "elements": elements, "transducer_force": transducer, "element_traces": element_traces}
+    loads = model.load_values(u) if model.n_loads else None
+    out = {"masses": masses, "elements": elements, "transducer_force": transducer, "element_traces": element_traces,
+           "loads": {load.name: loads[:, k] for k, load in enumerate(model.loads)} if loads is not None else {}}
     if machine.multi_cam:  # issue 38: each cam's contact force on the mass it drives
         out["cam_contact_force"] = None
-        out["cam_contact_forces"] = {model.cam_names[q]: model.cam_contact_force(forces, u[:, N_INPUT * q + 2], driven)
+        out["cam_contact_forces"] = {model.cam_names[q]: model.cam_contact_force(forces, u[:, N_INPUT * q + 2], driven,
+                                                                                 loads)
                                      for driven, q in model.drives.items()}
     else:
-        out["cam_contact_force"] = model.cam_contact_force(forces, u[:, 2])
+        out["cam_contact_force"] = model.cam_contact_force(forces, u[:, 2], loads=loads)
     return out
 
 

@@ -16,6 +16,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from camsim.cam.camshaft import cam_input
+from camsim.loads.inputs import engine_input
+from camsim.loads.programs import load_programs
 from camsim.errors import InputError, SimulationError
 from camsim.elements import Branch
 from camsim.engine.integrator import Integrator, State
@@ -191,11 +193,22 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     # (warmup_step). A coarse output grid on a soft machine (5 kHz, one step per sample)
     # otherwise moved a power-law contact's traces by 1e-6 of peak against 500 kHz (issue 25,
     # invariant a); machines whose natural frequencies already ask for finer steps keep them.
-    motion_step = cam_input_step(machine)
+    # issue 43: each load is one more input group after the cams' ([F, Ḟ, F̈, F⃛], camsim.loads);
+    # its times are on the recorded clock (t_rec is its 0)
+    programs = load_programs(machine, t_rec, warps)
+    inputs = engine_input(cam, programs)
+    motion_step = min([cam_input_step(machine)] + [p.shortest for p in programs])
     substeps = max(1, math.ceil(steps_per_sample), math.ceil(h_out / motion_step * (1 - 1e-12)))
-    integrator = Integrator(model, cam, h_out / substeps, t_ref=t_rec)
+    integrator = Integrator(model, inputs, h_out / substeps, t_ref=t_rec)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
     run = replace(run, observables=Observables(run))  # the located extremes' quantities (spec §4)
+    work_stop = None
+    if programs:
+        from camsim.run.loads import LoadWork, work_window
+
+        window, whole = work_window(machine, t_rec, t_end, period if has_cam else None)
+        run = replace(run, load_work=LoadWork(model, window))
+        work_stop = window[1] if whole else None  # the revolution's end is a node of the solution
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)
     bounds = physical_bounds(model, cam, state, t_end)  # a state beyond them is a divergence (issue 34)
@@ -221,6 +234,8 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
                     or machine.camshaft is not None) and t_end >= t_rec + period * (1 - 1e-12):
         t_period_end = t_rec + period
     all_stops = tuple(stops) + ((t_period_end,) if t_period_end is not None and t_period_end not in stops else ())
+    if work_stop is not None and work_stop not in all_stops:
+        all_stops = all_stops + (work_stop,)
 
     total = t_end
     if own_clock is not None:  # this run's fraction done, through its channel (rate-limited)
@@ -229,7 +244,7 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     t_final = t_end + 0.5 * h_out
     # Warm-up cycles are not recorded: integrate them on a coarser grid, just dense
     # enough to see every guard and to carry the cam input exactly (warmup_step).
-    h_warm = warmup_step(machine, f_max, integrator.h)
+    h_warm = min(warmup_step(machine, f_max, integrator.h), motion_step)
     # A nonlinear (power-law) contact has no natural frequency in f_max: a coarser warm-up
     # grid hands its contact phases to DOP853, and a warm-up revolution cost several recorded
     # ones (issue 26). Such machines warm up on the recording grid: the same cost per revolution.
@@ -237,7 +252,7 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
         h_warm = integrator.h
     with numerical_failure(machine):
         if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all:
-            warm_integrator = Integrator(model, cam, h_warm, t_ref=0.0)
+            warm_integrator = Integrator(model, inputs, h_warm, t_ref=0.0)
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report,
                                            check=bounds.check)
             # the cam contact force's sign where the warm-up ends: the recorded window starts

@@ -151,6 +151,8 @@ class StreamedRun:
         self.rods: dict[str, dict] = {}  # issue 39: each rod's discretisation and extremes
         self._shaft = shaft  # camsim.run.camshaft.CamshaftAccumulator: several cams or a [camshaft] (issue 38)
         self.shaft_dynamics: dict | None = None
+        #: Each load's work per cycle [J] (camsim.run.loads; None without loads, issue 43).
+        self.load_work: dict[str, float] | None = None
 
     def camshaft_summary(self, cs: float | None = None) -> dict | None:
         """The camshaft section over every revolution (as :meth:`RunResult.camshaft_summary`)."""
@@ -203,6 +205,9 @@ class StreamedRun:
         out.update(design_row_from(self.design_summary()))
         if self._shaft is not None:
             out.update(self._shaft.row(self.located))
+        from camsim.run.loads import load_row  # issue 43
+
+        out.update(load_row(self))
         return out
 
     def summary(self) -> dict:
@@ -231,6 +236,11 @@ class StreamedRun:
             if self.shaft_dynamics is not None:
                 shaft["dynamics"] = self.shaft_dynamics
             out["camshaft"] = shaft
+        from camsim.run.loads import load_summary  # issue 43
+
+        loads = load_summary(self)
+        if loads is not None:
+            out["loads"] = loads
         return out
 
     def open(self) -> RunResult:
@@ -436,6 +446,7 @@ class StreamAssembler:
         streamed = StreamedRun(run.machine, events, run.warnings, run.no_impact, boundaries_deg(run), scalars, masses,
                                extremes, self._samples, design=self._design, located=located, shaft=self._shaft)
         streamed.rods = probe_summary.get("rods", self._rods) if located is not None else self._rods
+        streamed.load_work = run.load_work.values() if run.load_work is not None else None  # issue 43
         return streamed
 
     def close(self, result: StreamedRun) -> None:

@@ -313,7 +313,7 @@ def permute_text(text: str, seed: int) -> str:
     if the shuffle left them in order)."""
     doc = tomllib.loads(text)
     rng = random.Random(seed)
-    for key in ("mass", "element", "cam"):  # [[cam]] tables too (issue 38): the input's channel order
+    for key in ("mass", "element", "cam", "load"):  # [[cam]] and [[load]] tables too (issues 38, 43): the input's channel order
         if not isinstance(doc.get(key), list):
             continue
         rows = list(doc.get(key, []))

@@ -88,6 +88,9 @@ def scalar_units(machine) -> dict[str, str]:
     from camsim.run.camshaft import camshaft_columns  # issue 38: the camshaft's scalars
 
     units.update(camshaft_columns(machine))
+    from camsim.run.loads import load_columns  # issue 43: each load's extremes and work
+
+    units.update(load_columns(machine))
     return units
 
 

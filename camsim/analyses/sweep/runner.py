@@ -500,7 +500,9 @@ def run_sweep(
 
     from camsim.run.camshaft import camshaft_columns  # issue 38: the camshaft's columns
 
-    columns[-1:-1] = design_columns(base) + camshaft_columns(base)  # before "status"
+    from camsim.run.loads import load_columns  # issue 43: each load's extremes and work per cycle
+
+    columns[-1:-1] = design_columns(base) + camshaft_columns(base) + load_columns(base)  # before "status"
     if resume and keep_traces:
         raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
