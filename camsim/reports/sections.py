@@ -466,6 +466,11 @@ def run_sections(source: Source) -> list[Section]:
     loads = loads_section(source, view)
     if loads is not None:
         out.append(loads)
+    from camsim.reports.friction import friction_section  # issue 43
+
+    friction = friction_section(source, view)
+    if friction is not None:
+        out.append(friction)
     out.append(machine_section(source, attr_text(f, "machine_toml")))
     return out
 

@@ -60,6 +60,7 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
     console.print(table)
     render_rods(summary, console, system)
     render_loads(summary, console, system)
+    render_friction(summary, console, system)
     if summary["peak_transducer_force"]:
         p = summary["peak_transducer_force"]
         console.print(f"peak transducer force: {system.quantity(p['value'], 'N')} at t = {p['time']:.5f} s", markup=False)
@@ -153,6 +154,31 @@ def render_loads(summary: dict, console: Console, system: DisplayUnits) -> None:
                       "loads); positive when the load drives the mass", markup=False)
     else:
         console.print("work over the record (no whole revolution recorded): ∫F·ẋ dt on the solution", markup=False)
+
+
+def render_friction(summary: dict, console: Console, system: DisplayUnits) -> None:
+    """The friction pairs (spec §10): each one's nodes, Coulomb and break-away forces, the
+    energy it dissipates per cycle (over the record without a revolution) and its stick and
+    slip counts."""
+    pairs = summary.get("friction")
+    if not pairs:
+        return
+    f_unit, f_scale = system.shown("N")
+    w_unit, w_scale = system.shown("J")
+    over = next(iter(pairs.values()))["over"]
+    table = Table(title="friction", title_justify="left")
+    for col in ("pair", "between", f"F_C [{f_unit}]", f"F_B [{f_unit}]",
+                f"dissipated {'per cycle' if over == 'revolution' else 'over the record'} [{w_unit}]", "sticks", "slips"):
+        table.add_column(escape(col), justify="left" if col in ("pair", "between") else "right")
+    for name, row in pairs.items():
+        table.add_row(escape(name), escape(" / ".join(row["between"])), _fmt(row["coulomb_force"] * f_scale),
+                      _fmt(row["breakaway_force"] * f_scale),
+                      _fmt(row["energy"] * w_scale) if row["energy"] is not None else "–",
+                      str(row["sticks"]), str(row["slips"]))
+    console.print(table)
+    console.print("dissipated: ∫f·ḋ dt " + ("over the first recorded revolution" if over == "revolution" else
+                  "over the recorded time") + ", on the solution (docs/forces.md); sticks and slips: the pair's rows "
+                  "of the event table", markup=False)
 
 
 def render_rods(summary: dict, console: Console, system: DisplayUnits) -> None:

@@ -109,6 +109,7 @@ def _assemble(run: RunSetup, stretches: list[Stretch]) -> RunResult:
         periodicity_residual=float("nan"), warnings=warnings, no_impact=run.no_impact,
         boundaries_deg=boundaries_deg(run), located=located,
         load_work=run.load_work.values() if run.load_work is not None else None,  # issue 43
+        friction_energy=run.friction_work.values() if run.friction_work is not None else None,
     )
     if machine.clearances:  # issue 38: a collision of two stations' parts is a warning row
         from camsim.run.camshaft import CamshaftAccumulator
@@ -133,7 +134,8 @@ def assemble_summary(run: RunSetup, stretches: list[Stretch]) -> RunResult:
     cam_force_warnings(run, events, located, traces, traces["time"])
     return RunResult(machine=run.machine, **traces, events=events, periodicity_residual=float("nan"),
                      warnings=run.warnings, no_impact=run.no_impact, boundaries_deg=boundaries_deg(run), located=located,
-                     load_work=run.load_work.values() if run.load_work is not None else None)
+                     load_work=run.load_work.values() if run.load_work is not None else None,
+                     friction_energy=run.friction_work.values() if run.friction_work is not None else None)
 
 
 def cam_force_warnings(run: RunSetup, events, located, traces: dict, time: np.ndarray) -> None:

@@ -157,6 +157,8 @@ def digest(run: RunSetup, st, samples: bool = True):
     quantities = node_quantities(run, st)
     if run.load_work is not None:  # issue 43: each load's work, on the exact solution
         run.load_work.add(run.integrator, st)
+    if run.friction_work is not None:  # each friction pair's dissipated energy, likewise
+        run.friction_work.add(run.integrator, st)
     record = None
     if run.observables is not None:
         QT = run.observables.rows(*quantities[:3], st.u, quantities[3])

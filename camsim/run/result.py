@@ -220,6 +220,8 @@ class RunResult:
     element_traces: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     loads: dict[str, np.ndarray] = field(default_factory=dict)  # issue 43
     load_work: dict[str, float] | None = None
+    #: Energy each friction pair dissipates over the work window [J] (camsim.run.friction).
+    friction_energy: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.events, EventTable):
@@ -302,15 +304,9 @@ class RunResult:
         if key in self._traces:
             return self._traces[key].units
         units = dict(scalar_columns(list(self.masses)))
-        from camsim.cam.design import design_columns  # issue 14
+        from camsim.run import families  # the design's, the camshaft's, the loads', the friction pairs'
 
-        units.update(design_columns(self.machine))
-        from camsim.run.camshaft import camshaft_columns  # issue 38
-
-        units.update(camshaft_columns(self.machine))
-        from camsim.run.loads import load_columns  # issue 43
-
-        units.update(load_columns(self.machine))
+        units.update(families.columns(self.machine))
         if key in units:
             return units[key]
         raise KeyError(f"no trace or scalar {path!r} in this result")
@@ -447,9 +443,9 @@ class RunResult:
         out.update(design_row(self))
         if self.camshaft_accumulator() is not None:  # issue 38
             out.update(self.camshaft_accumulator().row(self.located))
-        from camsim.run.loads import load_row  # issue 43
+        from camsim.run import families  # issue 43: the loads', the friction pairs'
 
-        out.update(load_row(self))
+        out.update(families.rows(self))
         return out
 
     def camshaft_accumulator(self, cs: float | None = None):
@@ -590,11 +586,9 @@ class RunResult:
             if self.shaft_dynamics is not None:
                 shaft["dynamics"] = self.shaft_dynamics
             out["camshaft"] = shaft
-        from camsim.run.loads import load_summary  # issue 43
+        from camsim.run import families  # issue 43: the loads', the friction pairs'
 
-        loads = load_summary(self)
-        if loads is not None:
-            out["loads"] = loads
+        out.update(families.summaries(self))
         return out
 
     def rod_summary(self) -> dict[str, dict]:
@@ -741,13 +735,18 @@ def open_result(path: str | os.PathLike[str], group: str | None = None) -> RunRe
                  if f"loads/{load.name}/force" in g}  # issue 43
         work = {load.name: float(summary_attrs[f"load_work:{load.name}"]) for load in machine.loads
                 if f"load_work:{load.name}" in summary_attrs} or None
+        from camsim.run.friction import pairs
+
+        energy = {e.name: float(summary_attrs[f"friction_energy:{e.name}"]) for e in pairs(machine)
+                  if f"friction_energy:{e.name}" in summary_attrs} or None
         warnings = json.loads(summary_attrs["warnings"]) if "warnings" in summary_attrs else []  # issue 44
         return RunResult(
             machine=machine, time=time, cam=cam, masses=masses, elements=elements,
             cam_contact_force=cam_force, transducer_force=transducer, events=events,
             periodicity_residual=residual, warnings=warnings, no_impact=bool(g.attrs.get("no_impact", False)),
             boundaries_deg=boundaries, sample_rate=float(g.attrs.get("sample_rate", 0.0)), located=located,
-            element_traces={name: q for name, q in extra.items() if q}, loads=loads, load_work=work, **stations,
+            element_traces={name: q for name, q in extra.items() if q}, loads=loads, load_work=work,
+            friction_energy=energy, **stations,
         )
 
 

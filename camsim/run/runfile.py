@@ -100,10 +100,9 @@ def write_summary(group: h5py.Group, result) -> h5py.Group:
     scalars = result.scalars()
     # every scalar with its unit: the cam design's and the camshaft's too (issue 44: the page
     # showed "peak_camshaft_torque 23.76 -", SI without a unit)
-    from camsim.run.loads import load_columns  # issue 43
+    from camsim.run import families  # the design's, the camshaft's, the loads', the friction pairs'
 
-    units = dict(scalar_columns(list(result.machine.node_names)) + design_columns(result.machine)
-                 + camshaft_columns(result.machine) + load_columns(result.machine))
+    units = dict(scalar_columns(list(result.machine.node_names)) + families.columns(result.machine))
     g = group.create_group("summary", track_order=True)
     for name, value in scalars.items():
         g.attrs[name] = value

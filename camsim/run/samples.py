@@ -59,6 +59,8 @@ class RunSetup:
     #: Each load's work over the first recorded revolution, accumulated stretch by stretch
     #: (camsim.run.loads.LoadWork; None without loads, issue 43).
     load_work: object = None
+    #: Each friction pair's dissipated energy (camsim.run.friction.FrictionWork; None without pairs).
+    friction_work: object = None
 
 
 def node_quantities(run: RunSetup, st: Stretch, rows=slice(None)):

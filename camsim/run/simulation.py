@@ -203,11 +203,16 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
     run = replace(run, observables=Observables(run))  # the located extremes' quantities (spec §4)
     work_stop = None
-    if programs:
+    from camsim.run.friction import FrictionWork, pairs
+
+    if programs or pairs(model.machine):
         from camsim.run.loads import LoadWork, work_window
 
         window, whole = work_window(machine, t_rec, t_end, period if has_cam else None)
-        run = replace(run, load_work=LoadWork(model, window))
+        if programs:
+            run = replace(run, load_work=LoadWork(model, window))
+        if pairs(model.machine):
+            run = replace(run, friction_work=FrictionWork(model, window))
         work_stop = window[1] if whole else None  # the revolution's end is a node of the solution
     consumer = stream(run) if stream is not None else None  # before integrating: it may refuse the settings
     state = initial_state(model, integrator, 0.0)

@@ -153,6 +153,7 @@ class StreamedRun:
         self.shaft_dynamics: dict | None = None
         #: Each load's work per cycle [J] (camsim.run.loads; None without loads, issue 43).
         self.load_work: dict[str, float] | None = None
+        self.friction_energy: dict[str, float] | None = None
 
     def camshaft_summary(self, cs: float | None = None) -> dict | None:
         """The camshaft section over every revolution (as :meth:`RunResult.camshaft_summary`)."""
@@ -205,9 +206,9 @@ class StreamedRun:
         out.update(design_row_from(self.design_summary()))
         if self._shaft is not None:
             out.update(self._shaft.row(self.located))
-        from camsim.run.loads import load_row  # issue 43
+        from camsim.run import families  # issue 43: the loads', the friction pairs'
 
-        out.update(load_row(self))
+        out.update(families.rows(self))
         return out
 
     def summary(self) -> dict:
@@ -236,11 +237,9 @@ class StreamedRun:
             if self.shaft_dynamics is not None:
                 shaft["dynamics"] = self.shaft_dynamics
             out["camshaft"] = shaft
-        from camsim.run.loads import load_summary  # issue 43
+        from camsim.run import families  # issue 43: the loads', the friction pairs'
 
-        loads = load_summary(self)
-        if loads is not None:
-            out["loads"] = loads
+        out.update(families.summaries(self))
         return out
 
     def open(self) -> RunResult:
@@ -447,6 +446,7 @@ class StreamAssembler:
                                extremes, self._samples, design=self._design, located=located, shaft=self._shaft)
         streamed.rods = probe_summary.get("rods", self._rods) if located is not None else self._rods
         streamed.load_work = run.load_work.values() if run.load_work is not None else None  # issue 43
+        streamed.friction_energy = run.friction_work.values() if run.friction_work is not None else None
         return streamed
 
     def close(self, result: StreamedRun) -> None:

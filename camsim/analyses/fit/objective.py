@@ -85,12 +85,9 @@ def scalar_units(machine) -> dict[str, str]:
             units[f"peak_{q}:{m.name}"] = u
     for e in machine.elements:
         units[f"first_impact_time:{e.name}"] = "s"
-    from camsim.run.camshaft import camshaft_columns  # issue 38: the camshaft's scalars
+    from camsim.run import families  # the design's, the camshaft's, the loads', the friction pairs'
 
-    units.update(camshaft_columns(machine))
-    from camsim.run.loads import load_columns  # issue 43: each load's extremes and work
-
-    units.update(load_columns(machine))
+    units.update(families.columns(machine))
     return units
 
 

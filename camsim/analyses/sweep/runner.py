@@ -494,15 +494,9 @@ def run_sweep(
     if sample_rate is not None and sample_rate <= 0:
         raise InputError("--sample-rate: must be positive")
     columns = sweep_columns(keys, list(base.node_names), base)
-    from camsim.cam.design import (
-        design_columns,  # issue 14: design columns with [cam.geometry]
-    )
+    from camsim.run import families  # the design's, the camshaft's, the loads', the friction pairs'
 
-    from camsim.run.camshaft import camshaft_columns  # issue 38: the camshaft's columns
-
-    from camsim.run.loads import load_columns  # issue 43: each load's extremes and work per cycle
-
-    columns[-1:-1] = design_columns(base) + camshaft_columns(base) + load_columns(base)  # before "status"
+    columns[-1:-1] = families.columns(base)  # before "status"
     if resume and keep_traces:
         raise InputError("--resume with --keep-traces: the traces of the variants run before are not kept; rerun without --resume")
     raw: list[dict | None] = [None] * len(grid)
