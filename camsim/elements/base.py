@@ -75,6 +75,9 @@ class GuardKind(StrEnum):
     HALT = "halt"
     SLIP_UP = "slip-up"
     SLIP_DOWN = "slip-down"
+    # A friction pair whose normal force follows a program: it rises above zero, falls to zero.
+    GRIP = "grip"
+    LOOSEN = "loosen"
 
 
 @dataclass(frozen=True)
@@ -127,6 +130,8 @@ class Param:
 
         if self.dimension == "power_coefficient":
             return "N/m^exponent"
+        if self.dimension == "force_program":  # a force, or a table of its program
+            return "N"
         return DIMENSIONS.get(self.dimension, "").replace("**", "^")
 
 

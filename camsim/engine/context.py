@@ -49,6 +49,14 @@ class _GuardContext:
         """δ = gap − d and δ̇ of a contact as affine maps."""
         return self.integrator._delta(self.config, self.index)
 
+    def normal_force(self) -> Affine:
+        """A friction pair's programmed normal force N(t) as an affine map (its input column)."""
+        integ = self.integrator
+        du = np.zeros((1, integ.n_input))
+        du[0, integ.model.normal_column(self.index)] = 1.0
+        p = len(self.config.power_contacts)
+        return Affine(np.zeros((1, self.config.dim)), du, np.zeros((1, p)), np.zeros(1))
+
     def constraint_force(self) -> Affine:
         """The compressive force of a constraint (a stuck rigid contact) as an affine map."""
         k = self.config.stuck_contacts.index(self.index)

@@ -74,14 +74,33 @@ def holding_force(ctx, state: State, i: int) -> tuple[float, State]:
     return f, State(state.t, x, v, branches, v_imp, holds)
 
 
+def breakaway(ctx, state: State, i: int) -> float:
+    """F_B [N] of pair ``i`` at ``state.t`` (μ_s·N(t) when its normal force follows a program)."""
+    element = ctx.model.elements[i]
+    if not element.programmed:
+        return element.holding_force
+    u = ctx.inputs(np.array([state.t]))[0]
+    return element.forces_at(u[ctx.model.normal_column(i)])[1]
+
+
 def halt(ctx, state: State, i: int) -> State:
     """The stick test of pair ``i`` whose sliding velocity has reached zero."""
-    element = ctx.model.elements[i]
     f, held = holding_force(ctx, state, i)
-    if abs(f) <= element.holding_force:
+    if abs(f) <= breakaway(ctx, state, i):
         ctx._record(state.t, i, EventKind.STICK, 0.0)
         return held
     return slide(ctx, state, i, 1.0 if f > 0.0 else -1.0)
+
+
+def grip(ctx, state: State, i: int) -> State:
+    """Pair ``i``'s programmed normal force rises above zero: sliding if its nodes move apart
+    (no row), else held where it is (a ``stick`` row: the clamp grips)."""
+    _, rate = ctx.relative_rate(state, i)
+    if abs(rate) > REST_VELOCITY:
+        return slide(ctx, state, i, 1.0 if -rate > 0 else -1.0)
+    _, held = holding_force(ctx, state, i)
+    ctx._record(state.t, i, EventKind.STICK, 0.0)
+    return held
 
 
 def slide(ctx, state: State, i: int, sign: float, event: EventKind | None = None) -> State:
@@ -125,6 +144,10 @@ def start(ctx, state: State) -> State:
     for pos, i in enumerate(model.switching):
         if not is_friction(model, i) or state.branches[pos] != Branch.FREE:
             continue
+        if model.elements[i].programmed:  # free while its normal force is not positive
+            u = ctx.inputs(np.array([state.t]))[0]
+            if not u[model.normal_column(i)] > 0.0:
+                continue
         _, rate = ctx.relative_rate(state, i)
         d_rate = -rate
         if abs(d_rate) > REST_VELOCITY:

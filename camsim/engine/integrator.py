@@ -161,6 +161,8 @@ class Integrator(EngineContext):
             return friction.after_impulse(self, resolve_rigid(self, state, i, guard.kind))
         if guard.kind == GuardKind.HALT:
             return friction.halt(self, state, i)  # spec §10: the stick test
+        if guard.kind == GuardKind.GRIP:
+            return friction.grip(self, state, i)  # a programmed normal force rises above zero
         _, rate = self.relative_rate(state, i)
         d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0::N_INPUT]))
         outcome = model.elements[i].outcome_at(guard.kind, rate, d)  # issue 12 hook: two-sided elements

@@ -122,6 +122,9 @@ class CamForceWatch:
             if law is None:
                 continue
             k_, c_, f0 = law
+            a_in = element.input_force(branch) if getattr(element, "programmed", False) else 0.0
+            if a_in:  # a sliding pair's ±μ·N(t) (its normal force follows a program)
+                Du[0, model.normal_column(i)] += on_upper * a_in
             # f = k·d + c·ḋ + f0, d = G·x + g_s·s, ḋ = G·v + g_s·ṡ; F_c gains +f (upper), −f (lower)
             geo = model.geometry[i]
             d = Affine.combine([(geo.G.reshape(1, -1), config.x)], const=np.zeros(1), du=_du(0, geo.g_s, model.n_input))

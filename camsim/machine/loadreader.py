@@ -56,36 +56,43 @@ class LoadReader(CamReader):
                 fixed = on in FIXED_NODES or on in cam_names
                 raise self.error(f"{path}.on", f'"{on}" is not a mass' + (" (a load acts on a mass, not on ground or a "
                                  "cam)" if fixed else f"; {_suggest(on, mass_names)}"))
-            given = [k for k in KINDS if k in row]
-            if not given:
-                raise self.error(path, "no force program: give exactly one of force, segments, table, sine")
-            if len(given) > 1:
-                raise self.error(f"{path}.{given[1]}", f"give one force program, not both {given[0]} and {given[1]}")
-            kind = given[0]
-            if "base" in row and kind != "segments":
-                raise self.error(f"{path}.base", "only used with segments (the program's force at its 0°)")
-            values: dict[str, Any] = {}
-            if kind == "force":
-                values["force"] = self.quantity(row, "force", path, "force", required=True)
-            elif kind == "segments":
-                self._needs_cam(f"{path}.segments", speed)
-                values["segments"] = self.load_segments(row["segments"], path, speed)
-                values["base"] = self.quantity(row, "base", path, "force", default=0.0)
-            elif kind == "table":
-                values["table"] = self.load_table(row["table"], path)
-                if values["table"].over == "angle":
-                    self._needs_cam(f"{path}.table", speed)
-            else:
-                values["sine"] = self.sine(row["sine"], path)
-            cam = self.string(row, "cam", path)
-            if cam is not None:
-                if cam not in cam_names:
-                    raise self.error(f"{path}.cam", f'"{cam}" is not a cam; {_suggest(cam, cam_names)}')
-                if kind in ("force", "sine") or (kind == "table" and values["table"].over == "time"):
-                    raise self.error(f"{path}.cam", "only used with a program over the cam angle (segments, an "
-                                     "angle table)")
+            kind, values, cam = self.force_program(row, path, speed, cam_names)
             out.append(Load(name=name, on=on, kind=kind, cam=cam, **values))
         return out
+
+    def force_program(self, row: dict, path: str, speed: float | None, cam_names: list[str]) -> tuple[str, dict, str | None]:
+        """A force program from a table holding exactly one of ``force``, ``segments`` (with
+        ``base``), ``table``, ``sine`` (and ``cam``): (kind, the :class:`Load` fields, cam) —
+        a load's, or a friction pair's ``normal_force = { … }`` (spec §10)."""
+        given = [k for k in KINDS if k in row]
+        if not given:
+            raise self.error(path, "no force program: give exactly one of force, segments, table, sine")
+        if len(given) > 1:
+            raise self.error(f"{path}.{given[1]}", f"give one force program, not both {given[0]} and {given[1]}")
+        kind = given[0]
+        if "base" in row and kind != "segments":
+            raise self.error(f"{path}.base", "only used with segments (the program's force at its 0°)")
+        values: dict[str, Any] = {}
+        if kind == "force":
+            values["force"] = self.quantity(row, "force", path, "force", required=True)
+        elif kind == "segments":
+            self._needs_cam(f"{path}.segments", speed)
+            values["segments"] = self.load_segments(row["segments"], path, speed)
+            values["base"] = self.quantity(row, "base", path, "force", default=0.0)
+        elif kind == "table":
+            values["table"] = self.load_table(row["table"], path)
+            if values["table"].over == "angle":
+                self._needs_cam(f"{path}.table", speed)
+        else:
+            values["sine"] = self.sine(row["sine"], path)
+        cam = self.string(row, "cam", path)
+        if cam is not None:
+            if cam not in cam_names:
+                raise self.error(f"{path}.cam", f'"{cam}" is not a cam; {_suggest(cam, cam_names)}')
+            if kind in ("force", "sine") or (kind == "table" and values["table"].over == "time"):
+                raise self.error(f"{path}.cam", "only used with a program over the cam angle (segments, an "
+                                 "angle table)")
+        return kind, values, cam
 
     def _needs_cam(self, where: str, speed: float | None) -> None:
         if speed is None:

@@ -30,6 +30,7 @@ from camsim.machine.description import (
     Mass,
     Simulation,
 )
+from camsim.loads.description import Load
 from camsim.machine.loadreader import LoadReader
 from camsim.machine.materials import MaterialKeys
 from camsim.machine.reading import _fmt, _suggest  # noqa: F401 - _suggest re-exported
@@ -161,6 +162,15 @@ class _Validator(ShaftReader, LoadReader, MaterialKeys):
             for p in cls.params:
                 if p.dimension == "string" or p.key in _DAMPING_KEYS:
                     continue
+                if p.dimension == "force_program" and isinstance(row.get(p.key), dict):
+                    # a force that follows a program like a load's (spec §10: a friction
+                    # pair's normal force, a cam-actuated clamp or brake)
+                    speed = float(cams[0].speed) if cams else None
+                    kind, program, cam = self.force_program(row[p.key], f"{path}.{p.key}", speed,
+                                                            [c.name for c in cams])
+                    values[p.attribute] = None
+                    values["normal_program"] = Load(name=f"{name}.{p.key}", on=name, kind=kind, cam=cam, **program)
+                    continue
                 values[p.attribute] = self.param(row, p, path, values)
             driven = next((n for n in (lower, upper) if n in drives), None)
             cls.check(values, lambda key, message: self.error(f"{path}.{key}", message), driven)
@@ -203,6 +213,8 @@ class _Validator(ShaftReader, LoadReader, MaterialKeys):
         if p.dimension in ("material", "materials"):  # issue 39
             return self.material_value(row, p, path)
         dimension = f"power_coefficient:{values['exponent']!r}" if p.dimension == "power_coefficient" else p.dimension
+        if dimension == "force_program":  # a plain force (a table is read as a program: elements())
+            dimension = "force"
         return self.quantity(row, p.key, path, dimension, required=p.required, default=p.default, minimum=p.minimum,
                              strict=p.strict, example=p.example)
 

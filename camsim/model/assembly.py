@@ -147,8 +147,13 @@ class Model:
         self.n_loads = len(self.loads)
         #: Columns of the cams' channels in u (the loads' follow).
         self.n_cam_input = N_INPUT * self.n_cams
-        #: Columns of the input u: four per cam, then four per load.
-        self.n_input = N_INPUT * (self.n_cams + self.n_loads)
+        elements = [e for e in machine.elements if not (no_impact and e.impact_only)]
+        #: Friction pairs whose normal force follows a program (spec §10): (element index,
+        #: its program's description), one input group each after the loads'.
+        self.normal_programs = [(i, e.normal_program) for i, e in enumerate(elements)
+                                if getattr(e, "normal_program", None) is not None]
+        #: Columns of the input u: four per cam, then four per load, then four per normal force.
+        self.n_input = N_INPUT * (self.n_cams + self.n_loads + len(self.normal_programs))
         #: Driven mass → the index of the cam that drives it.
         self.drives: dict[str, int] = {c.drives: q for q, c in enumerate(cams) if c.drives}
         self.driven = next(iter(self.drives), None)  # the first driven mass (one-cam machines: the one)
@@ -206,7 +211,24 @@ class Model:
 
     def load_values(self, u: np.ndarray) -> np.ndarray:
         """Every load's force [N] from input rows u (..., n_input): (..., loads)."""
-        return np.asarray(u)[..., self.n_cam_input::N_INPUT]
+        return np.asarray(u)[..., self.n_cam_input : self.n_cam_input + N_INPUT * self.n_loads : N_INPUT]
+
+    def normal_column(self, index: int) -> int:
+        """Column of element ``index``'s programmed normal force N in the input u."""
+        k = next(k for k, (i, _) in enumerate(self.normal_programs) if i == index)
+        return self.n_cam_input + N_INPUT * (self.n_loads + k)
+
+    def _input_forces(self, branches) -> np.ndarray:
+        """Generalized force on the free masses per unit of each input group after the cams':
+        (n, loads + normal forces). A load acts along +x on its mass (zeros on a driven mass:
+        the cam carries it); a sliding friction pair's force ±μ·N(t) acts −f·G."""
+        out = np.zeros((self.n, self.n_loads + len(self.normal_programs)))
+        out[:, : self.n_loads] = self._load_forces()
+        for k, (i, _) in enumerate(self.normal_programs):
+            a = self.elements[i].input_force(self.branch_of(branches, i))
+            if a:
+                out[:, self.n_loads + k] = -a * self.geometry[i].G
+        return out
 
     def _load_forces(self) -> np.ndarray:
         """Generalized force of a unit force of each load on the free masses: (n, loads)
@@ -349,8 +371,10 @@ class Model:
             B[nq:, N_INPUT * q] = Mr_inv @ f_s[q]
             B[nq:, N_INPUT * q + 1] = Mr_inv @ f_sd[q]
             B[nq:, N_INPUT * q + 2] = Mr_inv @ f_sdd[q]
-        loads = self._load_forces()  # issue 43: a load is a generalized force like gravity, in time
-        for k in range(self.n_loads):
+        # issue 43: a load is a generalized force like gravity, in time; so is a sliding friction
+        # pair's ±μ·N(t) when its normal force follows a program
+        loads = self._input_forces(branches)
+        for k in range(loads.shape[1]):
             B[nq:, self.load_column(k)] = Mr_inv @ (N.T @ loads[:, k])
         b = np.zeros(m)
         b[nq:] = Mr_inv @ f_0
@@ -380,7 +404,7 @@ class Model:
             for q in range(nc):
                 Du_F[:, N_INPUT * q] = k_s[:, q]
                 Du_F[:, N_INPUT * q + 1] = c_s[:, q]
-            for k in range(self.n_loads):
+            for k in range(loads.shape[1]):
                 Du_F[:, self.load_column(k)] = loads[:, k]
             F_map = Affine.combine(
                 [(-K, x_map), (-C, v_map)], const=F0, du=Du_F
@@ -398,7 +422,9 @@ class Model:
         """Stuck friction pairs among the constraints ``rigid`` whose rows depend on the
         others' (see :meth:`_assemble`): element index → the force it carries, −F_B or +F_B
         (tension-positive), the sense that relieves the contact it shares the load with."""
-        pairs = [i for i in rigid if self.elements[i].type_name == "friction"]
+        # (a pair whose normal force follows a program has no constant F_B: it stays a
+        # constraint, and the over-constraint error below names it)
+        pairs = [i for i in rigid if self.elements[i].type_name == "friction" and not self.elements[i].programmed]
         if not pairs:
             return {}
         rows = {i: self.elements[i].contact_side(self.branch_of(branches, i))[0]
@@ -449,11 +475,14 @@ class Model:
         lam: np.ndarray,
         config: Configuration,
         v_impacts: dict[int, float],
+        u: np.ndarray | None = None,
     ) -> np.ndarray:
         """Forces of all elements on samples: (N, n_elements) [N].
 
         Tension-positive for springs and links, compressive-positive for contacts. ``s``,
-        ``sdot``: the cams' displacements and velocities (N, cams), or (N,) for one cam.
+        ``sdot``: the cams' displacements and velocities (N, cams), or (N,) for one cam;
+        ``u``: the whole input rows (N, n_input), needed by a friction pair whose normal force
+        follows a program.
         """
         out = np.zeros((x.shape[0], len(self.elements)))
         s, sdot = self._per_cam(s, x), self._per_cam(sdot, x)
@@ -466,6 +495,11 @@ class Model:
                                                               lam[:, config.stuck_contacts.index(i)])
             elif i in config.saturated:
                 out[:, i] = config.saturated[i]
+            elif getattr(element, "programmed", False):
+                if u is None:
+                    raise ValueError(f"the force of {element.name} needs its normal force (the input rows u)")
+                out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i),
+                                          normal=np.asarray(u)[:, self.normal_column(i)])
             else:
                 out[:, i] = element.force(self.branch_of(branches, i), d, dd, self.damping[i], v_impacts.get(i))
         return out

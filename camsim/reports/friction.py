@@ -25,8 +25,10 @@ def friction_section(source: Source, view) -> Section | None:
     energy = source.column("dissipated per cycle" if over == "revolution" else "dissipated over the record", "J")
     rows = []
     for e in found:
-        rows.append([esc(e.name), esc(f"{e.lower} / {e.upper}"), forces.cell(e.sliding_force),
-                     breakaway.cell(e.holding_force),
+        programmed = e.programmed  # F_C = μ·N(t), F_B = μ_s·N(t)
+        rows.append([esc(e.name), esc(f"{e.lower} / {e.upper}"),
+                     esc(f"μ·N ({e.normal_program.kind} program)") if programmed else forces.cell(e.sliding_force),
+                     esc("μ_s·N") if programmed else breakaway.cell(e.holding_force),
                      energy.cell(view.summary.get(f"friction_energy:{e.name}"), key=f"friction_energy:{e.name}"),
                      esc(str(view.summary.get(f"sticks:{e.name}", "–"))),
                      esc(str(view.summary.get(f"slips:{e.name}", "–")))])

@@ -171,8 +171,10 @@ def render_friction(summary: dict, console: Console, system: DisplayUnits) -> No
                 f"dissipated {'per cycle' if over == 'revolution' else 'over the record'} [{w_unit}]", "sticks", "slips"):
         table.add_column(escape(col), justify="left" if col in ("pair", "between") else "right")
     for name, row in pairs.items():
-        table.add_row(escape(name), escape(" / ".join(row["between"])), _fmt(row["coulomb_force"] * f_scale),
-                      _fmt(row["breakaway_force"] * f_scale),
+        programmed = row.get("normal_force")  # F_C, F_B follow the normal force's program
+        table.add_row(escape(name), escape(" / ".join(row["between"])),
+                      f"μ·N ({programmed})" if programmed else _fmt(row["coulomb_force"] * f_scale),
+                      "μ_s·N" if programmed else _fmt(row["breakaway_force"] * f_scale),
                       _fmt(row["energy"] * w_scale) if row["energy"] is not None else "–",
                       str(row["sticks"]), str(row["slips"]))
     console.print(table)

@@ -44,7 +44,7 @@ def period_end(run: RunSetup, state: State) -> dict | None:
     fn = integrator.nonlinear_forces(config, z, u, state.v_impacts)
     x, v, a = config.x(z, u, fn), config.v(z, u, fn), config.a(z, u, fn)
     lam = config.lam(z, u, fn)
-    forces = model.element_forces(state.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, state.v_impacts)
+    forces = model.element_forces(state.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, state.v_impacts, u=u)
     kw = sample_traces(run, t - run.t_rec, x, v, a, u, forces)
     probe = RunResult(machine=run.machine, events=[], periodicity_residual=float("nan"), **kw)
     out = {"time": float(state.t - run.t_rec)}

@@ -89,7 +89,7 @@ class Observables:
         fn = integrator.nonlinear_forces(config, Z, U, v_impacts)
         x, v, a = config.x(Z, U, fn), config.v(Z, U, fn), config.a(Z, U, fn)
         lam = config.lam(Z, U, fn)
-        forces = model.element_forces(branches, x, v, U[:, 0::N_INPUT], U[:, 1::N_INPUT], lam, config, v_impacts)
+        forces = model.element_forces(branches, x, v, U[:, 0::N_INPUT], U[:, 1::N_INPUT], lam, config, v_impacts, u=U)
         return self.columns(x, v, a, U, forces)
 
     def columns(self, x, v, a, U: np.ndarray, forces) -> np.ndarray:

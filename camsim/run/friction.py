@@ -99,7 +99,10 @@ class FrictionWork:
             if element.stribeck:
                 g = g + element._drop(rate) * np.abs(rate)
             extra = float(np.sum(width * (g @ _WEIGHT)))
-            if whole:  # the Coulomb part exactly: F_C·|Δd| over the stretch's steps
+            if element.programmed:  # F_C = μ·N(t): the Coulomb part by the same rule
+                normal = np.maximum(Us[:, :, model.normal_column(i)], 0.0)
+                coulomb = element.sliding_factor * float(np.sum(width * ((normal * np.abs(rate)) @ _WEIGHT)))
+            elif whole:  # the Coulomb part exactly: F_C·|Δd| over the stretch's steps
                 d0 = self._deflection(st, i, steps[0], 0)
                 d1 = self._deflection(st, i, steps[-1], 1)
                 coulomb = element.sliding_force * abs(d1 - d0)
@@ -169,8 +172,11 @@ def friction_summary(result) -> dict[str, dict] | None:
     for e in found:
         sticks, slips = _counts(result, e.name)
         value = energy.get(e.name)
-        out[e.name] = {"between": [e.lower, e.upper], "coulomb_force": e.sliding_force,
-                       "breakaway_force": e.holding_force,
+        programmed = e.programmed
+        out[e.name] = {"between": [e.lower, e.upper],
+                       "coulomb_force": None if programmed else e.sliding_force,
+                       "breakaway_force": None if programmed else e.holding_force,
+                       "normal_force": f"{e.normal_program.kind} program" if programmed else None,
                        "energy": None if value is None or math.isnan(value) else float(value), "over": over,
                        "sticks": sticks, "slips": slips}
     return out

@@ -73,7 +73,7 @@ def node_quantities(run: RunSetup, st: Stretch, rows=slice(None)):
     v = config.v(z, u, fn)
     a = config.a(z, u, fn)
     lam = config.lam(z, u, fn)
-    forces = run.model.element_forces(st.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, st.v_impacts)
+    forces = run.model.element_forces(st.branches, x, v, u[:, 0::N_INPUT], u[:, 1::N_INPUT], lam, config, st.v_impacts, u=u)
     return x, v, a, forces
 
 

@@ -17,7 +17,7 @@ from threadpoolctl import threadpool_limits
 
 from camsim.cam.camshaft import cam_input
 from camsim.loads.inputs import engine_input
-from camsim.loads.programs import load_programs
+from camsim.loads.programs import load_program, load_programs
 from camsim.errors import InputError, SimulationError
 from camsim.elements import Branch
 from camsim.engine.integrator import Integrator, State
@@ -196,6 +196,8 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     # issue 43: each load is one more input group after the cams' ([F, Ḟ, F̈, F⃛], camsim.loads);
     # its times are on the recorded clock (t_rec is its 0)
     programs = load_programs(machine, t_rec, warps)
+    # spec §10: a friction pair's normal force that follows a program is one more group after the loads'
+    programs += [load_program(p, machine, t_rec, warps) for _, p in model.normal_programs]
     inputs = engine_input(cam, programs)
     motion_step = min([cam_input_step(machine)] + [p.shortest for p in programs])
     substeps = max(1, math.ceil(steps_per_sample), math.ceil(h_out / motion_step * (1 - 1e-12)))
