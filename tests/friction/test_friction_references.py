@@ -14,8 +14,7 @@ Every test names its reference and tolerance in its docstring. The references:
 * the same closed forms at sample rates up to 1 MHz (the rows must not depend on the grid).
 
 Expected failures (xfail, strict: they turn into failures once camsim is fixed): a held
-pair's slip missed at fine sample rates (MISSED_SLIP); a stuck pair beside a resting rigid
-contact (InputError mid-run); ``normal_force`` as a program (not implemented).
+pair's slip missed at fine sample rates (MISSED_SLIP).
 
 Conventions: tension-positive element forces; d = x_upper − x_lower; the pair acts −f on
 its upper node (camsim/elements/friction.py).
@@ -29,7 +28,6 @@ import numpy as np
 import pytest
 
 from camsim.elements.events import EventKind
-from camsim.errors import InputError, MachineFileError
 from camsim.machine.loader import load_machine_text
 from camsim.run.simulation import simulate
 
@@ -218,9 +216,6 @@ def test_coefficient_and_normal_force_are_coulomb_and_breakaway_forces():
     assert np.array_equal(a.elements["slide"], b.elements["slide"])
 
 
-@pytest.mark.xfail(raises=MachineFileError, strict=True,
-                   reason="not implemented: spec §10 lets normal_force be a program like a load's (segments, "
-                          "table, sine); the loader refuses it (element[0].normal_force: expected [force])")
 def test_normal_force_program_brakes_a_block():
     """Reference (spec §10: F_C follows N(t), an input, exact): a block m = 2 kg at
     v0 = 1.5 m/s under a brake μ = 0.25, N(t) = 20 N + 5 N·sin(2π·1 Hz·t):
@@ -525,11 +520,6 @@ def test_falling_part_lands_on_a_stop_and_sticks_on_its_guide(e, fb):
     assert abs(r.elements["stop"][-1]) < 1e-9
 
 
-@pytest.mark.xfail(raises=InputError, strict=True,
-                   reason="camsim bug: a stuck pair beside a resting rigid contact (the statically indeterminate "
-                          "split of spec §10) raises InputError 'rigid contacts guide, stop over-constrain the "
-                          "masses when closed together' in the middle of the run (camsim/engine/friction.py "
-                          "holding_force -> Model.configuration)")
 @pytest.mark.parametrize("e", [0.0, 0.5])
 def test_part_heavier_than_its_breakaway_force_rests_on_the_stop(e):
     """Reference (spec §10: "where a stuck pair and a resting rigid contact hold the same
