@@ -20,7 +20,7 @@ from camsim.engine.context import GRID_SNAP, EngineContext
 from camsim.engine.crossing import grazes, polish_crossing
 from camsim.engine.roots import refine
 from camsim.elements.affine import Affine
-from camsim.engine.state import TIME_EPS, Guard, State, Stretch, leaving_zero
+from camsim.engine.state import TIME_EPS, Guard, State, Stretch, cubic_root, leaving_zero
 from camsim.engine.stepping import exact_partial, forcing_coefficients, step_input_derivatives
 
 
@@ -261,14 +261,27 @@ def _locate_in(ctx, config, guards, nodes, Z, D, steps, hits, offset, lift, g0, 
         if best is not None and k != best[3]:
             break
         Ek = forcing_coefficients(config, D[k : k + 1])[0]
-        root = refine(config, guard, Z[k], D[k], Ek, float(steps[k, 0]), k in restarts, ends)
+        hk = float(steps[k, 0])
+        root = refine(config, guard, Z[k], D[k], Ek, hk, k in restarts, ends)
+        if root is None:
+            # The exact values at the step's ends bracket a crossing that the step's polynomial
+            # missed (its Hermite cam input carries the rounding of s amplified by 1/h^k: a
+            # constant-velocity belt at 50 kHz read D5…D7 of 1e9…1e19; a friction pair's slip
+            # was lost and it held 155 N against F_B = 15 N). The crossing is there: start from
+            # the root of the ends' cubic Hermite and polish it on the analytic cam law below.
+            g_a, g_b, d_a, d_b = ends
+            if k in restarts:
+                g_a = max(g_a, guard.tol)
+            if g_a > 0.0 and g_b <= 0.0:
+                sigma = cubic_root(g_a, g_b, d_a * hk, d_b * hk)
+                root = (sigma * hk, exact_partial(config, Z[k], Ek, sigma * hk) if sigma > 0 else Z[k])
         if root is not None:
             tau, z = root
             # issue 12 hook: polish on the analytic cam law to a 1e-10 s bracket; issue 25:
             # over the whole step on the exact state when the step's input polynomial
             # misplaced the root (None: no crossing in this step after all)
             z_k = Z[k]
-            polished = polish_crossing(ctx, config, guard, nodes[k], float(steps[k, 0]), tau, z, D[k],
+            polished = polish_crossing(ctx, config, guard, nodes[k], hk, tau, z, D[k],
                                        state_at=lambda t, z_k=z_k, Ek=Ek: exact_partial(config, z_k, Ek, t) if t > 0 else z_k)
             if polished is None:
                 continue

@@ -13,8 +13,8 @@ Every test names its reference and tolerance in its docstring. The references:
   for the nonlinear sliding phases: stop times and positions to 1e-8 relative;
 * the same closed forms at sample rates up to 1 MHz (the rows must not depend on the grid).
 
-Expected failures (xfail, strict: they turn into failures once camsim is fixed): a held
-pair's slip missed at fine sample rates (MISSED_SLIP).
+The fine sample rates caught a slip the engine lost where a step's polynomial missed a
+crossing its exact ends bracket (camsim/engine/linear.py now starts from the ends' cubic).
 
 Conventions: tension-positive element forces; d = x_upper − x_lower; the pair acts −f on
 its upper node (camsim/elements/friction.py).
@@ -550,13 +550,6 @@ def test_part_heavier_than_its_breakaway_force_rests_on_the_stop(e):
 
 
 # =========================================================================== the sample rate
-MISSED_SLIP = pytest.mark.xfail(
-    strict=True,
-    reason="camsim bug: a held pair's slip guard that the exact node values bracket (g0 > 0 >= g1) is dropped "
-           "when the step's Taylor polynomial of the guard does not cross (camsim/engine/roots.py refine returns "
-           "None: the step's Hermite cam input carries rounding amplified by 1/h^k, e.g. Dk = [.., -1.1e9, 1.4e14, "
-           "-9.2e18] for a constant-velocity segment at 50 kHz); the guard is then negative at every later node, "
-           "never 'crosses' again, and the pair stays held far beyond F_B (155 N held against F_B = 15 N)")
 
 
 def _belt_rows(ref: StickSlip, t_end: float) -> list[tuple[float, str]]:
@@ -572,9 +565,9 @@ def _belt_rows(ref: StickSlip, t_end: float) -> list[tuple[float, str]]:
 
 @pytest.mark.parametrize("rate", [
     "10 kHz", "20 kHz",
-    pytest.param("50 kHz", marks=MISSED_SLIP),
-    pytest.param("200 kHz", marks=MISSED_SLIP),
-    pytest.param("1 MHz", marks=MISSED_SLIP),
+    pytest.param("50 kHz"),
+    pytest.param("200 kHz"),
+    pytest.param("1 MHz"),
 ])
 def test_stick_slip_rows_at_any_sample_rate(rate):
     """Reference: the closed-form limit cycle of test_stick_slip_limit_cycle_period_stick_time_and_amplitude
@@ -591,10 +584,10 @@ def test_stick_slip_rows_at_any_sample_rate(rate):
 @pytest.mark.parametrize("fc, fb, rate, duration", [
     (0.4, 0.4, "30 kHz", None),
     (0.2, 0.45, "200 kHz", None),
-    pytest.param(0.4, 0.4, "100 kHz", None, marks=MISSED_SLIP),
-    pytest.param(0.4, 0.4, "200 kHz", None, marks=MISSED_SLIP),
-    pytest.param(0.3, 0.4, "200 kHz", None, marks=MISSED_SLIP),
-    pytest.param(0.2, 0.45, "1 MHz", "0.15 s", marks=MISSED_SLIP),
+    pytest.param(0.4, 0.4, "100 kHz", None),
+    pytest.param(0.4, 0.4, "200 kHz", None),
+    pytest.param(0.3, 0.4, "200 kHz", None),
+    pytest.param(0.2, 0.45, "1 MHz", "0.15 s"),
 ])
 def test_carriage_rows_at_any_sample_rate(fc, fb, rate, duration):
     """Reference: CarriageReference (closed form, brentq) at finer grids than
