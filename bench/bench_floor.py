@@ -34,6 +34,11 @@ is less sensitive to other jobs than wall time, and the ratios to the floor meas
 the same rounds carry over between runs on differently loaded machines better than the
 absolute times.
 
+One design evaluation (issue 42) is what a study pays per run of the file:
+``camsim.run.evaluation.evaluate(machine)`` with the file's own settings (a warm-up revolution
+and one recorded revolution, every located scalar, no traces); its target is 2× the floor's
+revolution.
+
 ``--also DIR`` times the camsim of another source tree (its ``camsim/`` package, e.g. a
 ``git worktree`` of an older commit) in a second child process of the same kind, the two
 trees alternating first and second from round to round, and prints its figures, its
@@ -58,7 +63,7 @@ CDTM = ROOT / "machines" / "cdtm.toml"
 RATE = 50e3  # [Hz] the output rate of the issue's figures
 SLOW_RATE = 2.0  # [Hz] output so sparse that a revolution's cost is its events
 TOLERANCE = 1e-9  # floor against camsim's no-impact traces, of each trace's peak
-TARGETS = {"impact": 3.0, "no_impact": 1.5, "event_ms": 0.2}
+TARGETS = {"impact": 3.0, "no_impact": 1.5, "event_ms": 0.2, "evaluation": 2.0}
 BRANCH_KINDS = ("impact", "release", "separation", "rejoin")
 FLOOR_CALLS = 3  # floor calls per round (each ~15 ms of CPU)
 
@@ -91,6 +96,14 @@ class CamsimCalls:
         self.machine = camsim.load_machine(CDTM)
         self.calls = {label: (lambda kw=kw: camsim.simulate(self.machine, warmup_cycles=0, **kw))
                       for label, kw in CAMSIM_CASES.items()}
+        # issue 42: one design evaluation, what a study pays per run of the file (its warm-up and
+        # one recorded revolution, every located scalar, no traces); a tree without the
+        # scalars-only evaluation pays a full run of the file's settings
+        try:
+            from camsim.run.evaluation import evaluate
+        except ImportError:
+            evaluate = camsim.simulate
+        self.calls["evaluation"] = lambda: evaluate(self.machine)
         run = self.calls["impact-1"]()  # warm: imports, caches
         for call in self.calls.values():
             call()
@@ -173,6 +186,7 @@ ROWS = [
     ("event", "per event (1 revolution)"),
     ("event-marginal", "per event (a further revolution)"),
     ("event-2Hz", "per event (2 Hz output)"),
+    ("evaluation", "one design evaluation (warm-up + 1 revolution, scalars)"),
 ]
 
 
@@ -189,6 +203,7 @@ def print_table(fig: dict, title: str, floor: dict) -> None:
     print(f"  {'ratios and targets':46s} {'wall min':>9} {'wall med':>9} {'cpu min':>9} {'cpu med':>9}   target")
     rows = [("impact-1", "floor-1", "with impact / floor", TARGETS["impact"]),
             ("free-1", "floor-1", "without impact / floor", TARGETS["no_impact"]),
+            ("evaluation", "floor-1", "design evaluation / floor revolution", TARGETS["evaluation"]),
             ("impact-marginal", "floor-marginal", "with impact / floor, further revolution", None),
             ("free-marginal", "floor-marginal", "without impact / floor, further revolution", None)]
     for num, den, label, target in rows:
@@ -242,16 +257,17 @@ def main(argv: list[str] | None = None) -> int:
     print(f"camsim        {mine.where}: {mine.events} branch-change events per revolution", flush=True)
     if child is not None:
         print(f"also          {child.where}: {child.events} events per revolution", flush=True)
+    cases_all = [*CAMSIM_CASES, "evaluation"]
     print(f"rounds        {repeat}, each: the floor (1, 3 revolutions; {FLOOR_CALLS} calls each) and "
-          f"{len(CAMSIM_CASES)} camsim calls per tree, rotating order", flush=True)
-    labels = ["floor-1", "floor-3", *CAMSIM_CASES]
+          f"{len(cases_all)} camsim calls per tree, rotating order", flush=True)
+    labels = ["floor-1", "floor-3", *cases_all]
     ours = {label: [] for label in labels}
-    theirs = {label: [] for label in CAMSIM_CASES}
+    theirs = {label: [] for label in cases_all}
     floor_calls = {"floor-1": lambda: floor(1), "floor-3": lambda: floor(3)}
     try:
         for r in range(repeat):
             order = labels[r % len(labels):] + labels[:r % len(labels)]  # rotate: no fixed neighbour
-            cases = [lab for lab in order if lab in CAMSIM_CASES]
+            cases = [lab for lab in order if lab in cases_all]
             trees = [(mine, ours), (child, theirs)] if child is not None else [(mine, ours)]
             for proc, into in trees[r % len(trees):] + trees[:r % len(trees)]:  # A B, B A, ...
                 for label, t in proc.round(cases).items():
