@@ -95,6 +95,9 @@ class Block:
 TABLE6 = ('camsim impact --mass "2.029e-5 lbf*s**2/in" --drop-height "1 in" \\\n'
           '    --sphere-diameter "0.375 in" --modulus "2.9e7 psi" --stiffness "60800 lbf/in"')
 
+#: The speed sweep of docs/press-station.md (its block and its jump-onset figures)
+PRESS_SWEEP = "--vary cam.speed=100:300:10rpm --refine-jump --workers 2"
+
 BLOCKS: dict[str, Block] = {
     "readme-run": Block("README.md", (camsim("camsim run machines/cdtm.toml"),)),
     "readme-sweep": Block("README.md", (
@@ -134,6 +137,16 @@ BLOCKS: dict[str, Block] = {
     "camshaft-dynamic": Block("docs/camshaft.md", (
         camsim("camsim run machines/camshaft-line-dynamic.toml -o line-dyn.h5", excerpt_from=r"^cams on the shaft"),),
         fence="text", slow=True),
+    "press-run": Block("docs/press-station.md", (camsim("camsim run machines/press-station.toml"),)),
+    "press-run-bare": Block("docs/press-station.md", (
+        camsim("camsim run machines/press-station-bare.toml", excerpt_from=r"^cam contact force"),)),
+    "press-compare": Block("docs/press-station.md", (
+        camsim("camsim compare machines/press-station.h5 machines/press-station-bare.h5"),),
+        after=("press-run", "press-run-bare")),
+    "press-sweep": Block("docs/press-station.md", (
+        camsim(f"camsim sweep machines/press-station.toml {PRESS_SWEEP} -o press_sweep.h5"),
+        camsim(f"camsim sweep machines/press-station-bare.toml {PRESS_SWEEP} -o press_bare_sweep.h5"),
+    ), slow=True),
     "fitting-rig-trace": Block("docs/fitting.md", (
         shell("python examples/make_rig_trace.py"),
         shell("head -3 examples/rig_trace.csv"),
@@ -153,6 +166,9 @@ class Figure:
     page: str
     argv: tuple[str, ...]
     text: object  # Callable[[dict], str]: the payload → the text on the page
+    #: A second command whose payload the figure also reads (a difference of two runs): then
+    #: ``text`` takes both payloads, ``text(p, q)``.
+    also: tuple[str, ...] | None = None
 
 
 def _q(value: float, unit: str, si_unit: str, fmt: str = ".4g") -> str:
@@ -189,8 +205,67 @@ def _residual(p: dict) -> str:
     return f"{p['periodicity_residual']:.3g}"
 
 
+# ---- docs/press-station.md: the press-fit station with and without its process force and friction
+PRESS_JSON = ("camsim", "run", "machines/press-station.toml", "-o", "press-json.h5", "--json")
+BARE_JSON = ("camsim", "run", "machines/press-station-bare.toml", "-o", "press-bare-json.h5", "--json")
+PRESS_SWEEP_JSON = ("camsim", "sweep", "machines/press-station.toml", *PRESS_SWEEP.split(), "-o", "press-sweep-json.h5",
+                    "--json")
+BARE_SWEEP_JSON = ("camsim", "sweep", "machines/press-station-bare.toml", *PRESS_SWEEP.split(), "-o",
+                   "press-bare-sweep-json.h5", "--json")
+
+
+def _angle(p: dict, t: float) -> str:
+    """The shaft angle [deg] at time t [s] (rigid shaft from 0 deg), within the revolution."""
+    import math
+
+    return f"{math.degrees(p['camshaft']['mean_speed'] * t) % 360.0:.1f}°"
+
+
+def _impact(p: dict, element: str) -> dict:
+    return next(e for e in p["impacts"] if e["element"] == element)
+
+
+def _press_figures() -> dict[str, Figure]:
+    page = "docs/press-station.md"
+    N = lambda v: _q(v, "N", "N")  # noqa: E731
+    out: dict[str, Figure] = {}
+    for tag, argv in (("press", PRESS_JSON), ("press-bare", BARE_JSON)):
+        def fig(text, argv=argv):
+            return Figure(page, argv, text)
+        out.update({
+            f"{tag}-min-fc": fig(lambda p: N(p["min_cam_contact_force"]["value"])),
+            f"{tag}-min-fc-angle": fig(lambda p: _angle(p, p["min_cam_contact_force"]["time"])),
+            f"{tag}-max-fc": fig(lambda p: N(p["max_cam_contact_force"]["value"])),
+            f"{tag}-max-fc-angle": fig(lambda p: _angle(p, p["max_cam_contact_force"]["time"])),
+            f"{tag}-stop-v": fig(lambda p: _q(_impact(p, "stop")["relative_velocity"], "m/s", "m/s")),
+            f"{tag}-stop-angle": fig(lambda p: _angle(p, _impact(p, "stop")["time"])),
+            f"{tag}-stop-peak": fig(lambda p: N(_impact(p, "stop")["peak_force"])),
+            f"{tag}-stop-peak-angle": fig(lambda p: _angle(p, _impact(p, "stop")["peak_time"])),
+            f"{tag}-stop-johnson": fig(lambda p: N(_impact(p, "stop")["johnson_upper"])),
+            f"{tag}-torque": fig(_shaft("peak_torque", "N·m", "N*m")),
+            f"{tag}-torque-angle": fig(lambda p: _angle(p, p["camshaft"]["peak_torque_time"])),
+            f"{tag}-rms-torque": fig(_shaft("rms_torque", "N·m", "N*m")),
+            f"{tag}-work": fig(_shaft("cycle_work", "J", "J")),
+            f"{tag}-ek": fig(_shaft("energy_excursion", "J", "J")),
+            f"{tag}-flywheel": fig(_shaft("flywheel_inertia", "kg·m²", "kg*m^2")),
+        })
+    out.update({
+        "press-rejoin-angle": Figure(page, PRESS_JSON, lambda p: _angle(p, _impact(p, "overtravel")["time"])),
+        "press-load-work": Figure(page, PRESS_JSON, lambda p: _q(-p["loads"]["press"]["work"], "J", "J")),
+        "press-friction-energy": Figure(page, PRESS_JSON, lambda p: _q(p["friction"]["guide"]["energy"], "J", "J")),
+        "press-min-fc-drop": Figure(page, PRESS_JSON, lambda p, q: N(q["min_cam_contact_force"]["value"]
+                                                                    - p["min_cam_contact_force"]["value"]), also=BARE_JSON),
+        "press-torque-rise": Figure(page, PRESS_JSON, lambda p, q: _q(p["camshaft"]["peak_torque"] - q["camshaft"]["peak_torque"],
+                                                                      "N·m", "N*m"), also=BARE_JSON),
+        "press-jump": Figure(page, PRESS_SWEEP_JSON, lambda p: f"{p['jump_onset_rpm']:.1f} rpm"),
+        "press-bare-jump": Figure(page, BARE_SWEEP_JSON, lambda p: f"{p['jump_onset_rpm']:.1f} rpm"),
+    })
+    return out
+
+
 CDTM_JSON = ("camsim", "run", "machines/cdtm.toml", "-o", "cdtm-json.h5", "--json")
 LINE_JSON = ("camsim", "run", "machines/camshaft-line-dynamic.toml", "-o", "line-dyn-json.h5", "--json")
+PRESS_FIGURES = _press_figures()
 FIGURES: dict[str, Figure] = {
     "readme-m2-acceleration": Figure("README.md", CDTM_JSON, _cdtm_m2),
     "readme-ball-drop-peak": Figure("README.md", ("camsim", "run", "machines/ball-drop.toml", "-o", "ball.h5", "--json"),
@@ -199,9 +274,11 @@ FIGURES: dict[str, Figure] = {
     "camshaft-dyn-drive-work": Figure("docs/camshaft.md", LINE_JSON, _shaft("drive_work", "J", "J")),
     "camshaft-dyn-cycle-work": Figure("docs/camshaft.md", LINE_JSON, _shaft("cycle_work", "J", "J")),
     "camshaft-dyn-residual": Figure("docs/camshaft.md", LINE_JSON, _residual),
+    **PRESS_FIGURES,
 }
 #: Figures whose command takes tens of seconds (checked when CI=true, as the slow blocks).
-SLOW_FIGURES = {"camshaft-dyn-speed", "camshaft-dyn-drive-work", "camshaft-dyn-cycle-work", "camshaft-dyn-residual"}
+SLOW_FIGURES = {"camshaft-dyn-speed", "camshaft-dyn-drive-work", "camshaft-dyn-cycle-work", "camshaft-dyn-residual",
+                *(n for n, f in PRESS_FIGURES.items() if "sweep" in f.argv)}
 
 
 def figure_markers(name: str) -> tuple[str, str]:
@@ -237,14 +314,18 @@ def generate_figures(names: list[str]) -> dict[str, str]:
     payloads: dict[tuple[str, ...], dict] = {}
     try:
         for name in names:
-            argv = FIGURES[name].argv
-            if argv not in payloads:
-                done = subprocess.run([sys.executable, "-m", "camsim", *argv[1:]], cwd=d, env=_env(d),
-                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, timeout=1800)
-                payloads[argv] = json.loads(done.stdout)
+            for argv in (FIGURES[name].argv, FIGURES[name].also):
+                if argv is not None and argv not in payloads:
+                    done = subprocess.run([sys.executable, "-m", "camsim", *argv[1:]], cwd=d, env=_env(d),
+                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, timeout=1800)
+                    payloads[argv] = json.loads(done.stdout)
     finally:
         shutil.rmtree(d, ignore_errors=True)
-    return {n: FIGURES[n].text(payloads[FIGURES[n].argv]) for n in names}
+    out = {}
+    for n in names:
+        fig = FIGURES[n]
+        out[n] = fig.text(payloads[fig.argv]) if fig.also is None else fig.text(payloads[fig.argv], payloads[fig.also])
+    return out
 
 
 # ---------------------------------------------------------------------- every command shown

@@ -35,10 +35,15 @@ OSCILLATOR = _OSC.replace("damping_ratio = 0.05", "damping_ratio = 0.5").replace
 def _bounds(machine):
     from camsim.cam.camshaft import cam_input
 
+    from camsim.loads.inputs import engine_input
+    from camsim.loads.programs import load_programs
+
     model = Model(machine)
     cam = cam_input(machine, None)  # one cam: its program; [[cam]] tables: every cam's (as the run)
-    state = initial_state(model, Integrator(model, cam, 1e-4), 0.0)
     sim = machine.simulation
+    t_rec = sim.warmup_cycles * cam.period if machine.cam is not None else 0.0
+    inputs = engine_input(cam, load_programs(machine, t_rec))  # the loads' channels after the cams' (as the run)
+    state = initial_state(model, Integrator(model, inputs, 1e-4, t_ref=t_rec), 0.0)
     t_end = (sim.warmup_cycles + sim.cycles) * cam.period if machine.cam is not None else sim.duration
     return physical_bounds(model, cam, state, t_end)
 
