@@ -363,8 +363,10 @@ def test_free_mass_connected_to_nothing():
     _check(_error(text), "mass[2]", "M4 is connected to no element")
 
 
-def test_negative_gap():
-    _check(_error(BASE.replace('gap = "1 mm"', 'gap = "-1 mm"')), "element[1].gap", "must not be negative")
+def test_negative_gap_is_an_interference():
+    """A gap may have either sign (spec §10): -1 mm is a contact closed at zero deflection."""
+    machine = load_machine_text(BASE.replace('gap = "1 mm"', 'gap = "-1 mm"'))
+    assert machine.elements[1].gap == pytest.approx(-1e-3, rel=1e-15)
 
 
 @pytest.mark.parametrize("e", ["1.2", "-0.1"])

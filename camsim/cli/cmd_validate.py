@@ -86,6 +86,11 @@ _SHOWN_WHEN_SET = ("quadratic_damping",)
 
 
 def _param_text(p: Param, value, element, u: DisplayUnits) -> str:
+    if p.dimension == "law_table":  # a lash's side: its law and its own keys
+        own = {q.key for q in element.params}
+        keys = [_param_text(q, getattr(value, q.attribute), value, u) for q in value.params
+                if q.key not in own and _shown(q, value)]
+        return f"{p.key} {{{', '.join([f'law {value.law_name}', *keys])}}}"
     if value is True:
         return p.key
     if isinstance(value, str):

@@ -49,6 +49,8 @@ class Branch(str, Enum):
     BILATERAL = "bilateral"  # no-impact variant: cam contact that never opens
     CLOSED_DEEP = "closed-deep"  # a closed contact past a kink of its law (Adams IMPACT beyond its damping ramp)
     CLAMPED = "clamped"  # penetrating, the law's force clamped at zero (watched, not acting; issue 34)
+    CLOSED_DEEP_HIGH = "closed-deep-high"  # a lash's upper side past a kink of its law (ElastoGap's approach clip)
+    CLAMPED_HIGH = "clamped-high"  # a lash's upper side penetrating, its law clamped at zero (ElastoGap)
     FREE = "free"  # a friction pair left out (the static equilibrium it starts stuck in)
     HELD = "held"  # a friction pair stuck: a constraint at the deflection it stuck at (spec §10)
     SLIDING_UP = "sliding-up"  # a friction pair sliding with ḋ > 0
@@ -90,8 +92,10 @@ class Param:
         The TOML key.
     dimension : str
         A dimension of :data:`camsim.units.DIMENSIONS` (``"stiffness"``...), ``"number"``
-        (dimensionless, percent allowed), ``"bool"``, ``"choice"`` (one of ``choices``), or
-        ``"power_coefficient"`` (units N/m^a with the element's ``exponent``).
+        (dimensionless, percent allowed), ``"bool"``, ``"choice"`` (one of ``choices``),
+        ``"power_coefficient"`` (units N/m^a with the element's ``exponent``), or
+        ``"law_table"`` (a table holding a law of the element's type and its keys: a lash's
+        side, read into an element of that law).
     doc : str
         One line for the reference table.
     required : bool
@@ -267,6 +271,19 @@ class Element:
         return 0.0
 
     # ------------------------------------------------------------------ loading
+    #: Keys whose presence in a table selects this class over the law's (a variant of a type
+    #: with laws, registered without one: a lash with ``lower``/``upper`` tables).
+    selected_by: ClassVar[tuple[str, ...]] = ()
+
+    @classmethod
+    def for_table(cls, row: dict[str, Any]) -> type["Element"]:
+        """The class that reads the machine file's table ``row`` of this kind and law: itself,
+        or a variant its keys select (:attr:`selected_by`)."""
+        for variant in variants(cls.type_name):
+            if variant is not cls and any(key in row for key in variant.selected_by):
+                return variant
+        return cls
+
     @classmethod
     def check(cls, values: dict[str, Any], error: Callable[[str, str], Exception], driven: str | None) -> None:
         """Cross-key checks after each key parsed (raise ``error(key, message)``)."""
@@ -284,8 +301,10 @@ class Element:
                              reduced_mass: Callable[[], float] | None = None) -> dict[str, float]:
         """Viscous coefficient [N·s/m] per damping name (see :meth:`branch_stiffnesses`).
 
-        ``reduced_mass`` gives m1·m2/(m1 + m2) of the element's two nodes [kg] (a fixed or
-        driven node counts as infinite), for laws whose damping follows from a restitution.
+        ``reference_mass()`` gives m_ref [kg] of a damping ratio (``reference_mass(name)``: the
+        mass named ``name``, for an element whose parts name their own); ``reduced_mass`` gives
+        m1·m2/(m1 + m2) of the element's two nodes [kg] (a fixed or driven node counts as
+        infinite), for laws whose damping follows from a restitution.
         """
         stiffnesses = self.branch_stiffnesses()
         d = self.damping
@@ -305,6 +324,13 @@ class Element:
     def is_constraint(self, branch: Branch | None) -> bool:
         """True when the branch holds the nodes rigidly together (a constraint)."""
         return False
+
+    def acting(self, branch: Branch | None) -> "Element":
+        """The element whose law acts on ``branch``: itself, except for an element made of
+        laws that differ by branch (a lash with a table per side answers with that side's
+        lash). The engine asks it for a closed nonlinear law's force (``nonlinear_force``...)
+        and an impact's Johnson bounds, which are not asked by branch."""
+        return self
 
     def is_nonlinear(self, branch: Branch | None) -> bool:
         """True when the branch's force is nonlinear (integrated as F_nl)."""
@@ -463,6 +489,11 @@ def element_class(type_name: str, law: str | None = None) -> type[Element]:
     if law is None and laws_of(type_name):
         law = DEFAULT_LAW[type_name]
     return _REGISTRY[(type_name, law)]
+
+
+def variants(type_name: str) -> list[type[Element]]:
+    """Classes of a type with laws that no ``law`` names (chosen by their keys: :meth:`Element.for_table`)."""
+    return [cls for (t, law), cls in _REGISTRY.items() if t == type_name and law is None and laws_of(type_name)]
 
 
 def classes() -> list[type[Element]]:

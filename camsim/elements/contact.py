@@ -1,6 +1,8 @@
 """``type = "contact"``: what every unilateral contact shares, whatever its law (spec §3).
 
-With ``gap`` g0 ≥ 0 the penetration is δ = g0 − d; the contact force is compressive
+With ``gap`` g0 the penetration is δ = g0 − d (g0 of either sign, spec §10: a negative gap is
+a contact closed at zero deflection — an interference fit, or a stop on the far side of the
+origin, below a mass whose coordinate is negative there); the contact force is compressive
 (it pushes the nodes apart) and acts only while δ > 0. Each law is a subclass in a
 module of its own (``linear_contact``, ``power_contact``, ``rigid_contact``, ...),
 registered under ``type = "contact"`` and its ``law`` name.
@@ -17,7 +19,8 @@ from camsim.elements.events import EventKind
 #: Keys every contact takes, whatever its law.
 CONTACT_PARAMS: tuple[Param, ...] = (
     Param("law", "string", "the contact law (the tables below, one per law)", default="linear"),
-    Param("gap", "length", "g0: penetration δ = g0 − d", default=0.0, minimum=0.0),
+    Param("gap", "length", "g0: penetration δ = g0 − d; any sign (g0 < 0: closed at zero deflection, an "
+          "interference or a stop beyond the origin)", default=0.0),
     Param("transducer", "bool", "its force is summed into `/transducer/force`", default=False),
 )
 
@@ -29,7 +32,7 @@ class Contact(Element):
     Attributes
     ----------
     gap : float
-        g0 [m] ≥ 0.
+        g0 [m], either sign.
     transducer : bool
         Its force is summed into ``/transducer/force``.
     restitution : float or None

@@ -58,6 +58,9 @@ class Event:
         Time until the contact opens again [s].
     element_index : int
         Index of the element in the model (internal; not written).
+    branch : Branch or None
+        The branch the element took with the event (internal; not written): the side a lash
+        closed on, whose law annotates the impact (:meth:`~camsim.elements.base.Element.acting`).
     """
 
     time: float
@@ -72,6 +75,7 @@ class Event:
     peak_time: float = float("nan")
     contact_duration: float = float("nan")
     element_index: int = -1
+    branch: object = None
 
     def __post_init__(self) -> None:
         self.kind = EventKind(self.kind)

@@ -17,7 +17,11 @@ any law of ``type = "contact"`` with one set of parameters for both sides:
 - ``"adams-impact"``: MSC Adams's IMPACT function;
 - ``"restitution"``: a rigid stop on each side, Newton's law at each impact, resting
   (``stick``) and ``release`` as a rigid contact, solved with the other rigid contacts
-  as one LCP (:mod:`camsim.engine.rigid`).
+  as one LCP (:mod:`camsim.engine.rigid`);
+- ``"elastogap"``: Modelica's ElastoGap on each side (:mod:`camsim.elements.elastogap_lash`).
+
+A lash whose sides differ gives ``lower`` and ``upper`` tables, each side a lash of its own
+law (:mod:`camsim.elements.sided_lash`).
 
 Each law is one class here, registered under ``type = "lash"`` and the law's name; it
 delegates the law to an instance of that law's contact class (built from the same
@@ -137,20 +141,40 @@ class Lash(Element):
         return self.offset + 0.5 * self.clearance
 
     # ------------------------------------------------------------------ sides
+    @property
+    def side_branches(self) -> tuple[tuple[Branch, ...], tuple[Branch, ...]]:
+        """The branches on which each side is closed: (lower's, upper's); the first of each
+        is :attr:`closed_branches`' (the side at rest)."""
+        return (self.closed_branches[0],), (self.closed_branches[1],)
+
     def contact_side(self, branch, d=None):
-        if branch == self.closed_branches[1]:
+        sign = self.side_of(branch)
+        if sign < 0:
             return -1.0, self.high
-        if branch == self.closed_branches[0] or d is None:
+        if sign > 0 or d is None:
             return 1.0, self.low
-        return (1.0, self.low) if self.low - d >= d - self.high else (-1.0, self.high)
+        return (1.0, self.low) if self.nearest(d) > 0 else (-1.0, self.high)
+
+    def nearest(self, d: float) -> float:
+        """σ of the side nearest deflection ``d`` (+1 lower, −1 upper)."""
+        return 1.0 if self.low - d >= d - self.high else -1.0
 
     def side_of(self, branch) -> float:
         """σ of the side closed on ``branch`` (0: open)."""
-        if branch == self.closed_branches[0]:
+        lower, upper = self.side_branches
+        if branch in lower:
             return 1.0
-        if branch == self.closed_branches[1]:
+        if branch in upper:
             return -1.0
         return 0.0
+
+    def _contact_branch(self, branch) -> Branch:
+        """The branch of the law's contact that the lash's ``branch`` is on one side."""
+        return Branch.CLOSED
+
+    def _lash_branch(self, contact_branch: Branch, sign: float) -> Branch:
+        """The lash's branch on side ``sign`` for the law's contact on ``contact_branch``."""
+        return self.closed_branches[0 if sign > 0 else 1]
 
     def penetration(self, d: float) -> float:
         return max(self.low - d, d - self.high)
@@ -163,7 +187,8 @@ class Lash(Element):
 
     # ------------------------------------------------------------------ branches and laws
     def branches(self, no_impact):
-        return (Branch.OPEN,) if no_impact else (Branch.OPEN, *self.closed_branches)
+        lower, upper = self.side_branches
+        return (Branch.OPEN,) if no_impact else (Branch.OPEN, *lower, *upper)
 
     def branch_stiffnesses(self):
         return self.contact.branch_stiffnesses()
@@ -180,7 +205,7 @@ class Lash(Element):
             return np.zeros_like(d)
         dd, rate = self._side_deflection(branch, d, d_rate)
         # The law's compressive F along the side's δ; tension-positive: −F below, +F above.
-        return -sign * self.contact.force(Branch.CLOSED, dd, rate, damping, v_impact)
+        return -sign * self.contact.force(self._contact_branch(branch), dd, rate, damping, v_impact)
 
     # ------------------------------------------------------------------ guards and events
     def _sides(self, ctx):
@@ -189,23 +214,43 @@ class Lash(Element):
         high = _Side(ctx, Affine(d.Cz, d.Du, d.Fn, d.e - self.high), rate)
         return low, high
 
-    def guards(self, branch, ctx):
-        low, high = self._sides(ctx)
-        sign = self.side_of(branch)
-        if sign:  # the law's guards on the closed side (its release; a lash has one closed
-            # branch per side, so the kinks a contact locates inside a closed phase — Adams
-            # IMPACT's — are stepped across here: a known limit, docs/contacts.md)
-            guards = self.contact.guards(self.contact.closed_branch, low if sign > 0 else high)
-            return [g for g in guards if g[0] not in _KINKS]
-        # Open: each side's guards as an open contact's (approach, or lifted and closing again).
-        return [*self.contact.guards(Branch.OPEN, low), *self.contact.guards(Branch.OPEN, high)]
+    #: Whether the kinks of the law inside a closed phase are located (branches of each side).
+    locates_kinks: ClassVar[bool] = False
 
-    def guard_key(self, branch, ctx):
-        low, high = self._sides(ctx)
+    def guards(self, branch, ctx):
         sign = self.side_of(branch)
         if sign:
-            return self.contact.guard_key(self.contact.closed_branch, low if sign > 0 else high)
-        return self.contact.guard_key(Branch.OPEN, low), self.contact.guard_key(Branch.OPEN, high)
+            return self.side_guards(sign, branch, ctx)
+        # Open: each side's guards as an open contact's (approach, or lifted and closing again).
+        return [*self.side_guards(1.0, branch, ctx), *self.side_guards(-1.0, branch, ctx)]
+
+    def side_guards(self, sign: float, branch, ctx):
+        """Guards of side σ on ``branch``: its law's closed guards on a branch of that side,
+        else an open contact's (approach, or lifted and closing again)."""
+        side = self._sides(ctx)[0 if sign > 0 else 1]
+        if self.side_of(branch) != sign:
+            return self.contact.guards(Branch.OPEN, side)
+        if self.locates_kinks:
+            return self.contact.guards(self._contact_branch(branch), side)
+        # the law's guards on the closed side (its release; a lash of this law has one closed
+        # branch per side, so the kinks a contact locates inside a closed phase — Adams
+        # IMPACT's — are stepped across here: a known limit, docs/contacts.md)
+        guards = self.contact.guards(self.contact.closed_branch, side)
+        return [g for g in guards if g[0] not in _KINKS]
+
+    def guard_key(self, branch, ctx):
+        sign = self.side_of(branch)
+        if sign:
+            return self.side_guard_key(sign, branch, ctx)
+        return self.side_guard_key(1.0, branch, ctx), self.side_guard_key(-1.0, branch, ctx)
+
+    def side_guard_key(self, sign: float, branch, ctx):
+        """:meth:`guard_key` of side σ's guards (:meth:`side_guards`)."""
+        side = self._sides(ctx)[0 if sign > 0 else 1]
+        if self.side_of(branch) != sign:
+            return self.contact.guard_key(Branch.OPEN, side)
+        contact_branch = self._contact_branch(branch) if self.locates_kinks else self.contact.closed_branch
+        return self.contact.guard_key(contact_branch, side)
 
     def outcome_at(self, kind, rate, d):
         # rate = −ḋ: the lower side's δ̇; the upper side's is −rate.
@@ -213,11 +258,11 @@ class Lash(Element):
             return Outcome()
         if kind == GuardKind.RELEASE:
             return Outcome(Branch.OPEN, EventKind.RELEASE, rate if d < self.offset else -rate)
-        sign, _ = self.contact_side(Branch.OPEN, d)
+        sign = self.nearest(d)
         if kind == GuardKind.REENGAGE:  # that side's force resumes: no impact, no row
             return Outcome(self.closed_branches[0 if sign > 0 else 1])
         closing = self.contact.closing(rate if sign > 0 else -rate)
-        branch = None if closing.branch is None else self.closed_branches[0 if sign > 0 else 1]
+        branch = None if closing.branch is None else self._lash_branch(closing.branch, sign)
         return Outcome(branch, closing.event, closing.velocity, closing.v_impact, closing.rigid_impact)
 
     def outcome(self, kind, rate):
@@ -375,7 +420,7 @@ class RigidLash(Lash):
         # Open at rest but through a stop: the equilibrium rests on that stop (as a rigid
         # contact closes at rest), not an error (that is for a given [initial] state).
         if self.penetration(d) > LENGTH_TOL:
-            return self.closed_branches[0] if self.low - d >= d - self.high else self.closed_branches[1]
+            return self.closed_branches[0] if self.nearest(d) > 0 else self.closed_branches[1]
         return self.branch_from_state(d, False)
 
     def branch_from_state(self, d, no_impact):
@@ -385,7 +430,7 @@ class RigidLash(Lash):
         if delta > LENGTH_TOL:
             raise ValueError(f"the initial state penetrates the rigid lash {self.name} by {delta:.3g} m")
         if abs(delta) <= LENGTH_TOL:
-            return self.closed_branches[0] if self.low - d >= d - self.high else self.closed_branches[1]
+            return self.closed_branches[0] if self.nearest(d) > 0 else self.closed_branches[1]
         return Branch.OPEN
 
 

@@ -394,7 +394,8 @@ class EngineContext:
         out = np.empty((z.shape[0], len(config.power_contacts)))
         for k, i in enumerate(config.power_contacts):
             delta, rate = self._delta(config, i)
-            out[:, k] = self.model.power_force(i, delta(z, u)[:, 0], rate(z, u)[:, 0], v_impacts.get(i))
+            out[:, k] = self.model.power_force(i, config.branches, delta(z, u)[:, 0], rate(z, u)[:, 0],
+                                               v_impacts.get(i))
         return out
 
     @staticmethod
@@ -415,12 +416,12 @@ class EngineContext:
         dd = state.v @ geo.G + geo.cam_term(u[1::N_INPUT])
         return self.model.elements[i].penetration(d), -dd
 
-    def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float) -> None:
+    def _record(self, t: float, i: int, kind: EventKind, relative_velocity: float, branch=None) -> None:
         element = self.model.elements[i]
         self.events.append(
             Event(
                 time=t, element=element.name, kind=kind, relative_velocity=float(relative_velocity),
-                masses=f"{element.lower}/{element.upper}", element_index=i,
+                masses=f"{element.lower}/{element.upper}", element_index=i, branch=branch,
             )
         )
 

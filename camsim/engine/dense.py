@@ -125,7 +125,7 @@ def integrate_step(ctx, config, v_impacts, t_a: float, h: float, z0: np.ndarray,
     for k, i in enumerate(config.power_contacts):
         delta, rate = ctx._delta(config, i)
         contacts.append((L[:, k], delta.Cz[0], delta.Du[0], float(delta.e[0]), rate.Cz[0], rate.Du[0], float(rate.e[0]),
-                         ctx.model.elements[i].nonlinear_force_scalar, v_impacts.get(i)))
+                         ctx.model.acting(i, config.branches).nonlinear_force_scalar, v_impacts.get(i)))
     # u_c(τ) = Σ_j D[j + c]·τ^j/j! (per cam): the coefficient matrix of τ^j per channel
     C = taylor_rows(Dk) / _FACT[: _P + 1]
     powers = np.arange(_P + 1)

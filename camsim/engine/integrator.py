@@ -167,7 +167,7 @@ class Integrator(EngineContext):
         d = float(model.deflection(i, state.x, self.inputs(np.array([state.t]))[0, 0::N_INPUT]))
         outcome = model.elements[i].outcome_at(guard.kind, rate, d)  # issue 12 hook: two-sided elements
         if outcome.event is not None:
-            self._record(state.t, i, outcome.event, outcome.velocity)
+            self._record(state.t, i, outcome.event, outcome.velocity, outcome.branch)
         if outcome.branch is not None:
             branches[pos] = outcome.branch
         if outcome.v_impact is not None:

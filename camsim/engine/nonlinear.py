@@ -133,7 +133,7 @@ class ClosedContact:
         delta, rate = integrator._delta(config, self.index)
         self.dz, self.du, self.de = delta.Cz[0], delta.Du[0], float(delta.e[0])
         self.rz, self.ru, self.re = rate.Cz[0], rate.Du[0], float(rate.e[0])
-        self.element = model.elements[self.index]
+        self.element = model.acting(self.index, config.branches)
         self.v_impact = None
         self.L = config.L[:, 0]
         self.laws: dict[tuple[int, int], tuple[_LinearLaw, object, np.ndarray]] = {}
@@ -482,7 +482,7 @@ class ExponentialStepper:
 
     def applies(self, ctx, config) -> bool:
         return bool(ENABLED and len(config.power_contacts) == 1 and config.dim
-                    and hasattr(ctx.model.elements[config.power_contacts[0]], "nonlinear_tangent"))
+                    and hasattr(ctx.model.acting(config.power_contacts[0], config.branches), "nonlinear_tangent"))
 
     def advance(self, ctx, state, config, z0, guards, t_stop, record):
         return advance_power(ctx, state, config, z0, guards, t_stop, record)

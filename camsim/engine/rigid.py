@@ -192,7 +192,10 @@ def resolve(integrator, state, trigger: int, kind: str):
         )
     v = state.v.copy()
     w_minus = J @ v + _cam(js, u, 1)
-    e = np.array([0.0 if _chattering(integrator, i, t) else (model.elements[i].restitution or 0.0) for i in idx])
+    # a lash with a table per side: the restitution of the side touching
+    e = np.array([0.0 if _chattering(integrator, i, t) else
+                  (model.elements[i].acting(model.elements[i].stuck_branch(sign)).restitution or 0.0)
+                  for i, (sign, _) in zip(idx, sides)])
     scale_v = 1.0 + float(np.max(np.abs(w_minus), initial=0.0))
     vel_tol = 1e-12 * scale_v
     closing = w_minus < -vel_tol

@@ -26,7 +26,7 @@ def advance_rk(ctx: EngineContext, state: State, config, z0, guards, t_stop: flo
         contacts.append((i, delta.Cz[0], delta.Du[0], float(delta.e[0]), rate.Cz[0], rate.Du[0], float(rate.e[0])))
     A, B, b, L = config.A, config.B, config.b, config.L
     fn = np.zeros(len(contacts))
-    force_of = [ctx.model.elements[i].nonlinear_force_scalar for i in config.power_contacts]
+    force_of = [ctx.model.acting(i, config.branches).nonlinear_force_scalar for i in config.power_contacts]
 
     def rhs(t, z):
         u = cam_input(t)

@@ -157,9 +157,9 @@ def _zero_like(sig):
 def _damping(machine: Machine, e: Element) -> dict[str, float]:
     from camsim.physics.restitution import reduced_mass
 
-    def ref():
-        if e.damping.reference_mass is not None:
-            return machine.mass_of(e.damping.reference_mass)
+    def ref(name=None):
+        if name or e.damping.reference_mass is not None:
+            return machine.mass_of(name or e.damping.reference_mass)
         name = e.lower if e.upper in (GROUND, CAM) else e.upper
         return machine.mass_of(name)
 

@@ -416,9 +416,24 @@ class _Rows(TableKind):
         row = rows[index]
         valid = self.valid(row)
         prefix = f"{head}[{index}]" if head_index is not None else f"{head}.{parts[1][0]}"
+        if len(rest) == 2 and rest[0][1] is None and rest[1][1] is None and rest[0][0] in self.sub_tables(row):
+            # a key of a table inside the row (a lash's side: element.<name>.upper.stiffness)
+            name, leaf = rest[0][0], rest[1][0]
+            sub_valid = self.sub_valid(row, name)
+            if leaf not in sub_valid:
+                raise ctx.unknown([f"{prefix}.{name}.{k}" for k in sub_valid], f"{prefix}.{name}.{leaf}")
+            return Address(ctx.table(row, name, f"{head}[{index}].{name}"), leaf, f"{head}[{index}].{name}.{leaf}")
         if len(rest) != 1 or rest[0][1] is not None or rest[0][0] not in valid:
             raise ctx.unknown([f"{prefix}.{k}" for k in valid], f"{prefix}.{rest[0][0] if rest else ''}")
         return Address(row, rest[0][0], f"{head}[{index}].{rest[0][0]}")
+
+    def sub_tables(self, row: Mapping[str, Any]) -> tuple[str, ...]:
+        """Keys of ``row`` that hold a table of keys of their own (none by default)."""
+        return ()
+
+    def sub_valid(self, row: Mapping[str, Any], name: str) -> tuple[str, ...]:
+        """The keys the table ``name`` inside ``row`` may hold."""
+        return ()
 
     def value(self, machine, parts):
         rows = machine[self.described]
@@ -457,6 +472,34 @@ class _Element(_Rows):
 
     def param(self, parts):
         return schema.ELEMENT_PARAMS.get(parts[-1][0])
+
+    # a lash's sides (spec §10): element.<name>.lower.<key>, element.<name>.upper.<key>
+    def sub_tables(self, row):
+        kind = row.get("type")
+        if not isinstance(kind, str):
+            return ()
+        return tuple(p.key for cls in element_kinds.variants(kind) for p in cls.params if p.dimension == "law_table")
+
+    def sub_valid(self, row, name):
+        kind = row["type"]
+        own = {p.key for cls in element_kinds.variants(kind) for p in cls.params}
+        return tuple(k for k in element_kinds.type_keys(kind) if k not in own)
+
+    def value(self, machine, parts):
+        rest = parts[1:] if parts[0][1] is not None else parts[2:]
+        if len(rest) == 2:  # a side's key: the description's "sides"
+            rows = machine[self.described]
+            row = rows[parts[0][1]] if parts[0][1] is not None else next(r for r in rows if r["name"] == parts[1][0])
+            return row["sides"][rest[0][0]][rest[1][0]]
+        return super().value(machine, parts)
+
+    def paths(self, doc):
+        out = super().paths(doc)
+        for name, row in _named_rows(doc.get(self.head)).items():
+            for table in self.sub_tables(row):
+                if isinstance(row.get(table), dict):
+                    out += [f"{self.head}.{name}.{table}.{k}" for k in self.sub_valid(row, table)]
+        return out
 
 
 @register

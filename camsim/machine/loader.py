@@ -299,12 +299,13 @@ def damping_coefficients(machine: Machine, element: Element) -> dict[str, float]
     -------
     dict
         ``{"c": ...}`` for a spring or linear contact, ``{"c_push": ..., "c_pull": ...}``
-        for a preloaded link, ``{}`` for power-law and restitution contacts (which take
+        for a preloaded link, ``{"c_lower": ..., "c_upper": ...}`` for a lash with a table
+        per side, ``{}`` for power-law and restitution contacts (which take
         no viscous damping).
     """
     from camsim.physics.restitution import reduced_mass
 
-    return element.damping_coefficients(lambda: machine.mass_of(reference_mass_of(element)),
+    return element.damping_coefficients(lambda name=None: machine.mass_of(name or reference_mass_of(element)),
                                         lambda: reduced_mass(machine, element))
 
 
@@ -403,6 +404,8 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             "c": "N*s/m",
             "c_push": "N*s/m",
             "c_pull": "N*s/m",
+            "c_lower": "N*s/m",
+            "c_upper": "N*s/m",
             "quadratic_damping": "N*s^2/m^2",
             "sample_rate": "Hz",
             "gravity": "m/s^2",

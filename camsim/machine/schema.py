@@ -275,7 +275,7 @@ _SHOWN = {
     "power_coefficient": "force/length^a", "angular_speed": "angular speed", "mass name": "mass name",
     "slowness": "time/length (s/m)", "material": "material name", "force/time": "force/time (N/s)", "materials": "[material, material]",
     "torsional_stiffness": "torque/angle (N·m/rad)",
-    "torsional_damping": "torque·time/angle (N·m·s/rad)", "inertia": "mass·length² (kg·m²)", "torque": "torque (N·m)",
+    "torsional_damping": "torque·time/angle (N·m·s/rad)", "law_table": "table `{ law = …, … }`", "inertia": "mass·length² (kg·m²)", "torque": "torque (N·m)",
 }
 
 
@@ -326,6 +326,9 @@ def render_section(name: str) -> str:
                 if law is not None and law == element_kinds.element_class(type_name).law_name:
                     head += " (the default law)"
                 out += [f"{head}: {cls.summary}", "", _table(cls.params), ""]
+            for cls in element_kinds.variants(type_name):  # chosen by their keys, not by a law
+                keys = " and ".join(f"`{k}`" for k in cls.selected_by)
+                out += [f'**`type = "{type_name}"`** with {keys}: {cls.summary}', "", _table(cls.params), ""]
         return "\n".join(out).rstrip() + "\n"
     return _table(TABLES[name]) + "\n"
 

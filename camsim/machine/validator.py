@@ -146,19 +146,10 @@ class _Validator(ShaftReader, LoadReader, MaterialKeys):
             kind = self.choice(row, "type", path, element_kinds.element_types(), required=True)
             self.check_keys(row, ELEMENT_COMMON_KEYS + element_kinds.type_keys(kind), path, f"for a {kind} element")
             lower, upper = self.between(row, path, nodes, mass_names)
-            laws = element_kinds.laws_of(kind)
-            law = None
-            if laws:
-                law = self.choice(row, "law", path, laws, required=False) or element_kinds.element_class(kind).law_name
-                key_laws = element_kinds.key_laws(kind)
-                for key in row:
-                    if key in key_laws and law not in key_laws[key]:
-                        takes = " or ".join(f'law = "{x}"' for x in key_laws[key])
-                        raise self.error(f"{path}.{key}", f'not used by a {kind} with law = "{law}" (only {takes})'
-                                         + self.law_hint(kind, law, key))
-            cls = element_kinds.element_class(kind, law)
+            cls = self.element_class(row, path, kind)
             values: dict[str, Any] = dict(name=name, lower=lower, upper=upper)
             values["damping"] = self.damping(row, path, lower, upper, mass_names)
+            driven = next((n for n in (lower, upper) if n in drives), None)
             for p in cls.params:
                 if p.dimension == "string" or p.key in _DAMPING_KEYS:
                     continue
@@ -166,13 +157,16 @@ class _Validator(ShaftReader, LoadReader, MaterialKeys):
                     # a force that follows a program like a load's (spec §10: a friction
                     # pair's normal force, a cam-actuated clamp or brake)
                     speed = float(cams[0].speed) if cams else None
-                    kind, program, cam = self.force_program(row[p.key], f"{path}.{p.key}", speed,
-                                                            [c.name for c in cams])
+                    program_kind, program, cam = self.force_program(row[p.key], f"{path}.{p.key}", speed,
+                                                                    [c.name for c in cams])
                     values[p.attribute] = None
-                    values["normal_program"] = Load(name=f"{name}.{p.key}", on=name, kind=kind, cam=cam, **program)
+                    values["normal_program"] = Load(name=f"{name}.{p.key}", on=name, kind=program_kind, cam=cam,
+                                                    **program)
+                    continue
+                if p.dimension == "law_table":  # a lash's side (spec §10)
+                    values[p.attribute] = self.law_table(row, p, path, kind, cls, values, mass_names, driven)
                     continue
                 values[p.attribute] = self.param(row, p, path, values)
-            driven = next((n for n in (lower, upper) if n in drives), None)
             cls.check(values, lambda key, message: self.error(f"{path}.{key}", message), driven)
             element = cls(**values)
             if driven is not None and drives[driven] in (lower, upper):
@@ -184,10 +178,65 @@ class _Validator(ShaftReader, LoadReader, MaterialKeys):
             result.append(element)
         return result
 
+    def element_class(self, row: dict, path: str, kind: str) -> type[Element]:
+        """The class that reads an element table (or a side table): the variant its keys
+        select (:meth:`Element.for_table`), else its ``law``'s, each key checked against the
+        laws that take it."""
+        laws = element_kinds.laws_of(kind)
+        law = None
+        if laws:
+            law = self.choice(row, "law", path, laws, required=False) or element_kinds.element_class(kind).law_name
+        cls = element_kinds.element_class(kind, law)
+        variant = cls.for_table(row)
+        if laws and variant is cls:
+            key_laws = element_kinds.key_laws(kind)
+            for key in row:
+                if key in key_laws and law not in key_laws[key]:
+                    takes = " or ".join(f'law = "{x}"' for x in key_laws[key])
+                    raise self.error(f"{path}.{key}", f'not used by a {kind} with law = "{law}" (only {takes})'
+                                     + self.law_hint(kind, law, key))
+        used = {p.key for p in variant.params} | set(ELEMENT_COMMON_KEYS)
+        for key in row:
+            if key not in used:
+                raise self.error(f"{path}.{key}", f"not used by this {kind}" + self.law_hint(kind, law, key, variant))
+        return variant
+
+    def law_table(self, row: dict, p: Param, path: str, kind: str, owner: type[Element], values: dict[str, Any],
+                  mass_names: list[str], driven: str | None) -> Element | None:
+        """A table holding one law of ``kind`` and its keys (a lash's ``lower`` or ``upper``
+        side), read like the element's own table: an element of that law with the element's
+        name and nodes, and the keys the owner keeps for itself (a lash's ``clearance`` and
+        ``offset``) copied from ``values``."""
+        where = f"{path}.{p.key}"
+        if p.key not in row:
+            if p.required:
+                others = " and ".join(f"`{q.key}`" for q in owner.params if q.dimension == "law_table")
+                raise self.error(where, f"missing: a {kind} with side tables gives {others}, e.g. {p.key} = {p.example}")
+            return None
+        table = row[p.key]
+        if not isinstance(table, dict):
+            raise self.error(where, f"expected a table such as {p.example}, got {_fmt(table)}")
+        shared = tuple(q.key for q in owner.params if q.dimension not in ("law_table", "string"))
+        for key in table:
+            if key in shared:
+                raise self.error(f"{where}.{key}", "belongs to the element, not to one side (both sides share it)")
+        allowed = tuple(k for k in element_kinds.type_keys(kind)
+                        if k not in shared and k not in {q.key for q in owner.params})
+        self.check_keys(table, allowed, where, f"for a side of a {kind}")
+        cls = self.element_class(table, where, kind)
+        side: dict[str, Any] = dict(name=values["name"], lower=values["lower"], upper=values["upper"])
+        side["damping"] = self.damping(table, where, values["lower"], values["upper"], mass_names)
+        for q in cls.params:
+            if q.dimension in ("string", "law_table") or q.key in _DAMPING_KEYS:
+                continue
+            side[q.attribute] = values[q.attribute] if q.key in shared else self.param(table, q, where, side)
+        cls.check(side, lambda key, message: self.error(f"{path if key in shared else where}.{key}", message), driven)
+        return cls(**side)
+
     @staticmethod
-    def law_hint(kind: str, law: str, key: str) -> str:
+    def law_hint(kind: str, law: str, key: str, cls: type[Element] | None = None) -> str:
         """Why a key is refused for a law, when the law's class says (``refused_hints``)."""
-        hints = element_kinds.element_class(kind, law).refused_hints
+        hints = (cls or element_kinds.element_class(kind, law)).refused_hints
         hint = next((text for prefix, text in hints.items() if key.startswith(prefix)), "")
         return f"; {hint}" if hint else ""
 

@@ -168,7 +168,7 @@ class Model:
         self.elements: list[Element] = elements
         self.geometry = [self._geometry(e) for e in elements]
         self.switching = [i for i, e in enumerate(elements) if e.branches(no_impact)]
-        self.damping = [e.damping_coefficients(lambda e=e: self.reference_mass(e),
+        self.damping = [e.damping_coefficients(lambda name=None, e=e: self.reference_mass(e, name),
                                                lambda e=e: reduced_mass(machine, e)) for e in elements]  # issue 12
         self._configs: dict[tuple[Branch, ...], Configuration] = {}
         self._held: dict = {}  # (branches, holds) -> configuration with stuck friction pairs
@@ -196,10 +196,11 @@ class Model:
         e_up, c_up = self.node_coefficients(element.upper)
         return ElementGeometry(G=e_up - e_lo, g_s=c_up - c_lo)
 
-    def reference_mass(self, element: Element) -> float:
-        """m_ref of a damping ratio [kg] (spec §3)."""
-        if element.damping.reference_mass:
-            return self.machine.mass_of(element.damping.reference_mass)
+    def reference_mass(self, element: Element, name: str | None = None) -> float:
+        """m_ref of a damping ratio [kg] (spec §3): the mass ``name`` when given (a part of
+        the element names its own), else the element's."""
+        if name or element.damping.reference_mass:
+            return self.machine.mass_of(name or element.damping.reference_mass)
         for node in (element.upper, element.lower):
             if node != GROUND and node not in self.cam_index:
                 return self.machine.mass_of(node)
@@ -461,9 +462,15 @@ class Model:
             s = s[..., None]
         return s
 
-    def power_force(self, index: int, delta: np.ndarray, delta_rate: np.ndarray, v_impact: float | None) -> np.ndarray:
+    def acting(self, index: int, branches: tuple[Branch, ...]) -> Element:
+        """The element whose law acts for element ``index`` on ``branches`` (a lash with a
+        table per side: the closed side's; :meth:`~camsim.elements.base.Element.acting`)."""
+        return self.elements[index].acting(self.branch_of(branches, index))
+
+    def power_force(self, index: int, branches: tuple[Branch, ...], delta: np.ndarray, delta_rate: np.ndarray,
+                    v_impact: float | None) -> np.ndarray:
         """Force of a nonlinear (power-law) contact on samples, ≥ 0 [N]."""
-        return self.elements[index].nonlinear_force(delta, delta_rate, v_impact)
+        return self.acting(index, branches).nonlinear_force(delta, delta_rate, v_impact)
 
     def element_forces(
         self,

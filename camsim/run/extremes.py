@@ -438,7 +438,7 @@ def johnson_annotate(model: Model, ev: Event):
     """Set Johnson's bounds of one impact; return its element when the impact is annotated
     further (peak force, contact duration), None when it is not (no finite mass, no
     approach, or no bounds for this element)."""
-    element = model.elements[ev.element_index]
+    element = model.elements[ev.element_index].acting(ev.branch)  # a lash's side: that side's law
     m_lo, m_up = _node_mass(model, element.lower), _node_mass(model, element.upper)
     finite = sorted(m for m in (m_lo, m_up) if math.isfinite(m))
     if not finite or ev.relative_velocity <= 0:

@@ -92,7 +92,7 @@ def _nonlinear_static(model, integrator, config, u, t0):
     contacts = []
     for i in config.power_contacts:
         delta, _ = integrator._delta(config, i)
-        contacts.append((model.elements[i], delta.Cz[0][:nq], float(delta.Du[0] @ u + delta.e[0])))
+        contacts.append((model.acting(i, config.branches), delta.Cz[0][:nq], float(delta.Du[0] @ u + delta.e[0])))
     A21 = config.A[nq:, :nq]
     L2 = config.L[nq:]
     base = config.B[nq:] @ u + config.b[nq:]

@@ -96,6 +96,9 @@ sample_rate = "10 kHz"
 """
 
 
+LASH_GAP = 'clearance = "1 mm"\nlaw = "elastogap"\n'
+SIDE_LOW = 'lower = { law = "linear", stiffness = "1e6 N/m" }\n'
+SIDE_UP = 'upper = { law = "elastogap", stiffness = "2e6 N/m", restitution = 0.6 }\n'
 LASH_POWER = 'clearance = "1 mm"\nlaw = "power"\ncoefficient = "1e9 N/m**1.5"\nexponent = 1.5\n'
 LASH_ADAMS = ('clearance = "1 mm"\nlaw = "adams-impact"\nexponent = {n}\nstiffness = "1e8 N/m**1.5"\n'
               'max_damping = {c}\npenetration_depth = {d}')
@@ -132,6 +135,33 @@ LASH_ADAMS = ('clearance = "1 mm"\nlaw = "adams-impact"\nexponent = {n}\nstiffne
         ('clearance = "1 mm"\nstiffness = "-1e6 N/m"', "element[0].stiffness"),
         ('clearance = "1 mm"\nstiffness = "1e6 N/m"\nrestitution = 0.5\ndamping = "3 N*s/m"', "element[0].restitution"),
         ('stiffness = "1e6 N/m"', "element[0].clearance"),
+        # elastogap (spec §10)
+        (LASH_GAP + 'exponent = 1.5\nstiffness = "2e9 N/m^1.5"\ndamping_ratio = 0.1', "element[0].damping_ratio"),
+        (LASH_GAP + 'exponent = 1.5\nstiffness = "2e9 N/m^1.5"\nrestitution = 0.5', "element[0].restitution"),
+        (LASH_GAP + 'stiffness = "1e6 N/m"\nrestitution = 0.5\ndamping = "3 N*s/m"', "element[0].restitution"),
+        (LASH_GAP + 'stiffness = "1e6 N/m"\nrestitution = 0', "element[0].restitution"),
+        (LASH_GAP + 'stiffness = "1e6 N/m"\nmax_damping = "3 N*s/m"', "element[0].max_damping"),
+        # a table per side (spec §10)
+        ('clearance = "1 mm"\n' + SIDE_LOW, "element[0].upper"),
+        ('clearance = "1 mm"\nlower = 3\n' + SIDE_UP, "element[0].lower"),
+        ('clearance = "1 mm"\nstiffness = "1e6 N/m"\n' + SIDE_LOW + SIDE_UP, "element[0].stiffness"),
+        ('clearance = "1 mm"\nlaw = "linear"\n' + SIDE_LOW + SIDE_UP, "element[0].law"),
+        ('clearance = "1 mm"\nlower = { law = "linear", stiffness = "1e6 N/m", clearance = "1 mm" }\n' + SIDE_UP,
+         "element[0].lower.clearance"),
+        ('clearance = "1 mm"\nlower = { law = "linear", stifness = "1e6 N/m" }\n' + SIDE_UP, "element[0].lower.stifness"),
+        ('clearance = "1 mm"\nlower = { law = "linear", stiffness = "-1e6 N/m" }\n' + SIDE_UP,
+         "element[0].lower.stiffness"),
+        ('clearance = "1 mm"\nlower = { law = "linear", coefficient = "1e9 N/m**1.5" }\n' + SIDE_UP,
+         "element[0].lower.coefficient"),
+        ('clearance = "1 mm"\nlower = { law = "hertz", stiffness = "1e6 N/m" }\n' + SIDE_UP, "element[0].lower.law"),
+        ('clearance = "1 mm"\nlower = { law = "linear" }\n' + SIDE_UP, "element[0].lower.stiffness"),
+        ('clearance = "1 mm"\nlower = { law = "elastogap", exponent = 1.5, stiffness = "2e9 N/m^1.5", '
+         'damping_ratio = 0.1 }\n' + SIDE_UP, "element[0].lower.damping_ratio"),
+        ('clearance = "1 mm"\nlower = { stiffness = "1e6 N/m", damping_ratio = 0.1, reference_mass = "X" }\n' + SIDE_UP,
+         "element[0].lower.reference_mass"),
+        ('clearance = "1 mm"\nlower = { law = "restitution", restitution = 0.5 }\n' + SIDE_UP, "element[0].lower"),
+        ('clearance = "0 mm"\nlower = { law = "restitution", restitution = 0.5 }\n'
+         'upper = { law = "restitution", restitution = 0.5 }', "element[0].clearance"),
     ],
 )
 def test_malformed_lash_parameters(tmp_path, lash, key):
@@ -143,3 +173,21 @@ def test_malformed_lash_parameters(tmp_path, lash, key):
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1 and key in lines[0] and str(machine) in lines[0], result.output
     assert not out.exists()
+
+
+@pytest.mark.parametrize("lash", [
+    'clearance = "1 mm"\nlaw = "elastogap"\nstiffness = "1e6 N/m"\nrestitution = 0.6',
+    'clearance = "1 mm"\n' + SIDE_LOW + SIDE_UP,
+    'clearance = "1 mm"\nlower = { law = "restitution", restitution = 0.5 }\nupper = { law = "restitution", '
+    'restitution = 0.9 }',
+])
+def test_well_formed_lashes_run(tmp_path, lash):
+    """The elastogap lash and tables per side (spec §10) load and run: exit 0, the file written."""
+    machine = tmp_path / "m.toml"
+    start = '[initial.M]\ndisplacement = "0 m"\nvelocity = "0.3 m/s"\n[simulation]'
+    text = LASH.replace("{lash}", lash).replace("[simulation]", start)
+    machine.write_text(text, encoding="utf-8")
+    out = tmp_path / "out.h5"
+    result = CliRunner().invoke(app, ["run", str(machine), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.exists()
