@@ -256,7 +256,7 @@ class LoadWork:
             d = delta(Z, U)[:, 0]
             dd = rate(Z, U)[:, 0]
             ddd = zdot @ rate.Cz[0] + udot @ rate.Du[0]
-            _, kt, ct = ctx.model.elements[i].nonlinear_tangent(d, dd, v_impacts.get(i))
+            kt, ct = _slopes(ctx.model.acting(i, config.branches), d, dd, v_impacts.get(i))
             fdot[:, k] = kt * dd + ct * ddd
         jerk = zdot @ config.a.Cz.T + udot @ config.a.Du.T + (fdot @ config.a.Fn.T if fn.shape[1] else 0.0)
         return v, a, jerk
@@ -265,6 +265,20 @@ class LoadWork:
         """Each load's work [J] over the window (NaN when the run did not cover it)."""
         complete = self.covered >= (self.hi - self.lo) * (1.0 - 1e-9)
         return {load.name: (float(w) if complete else math.nan) for load, w in zip(self.model.loads, self.work)}
+
+
+def _slopes(law, delta, rate, v_impact):
+    """(∂F/∂δ, ∂F/∂δ̇) of a closed nonlinear law on samples: its tangent, or for a law without
+    one (ElastoGap with n ≠ 1, integrated by DOP853) central differences of its force."""
+    tangent = getattr(law, "nonlinear_tangent", None)
+    if tangent is not None:
+        return tangent(delta, rate, v_impact)[1:]
+    force = law.nonlinear_force
+    hd = 1e-7 * np.maximum(np.abs(delta), 1e-12)
+    hr = 1e-7 * np.maximum(np.abs(rate), 1e-9)
+    kt = (force(delta + hd, rate, v_impact) - force(delta - hd, rate, v_impact)) / (2.0 * hd)
+    ct = (force(delta, rate + hr, v_impact) - force(delta, rate - hr, v_impact)) / (2.0 * hr)
+    return kt, ct
 
 
 def work_window(machine, t_rec: float, t_end: float, period: float | None) -> tuple[tuple[float, float], bool]:
