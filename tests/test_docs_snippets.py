@@ -71,6 +71,7 @@ def _check_blocks(slow: bool) -> None:
                        "run: python scripts/doc_outputs.py --write")
 
 
+@pytest.mark.slow  # 23 s of CPU: the default selection must stay under 3 minutes on 2 cores (CI runs it)
 def test_command_outputs_in_the_docs_are_current():
     """Every command output of README.md and docs/ between ``doc_outputs.py`` markers is what the
     command prints today (scripts/doc_outputs.py: run from the shipped machines; whitespace and
