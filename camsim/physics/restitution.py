@@ -272,6 +272,12 @@ def linear_damping_ratio(e: float) -> float:
         ζ ≥ 0; 0 for e = 1, ``inf`` for e = 0. The damping coefficient is then
         c = 2ζ·√(k·m) with the contact's stiffness k and reduced mass m.
     """
+    return _damping_ratio_for(linear_restitution, e, xtol=1e-300, rtol=4 * np.finfo(float).eps)
+
+
+def _damping_ratio_for(restitution_of, e: float, xtol: float, rtol: float, largest: float = math.inf) -> float:
+    """ζ with ``restitution_of(ζ) = e``, by Brent's method on ln e (a decreasing mapping with
+    e(0) = 1): 0 for e = 1, ``inf`` for e = 0 or where no ζ up to ``largest`` gets there."""
     from scipy.optimize import brentq
 
     e = float(e)
@@ -282,10 +288,16 @@ def linear_damping_ratio(e: float) -> float:
     if e == 0.0:
         return math.inf
     target = math.log(e)
+
+    def excess(z):
+        return math.log(max(restitution_of(z), 1e-300)) - target
+
     hi = 1.0
-    while math.log(linear_restitution(hi)) > target:
+    while excess(hi) > 0.0:
         hi *= 2.0
-    return brentq(lambda z: math.log(linear_restitution(z)) - target, 0.0, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500)
+        if hi > largest:
+            return math.inf
+    return brentq(excess, 0.0, hi, xtol=xtol, rtol=rtol, maxiter=500)
 
 
 # ---------------------------------------------------------------------- ElastoGap
@@ -348,23 +360,7 @@ def elastogap_damping_ratio(e: float) -> float:
     """ζ for which an isolated impact on the ElastoGap law (n = 1) rebounds with ``e`` [-]
     (:func:`elastogap_restitution` inverted by Brent's method on ln e); 0 for e = 1, ``inf``
     for e = 0."""
-    from scipy.optimize import brentq
-
-    e = float(e)
-    if not 0.0 <= e <= 1.0 or math.isnan(e):
-        raise ValueError(f"restitution must lie in [0, 1], got {e!r}")
-    if e == 1.0:
-        return 0.0
-    if e == 0.0:
-        return math.inf
-    target = math.log(e)
-    hi = 1.0
-    while math.log(max(elastogap_restitution(hi), 1e-300)) > target:
-        hi *= 2.0
-        if hi > 1e8:
-            return math.inf
-    return brentq(lambda zz: math.log(max(elastogap_restitution(zz), 1e-300)) - target, 0.0, hi, xtol=1e-15,
-                  rtol=1e-13, maxiter=500)
+    return _damping_ratio_for(elastogap_restitution, e, xtol=1e-15, rtol=1e-13, largest=1e8)
 
 
 def reduced_mass(machine, element) -> float:
