@@ -18,9 +18,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 
-__all__ = ["beat", "listening", "listener"]
+__all__ = ["beat", "working", "listening", "listener"]
 
-_LISTENER: ContextVar[Callable[[float], None] | None] = ContextVar("camsim_heartbeat", default=None)
+_LISTENER: ContextVar[Callable[[float | None], None] | None] = ContextVar("camsim_heartbeat", default=None)
 
 
 def beat(t: float) -> None:
@@ -30,7 +30,16 @@ def beat(t: float) -> None:
         listener(t)
 
 
-def listener() -> Callable[[float], None] | None:
+def working() -> None:
+    """Report progress that is not in simulated time: a step of the work after the
+    integration (each located extreme refined while the result is assembled), so that the
+    stall watchdog sees a long assembly advance (no-op without a listener)."""
+    listener = _LISTENER.get()
+    if listener is not None:
+        listener(None)
+
+
+def listener() -> Callable[[float | None], None] | None:
     """The listener installed now (None outside a watched run)."""
     return _LISTENER.get()
 

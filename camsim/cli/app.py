@@ -54,12 +54,14 @@ class _OneLineErrors(typer.core.TyperGroup):
         from camsim.cli.units_option import reset_error_units
         from camsim.io.outputs import output_session
 
+        from camsim.cli.file_arguments import guard_file_arguments
         from camsim.cli.helptext import polish
 
         reset_error_units()
         import warnings
 
         polish(self)  # issue 44: examples, defaults and plain metavars in every --help
+        guard_file_arguments(self, click_exceptions.UsageError)  # an empty FILE argument is bad input
         try:
             with output_session(), warnings.catch_warnings():
                 # numpy's floating-point warnings are never the user's message (issue 45): a value

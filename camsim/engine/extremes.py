@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from camsim.heartbeat import working
 from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise
 
 #: The bound of a smooth q between two nodes, h²/8·|q̈|, is taken this many times over
@@ -361,6 +362,7 @@ def refine_requests(requests) -> list[tuple[float, float]]:
     for t in todo:
         if not t[1]._dense.exact:
             out[t[0]] = _refine_nonlinear(t)
+            working()  # a chattering revolution refines thousands: the stall watchdog sees them advance
     return out
 
 

@@ -43,6 +43,7 @@ import itertools
 import numpy as np
 
 from camsim.elements import Branch
+from camsim.elements.base import FORCE_TOL
 from camsim.errors import SimulationError
 from camsim.elements.affine import N_INPUT
 from camsim.elements.events import EventKind
@@ -256,7 +257,15 @@ def resolve(integrator, state, trigger: int, kind: str):
             lam = solve_lcp(Wc, a_open[candidates], tol=1e-14 * scale_a * max(1.0, float(np.max(np.abs(Wc)))))
             a_after = a_open[candidates] + Wc @ lam
             for k, lk, ak in zip(candidates, lam, a_after):
-                if lk > 0.0 or ak <= acc_tol:
+                if kind == "release" and idx[k] == trigger:
+                    # Its guard fired because the configuration's force on it is below
+                    # -FORCE_TOL: it rests on only with a force this LCP can tell from zero.
+                    # A pair moving on together without a force (λ = a = 0 to the tolerance
+                    # of the accelerations) opens; kept stuck, the same guard fires again at
+                    # the same instant for ever (a Zeno error at one instant).
+                    if lk > FORCE_TOL:
+                        stuck.add(k)
+                elif lk > 0.0 or ak <= acc_tol:
                     stuck.add(k)
         # project the velocities of the persistent contacts onto zero relative velocity
         if stuck:
@@ -269,11 +278,16 @@ def resolve(integrator, state, trigger: int, kind: str):
     # Penetrations left by a coarse grid (warm-up steps represent the cam input less
     # exactly than the event check evaluates it) are removed by the smallest mass-weighted
     # shift of positions (≤ nm), so that every guard holds after the event.
+    # A contact that rests now is also placed exactly on its constraint when it is open by
+    # less than TOUCH: the configuration that holds it reads the masses it joins through
+    # its reduced coordinates, and a residual gap there (a few 1e-13 m) puts every other
+    # guard through those masses that far from the value read here -- a guard at its zero
+    # then stays violated after every resolution (a Zeno error at one instant).
     x = state.x.copy()
     pen = []
     for k, (pos, i) in enumerate(touching):
         delta, _ = integrator.relative_rate(state, i)
-        if delta > 0.0:
+        if delta > 0.0 or (k in stuck and delta != 0.0):
             pen.append((k, delta))
     if pen:
         K = [k for k, _ in pen]

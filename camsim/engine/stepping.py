@@ -271,7 +271,7 @@ def _phi_series_balanced(A: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarra
     if balanced is None:
         return None
     X, scale = balanced
-    norm = float(np.linalg.norm(X, 1))
+    norm = float(np.linalg.norm(X, 1)) if X.size else 0.0  # numpy < 2: no norm of a 0×0 matrix
     if not math.isfinite(norm):
         return None
     squarings = math.ceil(math.log2(norm / PHI_SERIES_NORM)) if norm > PHI_SERIES_NORM else 0

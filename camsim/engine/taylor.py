@@ -33,7 +33,9 @@ def _balanced(config):
     if hit is None:
         T = state_scale(config)
         Ab = config.A * (T[None, :] / T[:, None])
-        hit = config.cache["taylor"] = (T, Ab, config.B / T[:, None], config.b / T, float(np.linalg.norm(Ab, 1)))
+        # numpy < 2 refuses the norm of a 0×0 matrix (every mass held: no coordinate left)
+        norm = float(np.linalg.norm(Ab, 1)) if Ab.size else 0.0
+        hit = config.cache["taylor"] = (T, Ab, config.B / T[:, None], config.b / T, norm)
     return hit
 
 

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from camsim.errors import InputError
+from camsim.heartbeat import working
 from camsim.elements import CAM, GROUND
 from camsim.elements.affine import N_INPUT
 from camsim.elements.events import Event
@@ -237,6 +238,7 @@ def fold_jobs(jobs) -> list[dict]:
             best = max(float(np.max(nodes)), max(prior, default=-np.inf))
             for k in np.flatnonzero(loose >= best - tie).tolist():
                 r = records[k]
+                working()  # each screen a step the stall watchdog sees (a chattering revolution has thousands)
                 if sense * r.bound(j, sense) >= best - tie:
                     requests.append((r, j, sense, tie))
                     owner.append((n, j, sense))

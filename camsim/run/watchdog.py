@@ -97,10 +97,15 @@ class RunClock:
             self.reported_at = self._now
             self.report(t)
 
-    def beat(self, t: float) -> None:
+    def beat(self, t: float | None) -> None:
         """An inner loop of the engine reached simulated time ``t`` [s] (:func:`camsim.heartbeat.beat`):
-        reported at most every :data:`REPORT_INTERVAL_S`."""
+        reported at most every :data:`REPORT_INTERVAL_S`. ``t = None``
+        (:func:`camsim.heartbeat.working`): progress outside simulated time, a step of the
+        assembly after the integration, which resets the watchdog and nothing else."""
         now = self._now = self.clock()
+        if t is None:
+            self.progress_at = now
+            return
         self.t = t
         if t >= self.mark + self.quantum or t < self.mark - self.quantum:
             if t < self.mark:

@@ -44,6 +44,7 @@ import camsim.cli  # noqa: F401 - registers every command and its contract
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from filesystem import MACHINE, fill, inject_enospc, mount_tmpfs, umount  # noqa: E402
+from interrupts import at_a_terminal  # noqa: E402
 from camsim.cli import app
 from camsim.cli.contracts import CONTRACTS, PROTECTED
 
@@ -436,7 +437,7 @@ def _case_signal(c, w, keep, inputs, paths, target, tmp, case, **_):
     trials = 3 if os.environ.get("CAMSIM_FULL") == "1" else 1  # kill moments (seeded): 3 before a release
     for trial in range(trials):
         proc = subprocess.Popen([sys.executable, "-m", "camsim", *args], cwd=tmp, env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE)
+                                stderr=subprocess.PIPE, preexec_fn=at_a_terminal)
         time.sleep(rng.uniform(0.3, 2.5))
         proc.send_signal({"sigkill": signal.SIGKILL, "sigint": signal.SIGINT, "sigterm": signal.SIGTERM}[case])
         out, err = proc.communicate(timeout=120)

@@ -29,6 +29,7 @@ runner = CliRunner()
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from filesystem import MACHINE, fill, inject_enospc, mount_tmpfs, umount  # noqa: E402
+from interrupts import at_a_terminal  # noqa: E402
 
 
 def _err(result) -> list[str]:
@@ -212,7 +213,7 @@ def test_journal_keeps_what_finished_when_the_disk_fills(machine, tmp_path, monk
 def _slow_run(out: Path, *args: str) -> subprocess.Popen:
     """``camsim <args> -o out -q`` in another process."""
     return subprocess.Popen([sys.executable, "-m", "camsim", *args, "-o", str(out), "-q"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=at_a_terminal)
 
 
 def _wait_for(path: Path, timeout: float = 60.0) -> None:
@@ -242,8 +243,10 @@ def test_fresh_refuses_the_journal_of_a_running_sweep(tmp_path):
     """`sweep --fresh` onto the output of a sweep still running discarded its live journal."""
     out = tmp_path / "s.h5"
     journal = tmp_path / "s.h5.journal"
-    first = _slow_run(out, "sweep", str(CDTM), "--vary", "cam.speed=100:400:20rpm", "--workers", "1",
-                      "--cycles", "2")
+    # long enough (61 variants of 3 revolutions) that it is still running when it is stopped,
+    # however fast or loaded the machine: a sweep that ended has legitimately removed its journal
+    first = _slow_run(out, "sweep", str(CDTM), "--vary", "cam.speed=100:400:5rpm", "--workers", "1",
+                      "--cycles", "3")
     try:
         t0 = time.monotonic()
         while not (journal.exists() and journal.read_bytes().count(b"\n") >= 2):  # a finished row in it
@@ -257,6 +260,7 @@ def test_fresh_refuses_the_journal_of_a_running_sweep(tmp_path):
     finally:
         first.send_signal(signal.SIGINT)
         first.wait(timeout=120)
+    assert first.returncode == 130, "the first sweep ended before it was stopped: make it longer"
     assert journal.exists()  # the interrupted sweep keeps its rows for --resume
 
 

@@ -26,6 +26,9 @@ MACHINES = ROOT / "machines"
 sys.path.insert(0, str(ROOT / "tests"))
 from test_long_work import alive, children  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from interrupts import at_a_terminal  # noqa: E402
+
 CDTM = str(MACHINES / "cdtm.toml")
 
 #: command -> argument list (a job of many runs: tens of seconds on 2 workers)
@@ -58,7 +61,7 @@ def test_signal_to_a_pooled_job_stops_it_within_5_s(name, sig, tmp_path):
     args = [a.replace("{tmp}", str(tmp_path)) for a in JOBS[name]]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "camsim", *args], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, start_new_session=True)
+                            stderr=subprocess.PIPE, start_new_session=True, preexec_fn=at_a_terminal)
     try:
         deadline = time.monotonic() + 60
         while len(children(proc.pid)) < 2 + name.endswith("dask"):  # the two workers are up
@@ -73,7 +76,10 @@ def test_signal_to_a_pooled_job_stops_it_within_5_s(name, sig, tmp_path):
         try:
             _, err = proc.communicate(timeout=5.0)
         except subprocess.TimeoutExpired:
-            raise AssertionError(f"{name}: still running 5 s after {sig}") from None
+            os.killpg(proc.pid, signal.SIGKILL)  # what it had printed by then says where it was
+            _, err = proc.communicate()
+            raise AssertionError(f"{name}: still running 5 s after {sig}; it had printed:\n"
+                                 f"{err.decode(errors='replace')[-2000:]}") from None
         took = time.monotonic() - sent
     finally:
         if proc.poll() is None:

@@ -37,6 +37,13 @@ KNOWN = {
         "and 200 kHz beside a second station (tolerance 1e-8 for its numerically integrated "
         "law; the station alone holds it)",
     ),
+    "known-multi-cam-yoke-peak-1226rpm.toml": (
+        "g",
+        "the same defect on another drawn machine (an Adams IMPACT yoke beside a second "
+        "station at 1226 rpm): its impact's located peak force differs by 1.48e-6 N of 148.44 N, "
+        "1.0e-8 of the largest peak, between 20 and 200 kHz; the engine of 0d74d82 has it too "
+        "(the same two peaks to 5e-12 N); drawn by the CI profile under hypothesis 6.170.29",
+    ),
 }
 
 

@@ -77,6 +77,41 @@ def test_a_phase_without_beats_is_watched_by_the_timer(monkeypatch):
     assert time.monotonic() - started < 10
 
 
+def test_an_assembly_that_works_on_is_not_a_stall(monkeypatch):
+    """The extremes of a chattering revolution take minutes on a loaded machine (thousands of
+    refinements after the integration): each refinement tells the channel it advanced
+    (``heartbeat.working``), so only an assembly that does nothing for the limit is a stall.
+    Here an assembly of 3 s that works every 0.1 s passes a limit of 1 s; the same assembly
+    silent is stopped (the test above)."""
+    machine = load_machine(MACHINES / "barkan-follower.toml")
+    monkeypatch.setenv("CAMSIM_STALL_SECONDS", "1")
+    real = simulation._assemble
+
+    def slow_but_working(run, stretches):
+        for _ in range(30):
+            time.sleep(0.1)
+            heartbeat.working()
+        return real(run, stretches)
+
+    monkeypatch.setattr(simulation, "_assemble", slow_but_working)
+    result = simulate(machine, cycles=1, warmup_cycles=0, sample_rate=1000.0)
+    assert result.time.size > 0
+
+
+def test_the_clock_counts_work_outside_simulated_time_as_progress_only():
+    wall = FakeClock()
+    clock = RunClock(None, quantum=1e-3, source="m.toml", stall_after=5.0, clock=wall)
+    clock(0.02)
+    for _ in range(10):  # 40 s of assembly, working every 4 s
+        wall.now += 4.0
+        clock.beat(None)
+        clock.tick()
+    assert clock.t == 0.02 and clock.passes == 0  # neither a simulated time nor a new pass
+    wall.now += 5.1
+    with pytest.raises(StallError):
+        clock.tick()
+
+
 def test_every_engine_route_beats_through_the_channel(monkeypatch):
     """The power-law contact's windows and the DOP853 spans report to the run's channel (before,
     only the integrator's loop reported)."""
