@@ -228,8 +228,9 @@ def fold_jobs(jobs) -> list[dict]:
             continue
         node_max = np.array([r.node_max for r in records])
         node_min = np.array([r.node_min for r in records])
-        upper = np.array([r.upper for r in records])
-        lower = np.array([r.lower for r in records])
+        loose = [r.loose_bounds() for r in records]
+        upper = np.array([up for up, _ in loose])
+        lower = np.array([low for _, low in loose])
         for j, sense in queries:
             tie = TIE * float(scale[j])
             prior = [sense * v for v, _ in before.get((j, sense)) or []]
