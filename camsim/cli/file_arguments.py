@@ -18,8 +18,10 @@ from typing import Any
 
 
 def _nameless(value: Any) -> bool:
+    # a typer that converts after the callback is entered (typer < 0.25 on click) hands the
+    # raw strings over: every positional argument is a file name either way
     values = value if isinstance(value, (list, tuple)) else (value,)
-    return any(isinstance(v, PurePath) and v.name == "" for v in values)
+    return any(isinstance(v, (str, PurePath)) and PurePath(v).name == "" for v in values)
 
 
 def guard_file_arguments(group: Any, usage_error: type[Exception]) -> None:
