@@ -79,13 +79,13 @@ def test_command_outputs_in_the_docs_are_current():
     _check_blocks(slow=False)
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_slow_command_outputs_in_the_docs_are_current():
     """The same for the blocks that take tens of seconds (the 55-speed sweep, the fit, the CI check)."""
     _check_blocks(slow=True)
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_every_command_shown_runs():
     """Issue 44: every ``camsim`` command of README.md and docs/ runs from a scratch copy of the
     repository and ends as its page shows (exit 0, or the error printed after it); commands of

@@ -260,7 +260,7 @@ def test_chain_seat_impact_before_rider_impact_in_one_step():
     _same_events(window, [e for e in fine if 0.0569 < e[2] < 0.0597])
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_linear_chain_against_reference_solver():
     """A driven M1 (cam drives it), linear rider and seat contacts, 500 rpm: camsim at 10 and
     50 kHz against the independent reference solver (solve_ivp DOP853, rtol 1e-12, restarted

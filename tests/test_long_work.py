@@ -189,7 +189,7 @@ def test_dask_local_workers_die_with_a_killed_parent(tmp_path):
     assert_all_gone_within(kids, 5.0)
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_sigkill_sweep_and_workers_at_random_moments(tmp_path):
     """24 trials, seeded: SIGKILL the sweep (or one of its workers) at a random moment.
 

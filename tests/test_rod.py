@@ -267,7 +267,7 @@ def test_results_layout_and_round_trip(tmp_path):
     assert {"elements/rod/force_lower", "elements/rod/max_stress", "masses/rod[1]/velocity"} <= set(exported.columns)
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_mass_striking_fixed_rod_fine():
     """N = 100 and 200 (8 s and 43 s: one expm of a 400-square matrix): 1.2 % and 0.6 % of Z·v0."""
     assert wave.strike_numbers(100)["max"] < 0.012

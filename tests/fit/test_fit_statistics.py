@@ -103,7 +103,7 @@ def test_intervals_are_honest_fast(oscillator, tmp_path):
     assert np.all(np.abs(est.mean(axis=0) - [OSC_K, OSC_ZETA]) < 3 * se.mean(axis=0))
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_intervals_are_honest_100_repetitions(oscillator, tmp_path):
     hits, est, se = _coverage(oscillator, tmp_path, 100)
     assert np.all(hits >= 90), hits  # each parameter's interval holds the truth in >= 90 of 100

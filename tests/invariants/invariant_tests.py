@@ -2,8 +2,8 @@
 the sample-rate pairs, the known-limit band and the failure report.
 
 The properties are split over three files so that ``pytest -n auto --dist loadfile`` can run
-them on different workers: the CI profile (16 machines a property) takes about nine minutes
-of one core in all, four in its largest file. The properties and their references are
+them on different workers: the full profile (16 machines a property) takes about nine
+minutes of one core in all, three in its largest file. The properties and their references are
 described in test_invariants.py.
 """
 

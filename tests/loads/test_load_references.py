@@ -449,7 +449,7 @@ gap = "0 m"
     assert abs(r.load_work["press"] - 400.0 * LIFT * 2.0 / 3.0) <= 1e-12 * 400.0 * LIFT
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_an_angle_load_on_a_dynamic_camshaft_follows_its_cams_own_angle():
     """On a dynamic camshaft (machines/camshaft-line-dynamic.toml, issue 38) a cam's angle is the
     shaft's solution θ(t), not θ0 + ω·t: a load over the feeder's angle is its program at the

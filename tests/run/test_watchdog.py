@@ -148,7 +148,7 @@ def _run(args, stall: str, timeout: float):
                           timeout=timeout)
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_a_stalled_run_stops_with_one_line(tmp_path):
     """cdtm-rod with a 62.5 in seat gap: exit 1, one line naming the stall (it was silent to 600 s)."""
     out = tmp_path / "r.h5"
@@ -160,7 +160,7 @@ def test_a_stalled_run_stops_with_one_line(tmp_path):
     assert not out.exists()
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_the_dop853_fallback_prints_a_line_every_10_s(tmp_path):
     """cdtm-power with a 62500 in seat gap: progress lines off a terminal (it printed nothing for 600 s)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}

@@ -108,7 +108,7 @@ def test_linear_case_sobol_indices_are_variance_shares_through_the_design():
         assert v["total_ci95"][0] - 0.01 <= share <= v["total_ci95"][1] + 0.01
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_linear_case_sobol_indices_through_camsim_runs():
     """The same variance shares from camsim runs: N = 512, 2560 runs; tolerance 0.06 absolute."""
     res = study(MACHINE, DISTS, 512, method="sobol", seed=5, sensitivity=True, workers=2)
