@@ -267,7 +267,7 @@ def test_doc_ball_drop_current(documented, ball_runs):
     assert_block_matches("ball-drop", validation.ball_drop_block(ball_runs), documented["ball-drop"])
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_doc_power_columns_current(documented):
     """Every table including the cdtm-power.toml columns and rows."""
     fresh, _, _ = validation.blocks(names=("impacts", "summary", "choices"))

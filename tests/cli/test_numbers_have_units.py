@@ -235,7 +235,7 @@ def test_every_command_of_an_inch_file_shows_inch_units_with_every_number(us):
     assert not problems, "\n".join(problems[:30])
 
 
-@pytest.mark.slow
+@pytest.mark.full  # before a release (CAMSIM_FULL=1): .ci/run's 15 minutes
 def test_a_rod_run_and_its_materials_in_inch_units(us):
     """cdtm-rod (m/s, N·s/m, kg in validate and run before) and impact --materials (GPa, N, MPa,
     m/s for an inch file), about 30 s: CI."""

@@ -342,7 +342,7 @@ def test_rigid_micro_bounces_below_the_guard_tolerance_still_land():
     assert chatter[-1].kind.value == "stick" and len(impacts) <= 12, impacts
 
 
-@pytest.mark.slow  # 32 s of CPU (two 16 s runs of a chattering lash): CI runs it
+@pytest.mark.full  # 37 s of CPU (two runs of a chattering lash): before a release (.ci/run's 15 minutes)
 def test_a_streamed_run_sees_the_chatter_the_in_memory_run_sees(tmp_path):
     """Invariant (b), found in CI: two stations on one shaft, a rigid lash chattering beside a
     power-law roller. The streamed run's consumer emptied the engine's event list, which
