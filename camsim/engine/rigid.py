@@ -29,7 +29,9 @@ or with λ = a = 0 (a plastic pair moving on together, no force needed), becomes
 persistent (``stick``); one with a > 0 opens. A persistent contact opens (``release``)
 when its force reaches zero (its guard in :mod:`camsim.engine.integrator`); the LCP is then solved
 again for the others, the released one held open unless the machine still presses it
-closed.
+closed (a force above FORCE_TOL: at λ = a = 0 it opens, or its guard would fire again at the
+same instant). A contact that rests is placed exactly on its constraint (the held
+configuration reads the masses it joins through its reduced coordinates).
 
 The LCPs are solved by enumeration of the active set (at most :data:`MAX_CONTACTS`
 contacts at one instant: 2^r small solves, exact to rounding; for a P-matrix the first
