@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import pytest
 import math
 import re
 import tempfile
@@ -210,6 +211,7 @@ def corruptions(draw):
     return tomli_w.dumps(doc), _key_text(path)
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(corruptions())
 def test_random_corruption_exits_2_naming_the_key(case):

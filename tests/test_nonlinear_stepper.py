@@ -12,6 +12,7 @@ force 1e-9 of the weight.
 
 from __future__ import annotations
 
+import pytest
 import sys
 from pathlib import Path
 
@@ -109,6 +110,7 @@ def test_partial_step_maps_against_quadrature(monkeypatch):
     assert error(*nonlinear._step_affine(lin, maps, WL, L, False, tau, D_k, g_u), ref) < 1e-10
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_cdtm_power_against_tight_dop853(monkeypatch):
     """One revolution of machines/cdtm-power.toml (the thesis's power-law seat, eight
     bounces, the seat's ringing and resting phases) by the stepper, against the same

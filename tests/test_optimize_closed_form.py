@@ -263,6 +263,7 @@ def test_pareto_front_throughput_against_acceleration(tmp_path):
 # --------------------------------------------------------------------------------------
 # A robust constraint with a closed-form violation probability
 # --------------------------------------------------------------------------------------
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_robust_constraint_probability_in_interval(tmp_path):
     """The true violation probability at the robust optimum lies in the reported 95 % interval.
 

@@ -22,6 +22,7 @@ POWER = Path(__file__).resolve().parents[1] / "machines" / "cdtm-power.toml"
 LIFT = 0.63648 * 0.5 * 25.4e-3  # model axis [m]
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_nearly_plastic_seat_finishes():
     """e = 8e-7: the run ends (it did not in 300 s), and the seat holds M3 as a nearly
     plastic stop: an isolated impact would rebound at e·v ≈ 1.3e-7 m/s, so after each seat

@@ -322,6 +322,7 @@ def test_missing_dask_is_a_clear_error(monkeypatch):
 
 
 # ------------------------------------------------------------------------- files
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_hdf5_and_csv_agree_and_keep_traces(tmp_path):
     result = run_sweep(BARKAN, ["cam.speed=440:460:20rpm"], workers=1, keep_traces=True, refine_jump=True, **FAST)
     h5, csvp = write_sweep(result, tmp_path / "s.h5")

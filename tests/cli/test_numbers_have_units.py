@@ -217,6 +217,7 @@ def _output(args: list[str], result, d: Path) -> str:
     return text
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_every_command_of_an_inch_file_shows_inch_units_with_every_number(us):
     problems = []
     for args in commands(us, "us") + _extra(us):

@@ -197,6 +197,7 @@ def test_sample_rate_changes_no_row(name):
     assert check_sample_rate(make(rate=lo_rate), (lo_rate, 5 * lo_rate), floor=(0.0, SHIFT_FLOOR)) == []
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_sample_rate_with_a_stribeck_drop():
     """Invariant (a) with the Stribeck phase integrated to tolerance, over the first 0.2 s
     of the belt: rows within 1e-9 s, traces within 1e-8 of peak
@@ -221,6 +222,7 @@ def test_us_units_give_the_same_run(name):
     assert check_units(make(), make(us=True)) == []
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_us_units_with_a_stribeck_drop():
     """Invariant (d) with v_S given in in/s, over the first 0.2 s: rows and traces to 1e-12,
     or to ten times what a one-ulp change of the SI values moves them (check_units with

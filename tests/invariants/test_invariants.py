@@ -40,6 +40,7 @@ hypothesis note ``machine file:``); paste it into the check named in the message
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import given, note
 from hypothesis import strategies as st
 
@@ -66,6 +67,7 @@ def test_b_warmup_cycle_equals_second_revolution(spec):
     _report("b-warmup", text, _floored(check_warmup, spec, text, **_two_turns(text)))
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 @PROFILE
 @given(spec=machine_specs())
 def test_b_streamed_run_equals_in_memory_run(spec, tmp_path_factory):
@@ -75,6 +77,7 @@ def test_b_streamed_run_equals_in_memory_run(spec, tmp_path_factory):
     _report("b-streamed", text, check_streamed(text, tmp_path_factory.mktemp("stream")))
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 @PROFILE
 @given(spec=machine_specs(), seed=st.integers(min_value=0, max_value=2**16))
 def test_c_file_order_changes_nothing(spec, seed):

@@ -3,6 +3,7 @@ their own file so that the CI profile runs them on a worker of their own)."""
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import assume, given, note
 from hypothesis import strategies as st
 
@@ -39,6 +40,7 @@ def test_a_multi_cam_sample_rate(spec, rates):
                          lambda t: check_sample_rate(t, rates))
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 @PROFILE
 @given(spec=multi_cam_specs(stations=2))
 def test_b_multi_cam_warmup_and_streaming(spec, tmp_path_factory):
@@ -63,6 +65,7 @@ def test_g_multi_cam_located_extremes(spec, rates):
                          lambda t: check_located_extremes(t, rates))
 
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 @PROFILE
 @given(spec=multi_cam_specs(), seed=st.integers(min_value=0, max_value=2**16))
 def test_c_multi_cam_file_order(spec, seed):

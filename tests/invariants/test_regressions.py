@@ -234,6 +234,7 @@ def test_static_equilibrium_counts_a_power_law_contact_in_a_stuck_stop_force():
     assert run.elements["roller"][0] == pytest.approx(C * delta**1.5, rel=1e-9)
     assert run.masses["M1"]["displacement"][0] == pytest.approx(-delta, rel=1e-9)
 
+@pytest.mark.slow  # the default pytest's 3 minutes: CI runs it
 def test_a_chatter_whose_flights_do_not_shrink_ends():
     """tests/invariants/machines/crawl-adams-roller-rigid-stop.toml: a rigid lash rebounding
     against a stiff Adams IMPACT roller took 2.7e-8 s flights for ever (2e-6 s simulated per
