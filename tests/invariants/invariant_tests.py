@@ -14,26 +14,11 @@ import os
 from pathlib import Path
 
 import pytest
-from hypothesis import assume, given, note, settings
-from hypothesis import strategies as st
+from hypothesis import assume, note, settings
 
-from invariant_checks import (
-    check_located_extremes,
-    check_permutation,
-    check_sample_rate,
-    check_stations,
-    check_streamed,
-    check_units,
-    check_warmup,
-    in_order_of,
-    permute_text,
-    rounding_floor,
-    trace_tol,
-    load,
-    FLOOR_FACTOR,
-)
+from invariant_checks import load, rounding_floor, trace_tol, FLOOR_FACTOR
 from known_failures import known
-from machine_gen import machine_specs, multi_cam_specs, nudged, render, render_multi, render_station
+from machine_gen import nudged, render, render_station
 
 PROFILE = settings(settings.get_profile("camsim-invariants"))
 
