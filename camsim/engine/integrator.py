@@ -216,7 +216,7 @@ class Integrator(EngineContext):
 
     # ------------------------------------------------------------------ driver
     def run(self, state: State, t_end: float, record_from: float, stops: tuple[float, ...] = (), on_stop=None, progress=None,
-            on_stretch=None, check=None):
+            on_stretch=None, check=None, on_advance=None):
         """Integrate from ``state`` to ``t_end``; return the stretches recorded from ``record_from``.
 
         ``stops`` are extra times at which integration halts (``on_stop(state)`` is called),
@@ -233,6 +233,11 @@ class Integrator(EngineContext):
 
         ``check(state)``, when given, sees the state after every stretch and raises to stop
         the run (the physical bounds of camsim.run.bounds: a comparison per stretch).
+
+        ``on_advance(start, end, guard, after)``, when given, sees every stretch: its start
+        and end states, the guard that fired at its end (None at a stop) and the state once
+        that instant's events are resolved (the revolution's derivative,
+        :class:`camsim.engine.monodromy.Monodromy`).
         """
         stretches: list[Stretch] = []
         state = self.settle(state)
@@ -260,10 +265,12 @@ class Integrator(EngineContext):
                     stretches.append(stretch)
             if not np.all(np.isfinite(new_state.x)) or not np.all(np.isfinite(new_state.v)):
                 raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
-            state = new_state
+            start, state = state, new_state
             if guard is not None:
                 state = self.handle(state, guard)
                 state = self.settle(state)
+            if on_advance is not None:
+                on_advance(start, new_state, guard, state)
             if on_stretch is not None and stretch is not None:  # streaming hook (camsim.run.stream)
                 on_stretch(stretch, state.t)
             if check is not None:

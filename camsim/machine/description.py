@@ -89,6 +89,10 @@ class Simulation:
         Acceleration of gravity along −x [m/s^2]; 0 for none.
     duration : float or None
         Recorded time [s] instead of ``cycles`` (required when there is no cam).
+    steady_state : str
+        How the recorded window's start is reached: ``"warmup"`` (``warmup_cycles``
+        revolutions from the initial state) or ``"shooting"`` (Newton's iteration on the
+        revolution's map, :mod:`camsim.run.steady`; the warm-up where it does not apply).
     """
 
     cycles: int = 1
@@ -96,6 +100,7 @@ class Simulation:
     sample_rate: float = 50_000.0
     gravity: float = 0.0
     duration: float | None = None
+    steady_state: str = "warmup"
 
 
 @dataclass(frozen=True)

@@ -428,6 +428,7 @@ def machine_to_dict(machine: Machine) -> dict[str, Any]:
             "sample_rate": sim.sample_rate,
             "gravity": sim.gravity,
             "duration": sim.duration,
+            "steady_state": sim.steady_state,
         },
         "initial": [
             {"mass": i.mass, "displacement": i.displacement, "velocity": i.velocity}

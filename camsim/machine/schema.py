@@ -238,6 +238,9 @@ TABLES: dict[str, tuple[Param, ...]] = {
         Param("gravity", "acceleration", "`true` = 9.80665 m/s² along −x on every free mass; `false` = none; or a "
               "value ≥ 0 such as `\"9.81 m/s^2\"`", default=False),
         Param("duration", "time", "> 0; recorded time instead of `cycles` (not both); required without `[cam]`"),
+        Param("steady_state", "string", "`warmup` (the warm-up revolutions) or `shooting` (the periodic steady state "
+              "solved for by Newton's iteration on the revolution's map; the warm-up where it does not apply, with a "
+              "warning)", default="warmup"),
     ),
     "initial": (
         Param("displacement", "length", "initial position (default: static equilibrium)"),

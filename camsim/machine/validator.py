@@ -43,6 +43,8 @@ TOP_KEYS = schema.keys("top")
 MACHINE_KEYS = schema.keys("machine")
 MASS_KEYS = schema.keys("mass")
 SIMULATION_KEYS = schema.keys("simulation")
+#: [simulation] steady_state: the warm-up revolutions, or shooting on the revolution's map (camsim.run.steady)
+STEADY_STATES = ("warmup", "shooting")
 INITIAL_KEYS = schema.keys("initial")
 ELEMENT_COMMON_KEYS = tuple(p.key for p in element_kinds.COMMON_PARAMS)
 _DAMPING_KEYS = ("damping", "damping_ratio", "reference_mass")
@@ -315,11 +317,14 @@ class _Validator(ShaftReader, LoadReader, MaterialKeys):
         duration = self.quantity(table, "duration", "simulation", "time", minimum=0.0, strict=True)
         if duration is not None and "cycles" in table:
             raise self.error("simulation.duration", "give cycles or duration, not both")
+        steady = table.get("steady_state", "warmup")
+        if steady not in STEADY_STATES:
+            raise self.error("simulation.steady_state", f"expected one of {', '.join(STEADY_STATES)}, got {_fmt(steady)}")
         if cam is None and duration is None:
             raise self.error("simulation.duration", 'missing required key: a machine without [cam] has no '
                              'cycle, give the recorded time (e.g. duration = "5 ms")')
         return Simulation(cycles=cycles, warmup_cycles=warmup, sample_rate=rate, gravity=gravity,
-                          duration=duration)
+                          duration=duration, steady_state=steady)
 
     def initial(self, doc: dict, mass_names: list[str], cams: list[Cam]) -> list[InitialCondition]:
         table = self.table(doc, "initial", "initial")

@@ -161,6 +161,10 @@ class RunResult:
     periodicity_residual : float
         Largest difference between the state at the start of the first recorded cycle and
         one revolution before, relative to each quantity's peak (NaN when not computed).
+    steady_state : dict or None
+        How the recorded window's start was reached: ``{"method": "warmup" or "shooting",
+        "revolutions": unrecorded revolutions integrated}`` (camsim.run.steady); None for a
+        result not made by a run (a file read back without it).
     warnings : list of str
     no_impact : bool
         True for the no-impact variant (spec §4).
@@ -211,6 +215,7 @@ class RunResult:
     cam_speeds: dict[str, np.ndarray] | None = None
     drive_torque: np.ndarray | None = None
     shaft_dynamics: dict | None = None
+    steady_state: dict | None = None
     #: Extremes located on the solution (spec §4, camsim.run.extremes): path →
     #: {"max": Extreme, "min": Extreme}, values SI, times on the recorded clock; None for a
     #: result without them (the extremes then come from the samples).

@@ -71,12 +71,22 @@ def write_run_group(group: h5py.Group, result) -> h5py.Dataset:
             group.create_dataset("camshaft/boundaries_deg", data=np.asarray(result.boundaries_deg, dtype=float)).attrs["units"] = "deg"
     write_events(group, result.events)
     write_extremes(group, result)
+    write_run_attributes(group, result)
+    write_summary(group, result)
+    return time
+
+
+def write_run_attributes(group: h5py.Group, result) -> None:
+    """The run's attributes on its group: no-impact variant, sample rate, periodicity residual
+    and how the steady state was reached (an in-memory result and a streamed one alike)."""
     group.attrs["no_impact"] = bool(result.no_impact)
     group.attrs["sample_rate"] = float(result.sample_rate)
     residual = result.periodicity_residual
     group.attrs["periodicity_residual"] = float(residual) if not math.isnan(residual) else float("nan")
-    write_summary(group, result)
-    return time
+    steady = getattr(result, "steady_state", None)
+    if steady is not None:  # issue 42: the warm-up revolutions, or shooting (camsim.run.steady)
+        group.attrs["steady_state"] = str(steady["method"])
+        group.attrs["steady_state_revolutions"] = int(steady["revolutions"])
 
 
 def write_summary(group: h5py.Group, result) -> h5py.Group:

@@ -40,6 +40,7 @@ from camsim.run.bounds import physical_bounds
 from camsim.run.extremes import Observables
 from camsim.run.initial import _one_contact_static, initial_state, static_equilibrium  # noqa: F401 - tests
 from camsim.run.result import RunResult
+from camsim.run.steady import find_steady_state
 from camsim.run.watchdog import RunClock, watching
 
 #: Internal steps per period of the highest natural frequency (guard sampling density).
@@ -258,7 +259,20 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     if any(e.is_nonlinear(b) for e in model.elements for b in Branch):
         h_warm = integrator.h
     with numerical_failure(machine):
-        if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all:
+        if sim.steady_state == "shooting" and not record_all:
+            state, found = find_steady_state(machine, model, inputs, h_warm, state, period, t_rec, bounds, report, warnings)
+            if found is not None:
+                # the recorded window starts on the steady state: no warm-up revolution
+                integrator.watch.last = found.watch_last
+                saved[round(t_rec - period, 9)] = replace(found.shooting.start, t=t_rec - period)
+                saved[round(t_rec, 9)] = state
+                stops = (t_rec - period, t_rec)
+                warm_done = True
+            else:
+                warm_done = False
+        else:
+            warm_done, found = False, None
+        if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all and not warm_done:
             warm_integrator = Integrator(model, inputs, h_warm, t_ref=0.0)
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report,
                                            check=bounds.check)
@@ -289,6 +303,9 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
         if shaft is not None and end is not None and "power" in end:
             shaft.period_end = (end["time"], end["power"], end["drive_power"])
     result.periodicity_residual = _residual(model, saved, stops, peak)
+    if has_cam and not record_all:
+        result.steady_state = ({"method": "shooting", "revolutions": found.shooting.iterations} if found is not None
+                               else {"method": "warmup", "revolutions": warm})
     result.sample_rate = sim.sample_rate
     if dynamics is not None and dynamics[1] is not None:
         from camsim.run.shaft import dynamics_summary

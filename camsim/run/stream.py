@@ -136,6 +136,7 @@ class StreamedRun:
         self.no_impact = no_impact
         self.boundaries_deg = boundaries
         self.periodicity_residual = float("nan")
+        self.steady_state = None  # set by the run (camsim.run.steady), as on RunResult
         self.sample_rate = 0.0
         self.path = ""
         self.recorded: list[str] = []

@@ -14,14 +14,13 @@ bit for bit; only the storage differs (chunks of :data:`CHUNK` samples, gzip onl
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 
 import h5py
 import numpy as np
 
 from camsim.io.hdf5 import COMPRESSION
-from camsim.run.runfile import write_events, write_extremes, write_summary
+from camsim.run.runfile import write_events, write_extremes, write_run_attributes, write_summary
 
 #: Samples per HDF5 chunk of a streamed trace (512 kB of float64).
 CHUNK = 65536
@@ -123,8 +122,5 @@ class TraceStreamWriter:
         self._write(self._waiting)
         write_events(self.group, result.events)
         write_extremes(self.group, result)
-        self.group.attrs["no_impact"] = bool(result.no_impact)
-        self.group.attrs["sample_rate"] = float(result.sample_rate)
-        residual = result.periodicity_residual
-        self.group.attrs["periodicity_residual"] = float(residual) if not math.isnan(residual) else float("nan")
+        write_run_attributes(self.group, result)
         write_summary(self.group, result)

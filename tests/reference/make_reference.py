@@ -75,6 +75,8 @@ def machine_digest(machine) -> str:
         if row.get("quadratic_damping", None) == 0.0:
             del row["quadratic_damping"]
     sim = {k: v for k, v in d["simulation"].items() if k != "sample_rate"}
+    if sim.get("steady_state") == "warmup":  # issue 42's key at its default: the warm-up as before
+        del sim["steady_state"]
     physics = {"cam": d["cam"], "masses": d["masses"], "elements": d["elements"],
                "initial": d["initial"], "simulation": sim}
     return hashlib.sha256(json.dumps(physics, sort_keys=True).encode()).hexdigest()
