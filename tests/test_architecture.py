@@ -99,7 +99,7 @@ def test_import_linter_contracts_hold(tmp_path):
 
 def _module_graph():
     grimp = __import__("pytest").importorskip("grimp")
-    graph = grimp.build_graph("camsim", exclude_type_checking_imports=True, cache_dir=None)
+    graph = grimp.build_graph("camsim", exclude_type_checking_imports=False, cache_dir=None)
     return {m: graph.find_modules_directly_imported_by(m) for m in graph.modules}
 
 
@@ -155,8 +155,10 @@ def test_cycle_finder_finds_a_known_cycle():
 
 
 def test_no_import_cycle_anywhere_in_camsim():
-    """No module of camsim reaches itself through imports (function-level imports count;
-    ``if TYPE_CHECKING`` imports do not run and do not count)."""
+    """No module of camsim reaches itself through imports. Function-level imports count, and
+    so do ``if TYPE_CHECKING`` ones: they do not run, but a type one module needs from a
+    module that needs it back belongs one module down (the sweep's result types in
+    analyses/sweep/result.py; farm-studio drew three such circles before)."""
     cycles = _cycles(_module_graph())
     assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)
 

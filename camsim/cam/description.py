@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # issue 14: [cam.geometry]
     from camsim.cam.arrangement import CamGeometry
-    from camsim.cam.compensated import CompensatedProfile  # issue 27
 
 MOTIONS = ("rise", "fall", "dwell")
 LAWS = ("cycloidal", "harmonic", "modified-trapezoid", "modified-sine", "poly345", "poly4567")
@@ -146,7 +145,9 @@ class Cam:
     # issue 27: [cam.compensation]; ``compensated`` is the computed cam profile and
     # ``output_program`` the written (wanted output) program, both set by the loader.
     compensation: Compensation | None = None
-    compensated: CompensatedProfile | None = None
+    # a camsim.cam.compensated.CompensatedProfile: that module builds on this one (it holds
+    # the written Cam), so the type is not imported here (no import circle)
+    compensated: object | None = None
     output_program: Cam | None = None
     # issue 38: several cams on one camshaft ([[cam]] tables). ``name`` is the cam's node
     # (``cam`` for a [cam] table); ``phase`` is added to the shaft's angle: the cam's angle

@@ -1,14 +1,17 @@
-"""Writing a lumped machine as a commented TOML machine file (``camsim lump -o``)."""
+"""Writing a lumped machine as a commented TOML machine file (``camsim lump -o``).
+
+The bottom of the lump package: it reads a lump result's fields (``machine``, ``parts``,
+``source`` and the comments) and imports nothing of the package, so the result
+(:class:`camsim.analyses.lump.values.LumpResult`) renders itself through it
+(:meth:`~camsim.analyses.lump.values.LumpResult.to_toml`) without an import circle.
+"""
 
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import tomli_w
-
-if TYPE_CHECKING:
-    from camsim.analyses.lump.lumping import LumpResult
 
 
 def _key(name: str) -> str:
@@ -47,7 +50,8 @@ def _dump_value(key: str, value: Any) -> str:
     return tomli_w.dumps({key: value}).rstrip("\n")
 
 
-def render_machine(result: "LumpResult") -> str:
+def render_machine(result: Any) -> str:
+    """The commented machine file of a :class:`~camsim.analyses.lump.values.LumpResult`."""
     m = result.machine
     c = result._comments
     out = [

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from camsim.analyses.sweep.runner import SweepResult
+    from camsim.analyses.sweep.result import SweepResult
 
 
 def csv_path_for(path: str | os.PathLike[str]) -> Path:
