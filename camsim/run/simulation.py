@@ -258,16 +258,26 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     # ones (issue 26). Such machines warm up on the recording grid: the same cost per revolution.
     if any(e.is_nonlinear(b) for e in model.elements for b in Branch):
         h_warm = integrator.h
+    shot_residual = None
     with numerical_failure(machine):
         if sim.steady_state == "shooting" and not record_all:
-            state, found = find_steady_state(machine, model, inputs, h_warm, state, period, t_rec, bounds, report, warnings)
+            state, found = find_steady_state(machine, model, inputs, integrator.h, state, period, t_rec, bounds, report,
+                                             warnings)
             if found is not None:
                 # the recorded window starts on the steady state: no warm-up revolution
                 integrator.watch.last = found.watch_last
-                saved[round(t_rec - period, 9)] = replace(found.shooting.start, t=t_rec - period)
-                saved[round(t_rec, 9)] = state
-                stops = (t_rec - period, t_rec)
                 warm_done = True
+                if t_end >= t_rec + period * (1 - 1e-12):
+                    # its residual is the recorded revolution's own: its end against its start
+                    stops = (t_rec, t_rec + period)
+                    if t_rec + period not in all_stops:
+                        all_stops = all_stops + (t_rec + period,)
+                elif found.shooting.contracted:
+                    shot_residual = found.shooting.residual  # the contraction bound
+                else:
+                    saved[round(t_rec - period, 9)] = replace(found.shooting.start, t=t_rec - period)
+                    saved[round(t_rec, 9)] = state
+                    stops = (t_rec - period, t_rec)
             else:
                 warm_done = False
         else:
@@ -302,7 +312,7 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
         shaft = getattr(result, "_shaft", None)  # issue 38: the streamed camshaft accumulator
         if shaft is not None and end is not None and "power" in end:
             shaft.period_end = (end["time"], end["power"], end["drive_power"])
-    result.periodicity_residual = _residual(model, saved, stops, peak)
+    result.periodicity_residual = _residual(model, saved, stops, peak) if shot_residual is None else shot_residual
     if has_cam and not record_all:
         result.steady_state = ({"method": "shooting", "revolutions": found.shooting.iterations} if found is not None
                                else {"method": "warmup", "revolutions": warm})

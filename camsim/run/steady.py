@@ -11,11 +11,13 @@ matrices), so Newton's iteration
     y_{k+1} = y_k + (I − M_k)⁻¹·(F(y_k) − y_k)
 
 converges in a few revolutions, quadratically once the event sequence is the steady one.
-Each iteration is one revolution on the warm-up grid. The iteration stops when the
-residual |F(y_k) − y_k|, relative to the size of the motion, is at rounding level
-(:data:`SHOOTING_RESIDUAL`); the recorded window then starts from F(y_k), and the run's
-periodicity residual is that residual (the last unrecorded revolution against the first
-recorded one's start, as after a warm-up).
+Each iteration is the revolution the recording starts with, on the recording grid (the same
+map the recorded revolution integrates: its end then repeats its start to rounding). The
+iteration stops when the residual |F(y_k) − y_k|, relative to the size of the motion, is at
+rounding level (:data:`SHOOTING_RESIDUAL`), or when M contracts so strongly that F(y_k) is
+within that of the fixed point (q/(1 − q)·|F(y_k) − y_k| with q = ‖M‖: a well-damped machine
+such as the CDTM, one revolution); the recorded window then starts from F(y_k), and the run's
+periodicity residual is measured on its first recorded revolution (its end against its start).
 
 Where the derivative is not known (a nonlinear contact law, a rigid contact held closed or
 an impact that maps velocities, a friction pair, a graze: camsim.engine.monodromy), where the
@@ -41,6 +43,9 @@ __all__ = ["SHOOTING_ITERATIONS", "SHOOTING_RESIDUAL", "Shooting", "shoot", "not
 SHOOTING_RESIDUAL = 1e-12
 #: Most revolutions the iteration takes before it gives up (the warm-up instead).
 SHOOTING_ITERATIONS = 8
+#: Largest norm of the monodromy matrix (in the motion's units) for which F(y) is taken as
+#: the fixed point by the contraction bound q/(1 − q)·|F(y) − y|.
+CONTRACTION = 1e-3
 #: Past this residual the iteration stops improving (rounding): a step that does not
 #: reduce the residual below this fraction of the previous one ends it.
 STAGNATION = 0.5
@@ -58,9 +63,13 @@ class Shooting:
     iterations : int
         Revolutions integrated.
     residual : float
-        max |F(y_k) − y_k| / scale of the last iterate [-] (nan before the first).
+        max |F(y_k) − y_k| / scale of the last iterate [-] (nan before the first); when
+        ``contracted``, the bound q/(1 − q)·that on the distance of F(y_k) from the fixed point.
     why : str or None
         Why the warm-up was used instead (None: converged).
+    contracted : bool
+        Converged by the contraction bound (F(y_k) is the steady state to rounding, its
+        residual is measured on the recorded revolution), not by |F(y_k) − y_k| itself.
     """
 
     start: State | None
@@ -68,6 +77,7 @@ class Shooting:
     iterations: int
     residual: float
     why: str | None = None
+    contracted: bool = False
 
 
 def not_periodic(machine) -> str | None:
@@ -86,15 +96,17 @@ def not_periodic(machine) -> str | None:
     return None
 
 
-def shoot(integrator, state: State, period: float, check=None, progress=None) -> Shooting:
-    """Newton's iteration on the revolution's map from ``state`` (at time 0).
+def shoot(integrator, state: State, t0: float, period: float, check=None, progress=None) -> Shooting:
+    """Newton's iteration on the revolution's map from ``state``: the revolution from ``t0``.
 
     Parameters
     ----------
     integrator : Integrator
-        The engine on the warm-up grid (its clock starts at 0, the angle θ0).
+        The engine on the recording grid.
     state : State
         The first iterate (static equilibrium, or the file's [initial] state).
+    t0 : float
+        Where the revolution starts [s] (the recording's start: the same angle as 0).
     period : float
         One revolution [s].
     check, progress : callable, optional
@@ -111,8 +123,8 @@ def shoot(integrator, state: State, period: float, check=None, progress=None) ->
         mono = Monodromy(integrator)
         integrator.events.clear()
         try:
-            end, _ = integrator.run(state, period, record_from=math.inf, check=check, on_advance=mono.after_stretch,
-                                    progress=progress)
+            end, _ = integrator.run(replace(state, t=t0), t0 + period, record_from=math.inf, check=check,
+                                    on_advance=mono.after_stretch, progress=progress)
         except Declined as why:
             return Shooting(None, None, k + 1, residual, str(why))
         y = np.concatenate([state.x, state.v])
@@ -122,6 +134,13 @@ def shoot(integrator, state: State, period: float, check=None, progress=None) ->
         residual = float(np.max(np.abs(step) / scale)) if step.size else 0.0
         if residual <= SHOOTING_RESIDUAL:
             return Shooting(state, end, k + 1, residual)
+        # A map that contracts strongly (q = ‖M‖ in the motion's units): F(y) lies within
+        # q/(1 − q)·|F(y) − y| of the fixed point, so F(y) is the steady state to rounding
+        # without another revolution (the CDTM: q ≈ 1e-16 after one revolution). The run
+        # then measures the residual on its first recorded revolution.
+        q = float(np.linalg.norm(mono.matrix * scale[None, :] / scale[:, None], 2))
+        if q < CONTRACTION and q / (1.0 - q) * residual <= SHOOTING_RESIDUAL:
+            return Shooting(state, end, k + 1, q / (1.0 - q) * residual, contracted=True)
         if residual > STAGNATION * best and best <= 1e-8:
             return Shooting(None, None, k + 1, residual, f"the iteration stalls at a residual of {residual:.2g}")
         best = min(best, residual)
@@ -134,7 +153,7 @@ def shoot(integrator, state: State, period: float, check=None, progress=None) ->
         if not np.all(np.isfinite(y_next)):
             return Shooting(None, None, k + 1, residual, "the Newton step diverged")
         # the steady state's branches at θ0 are those one revolution on
-        state = replace(end, t=0.0, x=y_next[:n].copy(), v=y_next[n:].copy(), v_impacts={}, holds=())
+        state = replace(end, t=t0, x=y_next[:n].copy(), v=y_next[n:].copy(), v_impacts={}, holds=())
     return Shooting(None, None, SHOOTING_ITERATIONS, residual,
                     f"no convergence in {SHOOTING_ITERATIONS} revolutions (residual {residual:.2g})")
 
@@ -151,13 +170,14 @@ def find_steady_state(machine, model, inputs, step: float, state: State, period:
                       progress, warnings: list) -> tuple[State, Found | None]:
     """``[simulation] steady_state = "shooting"``: the state the recorded window starts from
     (at ``t_rec``) and how it was found, or (``state`` unchanged, None) with a warning saying
-    why the warm-up is used instead."""
+    why the warm-up is used instead. ``step``: the recording grid's [s] (its grid passes
+    through ``t_rec``)."""
     from camsim.engine.integrator import Integrator
 
     why = not_periodic(machine) or not_differentiable(model)
     if why is None:
-        engine = Integrator(model, inputs, step, t_ref=0.0)
-        found = shoot(engine, state, period, check=bounds.check, progress=progress)
+        engine = Integrator(model, inputs, step, t_ref=t_rec)
+        found = shoot(engine, state, t_rec, period, check=bounds.check, progress=progress)
         why = found.why
         if why is None:
             return replace(found.end, t=t_rec), Found(found, engine.watch.last)

@@ -5,9 +5,8 @@ References:
   of the map itself, F(y ± ε·e_j), on a machine with 49 events a revolution (every saltation
   counts): 1e-5 of the matrix's norm (the differences' own truncation and rounding);
 - the steady state against the recorded run: a run of two recorded revolutions from the shot
-  state repeats itself, its state one revolution on equal to its start to 1e-10 of each
-  quantity's peak (the recording grid's map, integrated independently of the shooting's
-  warm-up grid; the difference is the cam input's interpolation on the two grids);
+  state repeats itself, its samples one revolution apart equal to 1e-12 of each quantity's
+  peak (the recording integrates the map again, with its own chunks and extremes);
 - against warm-up: thirty warm-up revolutions of the same machine (residual 5e-13) give the
   same located scalars to 1e-9 relative (slow tier);
 - where shooting does not apply, the run is the warm-up run to the bit and says why.
@@ -50,6 +49,13 @@ def with_steady(machine, mode: str, **sim):
 
 def test_the_monodromy_matrix_is_the_derivative_of_the_revolution_map(tmp_path):
     """M = ∂F/∂y against central differences, ε = 1e-7 of each coordinate's scale."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):  # as simulate() runs the engine
+        _check_monodromy(tmp_path)
+
+
+def _check_monodromy(tmp_path):
     from camsim.cam.camshaft import cam_input
     from camsim.loads.inputs import engine_input
     from camsim.run.initial import initial_state
@@ -96,6 +102,8 @@ def test_the_monodromy_matrix_is_the_derivative_of_the_revolution_map(tmp_path):
 
 
 def test_shooting_reaches_a_state_the_recorded_revolution_repeats(tmp_path):
+    """The periodicity residual is measured on the first recorded revolution (its end against
+    its start); the traces one revolution apart agree to 1e-12 of each peak."""
     machine = with_steady(load_machine(light_cdtm(tmp_path)), "shooting")
     result = simulate(machine, cycles=2, sample_rate=50e3)
     assert result.steady_state == {"method": "shooting", "revolutions": result.steady_state["revolutions"]}
@@ -107,7 +115,7 @@ def test_shooting_reaches_a_state_the_recorded_revolution_repeats(tmp_path):
     for name in ("M2", "M3"):
         for quantity in ("displacement", "velocity"):
             trace = result.masses[name][quantity]
-            assert abs(trace[one] - trace[0]) <= 1e-10 * np.max(np.abs(trace)), (name, quantity)
+            assert abs(trace[one] - trace[0]) <= 1e-12 * np.max(np.abs(trace)), (name, quantity)
 
 
 def test_warm_up_leaves_the_lightly_damped_machine_far_from_its_steady_state(tmp_path):
@@ -131,15 +139,17 @@ def test_shooting_gives_the_scalars_of_thirty_warm_up_revolutions(tmp_path):
         assert shot[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
 
 
-def test_shooting_on_the_cdtm_converges_in_two_revolutions():
-    """The CDTM forgets its start within a revolution (its monodromy's spectral radius is
-    3e-17): the shot state is the one a warm-up revolution reaches, to the rounding of the
-    located scalars (1e-12 relative), and the residual is at rounding level."""
+def test_shooting_on_the_cdtm_takes_the_one_revolution_a_warm_up_takes():
+    """The CDTM forgets its start within a revolution (its monodromy's norm is ~1e-16): after
+    one revolution the contraction bound says F(y) is the steady state, so shooting costs
+    what the warm-up costs; its recorded revolution repeats itself to rounding (the residual
+    measured on it, 1e-14 at most, where the warm-up's residual of 1e-4 measures the static
+    start), and its located scalars are the warm-up run's to 1e-12 relative."""
     machine = load_machine(CDTM)
     shot = simulate(with_steady(machine, "shooting"), sample_rate=2.0)
     warm = simulate(machine, sample_rate=2.0)
-    assert shot.steady_state == {"method": "shooting", "revolutions": 2}
-    assert shot.periodicity_residual <= 1e-14 < warm.periodicity_residual
+    assert shot.steady_state == {"method": "shooting", "revolutions": 1}
+    assert shot.periodicity_residual <= 1e-14 < 1e-5 < warm.periodicity_residual
     a, b = shot.scalars(), warm.scalars()
     for key, value in b.items():
         if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
@@ -192,4 +202,4 @@ def test_the_run_file_says_how_the_steady_state_was_reached(tmp_path):
     write_run(result, tmp_path / "run.h5")
     with h5py.File(tmp_path / "run.h5") as f:
         assert f.attrs["steady_state"] == "shooting"
-        assert f.attrs["steady_state_revolutions"] == 2
+        assert f.attrs["steady_state_revolutions"] == 1
