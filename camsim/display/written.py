@@ -22,6 +22,8 @@ dimension.
 
 from __future__ import annotations
 
+import functools
+
 import math
 import re
 import tomllib
@@ -217,21 +219,33 @@ def written_units(text: str, options: Iterable[str] = ()) -> DisplayUnits:
     DisplayUnits
         ``system = "file"``. A document that is not TOML gives the ``si`` choice.
     """
+    options = tuple(options)
+    return DisplayUnits.of("file", _resolve(_file_votes(text), _option_votes(options) if options else None))
+
+
+@functools.lru_cache(maxsize=16)
+def _file_votes(text: str) -> _Votes:
+    """The units a document's quantities vote for (read only: cached per text, since an
+    analysis loads one file thousands of times with other overrides; issue 42)."""
     from camsim.units import registry
 
     try:
         doc = tomllib.loads(text) if text else {}
     except tomllib.TOMLDecodeError:
         doc = {}
-    ureg = registry()
     votes = _Votes()
-    votes.count(ureg, _strings(doc))
-    option_votes = None
-    options = list(options)
-    if options:
-        option_votes = _Votes()
-        option_votes.count(ureg, options)
-    return DisplayUnits.of("file", _resolve(votes, option_votes))
+    votes.count(registry(), _strings(doc))
+    return votes
+
+
+@functools.lru_cache(maxsize=256)
+def _option_votes(options: tuple[str, ...]) -> _Votes:
+    """The units the command line's quantities vote for (read only, cached)."""
+    from camsim.units import registry
+
+    votes = _Votes()
+    votes.count(registry(), options)
+    return votes
 
 
 #: The quantity at the end of an option's value: ``20:40lbf`` → ``40lbf``, ``>52 lbf`` → ``52 lbf``.
