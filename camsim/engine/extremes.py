@@ -9,14 +9,14 @@ displacement, velocity or acceleration, an element's force, the cam force, the c
 torque: whatever the caller's ``observe`` computes from the state — the very code that
 makes the traces, so a figure reported in two places is one number):
 
-1. **Screen** the nodes (:func:`_screen_column`): between two nodes a smooth q rises at
+1. **Screen** the nodes (:func:`~camsim.engine.screen.screen_rows`): between two nodes a smooth q rises at
    most h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided differences
    (the internal grid has at least twelve steps per period of the highest natural
    frequency) and taken :data:`SCREEN_SAFETY` times over; the steps whose bound exceeds the
    largest node value, and the two beside that node, are the candidates; a stretch's ends
    and a break's nodes are nodes (the one-sided limits there are candidates as they are).
    The whole stretch is scanned three times for every observable at once
-   (:func:`_excess_bound`: the largest second difference bounds every step); only the
+   (:func:`~camsim.engine.screen.excess_bound`: the largest second difference bounds every step); only the
    steps near the best node are bounded one by one, lazily, for the observables asked.
 2. **Refine** only where asked (:func:`refine_requests`: a stretch is refined only where its
    bound can reach the best value there is): on each candidate step the exact state is
@@ -42,10 +42,8 @@ import numpy as np
 
 from camsim.heartbeat import working
 from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise
+from camsim.engine.screen import SCREEN_SAFETY, excess_bound, screen_rows, step_excess
 
-#: The bound of a smooth q between two nodes, h²/8·|q̈|, is taken this many times over
-#: (q̈ itself estimated from the nodes; see _screen_column).
-SCREEN_SAFETY = 4.0
 #: A located value between nodes replaces the best node value only when it is larger by more
 #: than this fraction of the values interpolated (the interpolation's rounding).
 ROUNDING = 64 * np.finfo(float).eps
@@ -80,6 +78,7 @@ class StretchExtremes:
     def __init__(self, dense: DenseStretch, QT: np.ndarray):
         nodes = dense.nodes
         self.t0, self.t1 = float(nodes[0]), float(nodes[-1])
+        QT = np.ascontiguousarray(QT)  # rows end to end: the screen reads it flat (a window's cut is a view)
         self._QT = QT
         self._dense = dense
         n_obs, N = QT.shape
@@ -87,12 +86,14 @@ class StretchExtremes:
         moving = h > 0.0
         #: first node of each smooth piece (a break's right node starts one)
         self._starts = np.concatenate([[0], np.flatnonzero(~moving) + 1])
-        # each piece's largest and smallest node value, every observable (n_obs, pieces); the
-        # record's, and their first nodes, from them (one pass over the nodes each, not two)
+        # each piece's largest and smallest node value, every observable (n_obs, pieces): the
+        # refinement's tie rule works piece by piece
         self._piece_max = np.maximum.reduceat(QT, self._starts, axis=1)
         self._piece_min = np.minimum.reduceat(QT, self._starts, axis=1)
         rows = np.arange(n_obs)
-        kmax, kmin = _first_node(QT, self._starts, self._piece_max, 1), _first_node(QT, self._starts, self._piece_min, -1)
+        # the first node of each row's extreme (argmax and argmin return the first: it lies
+        # in the first piece that holds the extreme, as the tie rule wants)
+        kmax, kmin = np.argmax(QT, axis=1), np.argmin(QT, axis=1)
         self.node_max, self.node_min = QT[rows, kmax], QT[rows, kmin]
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
         ends = np.concatenate([self._starts[1:] - 1, [N - 1]])  # last node of each piece
@@ -116,14 +117,14 @@ class StretchExtremes:
         self._end_step[self._starts[self._starts < N - 1]] = True
         self._end_step[ends[ends > 0] - 1] = True
         self._end_step &= moving
-        self._excess, self._d2 = _excess_bound(QT, moving, bool(np.any(single)))
+        self._moving = moving
+        self._excess, self._d2 = excess_bound(QT, moving, bool(np.any(single)))
         self.upper = self.node_max + self._excess
         self.lower = self.node_min - self._excess
         self._scale = np.maximum(np.abs(self.node_max), np.abs(self.node_min))
         self._screened: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
         self._forced_cache = None
         self._loose_cache = None
-        self._near_cache: dict[int, list[np.ndarray]] = {}
         self._kmax, self._kmin = kmax, kmin
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
         self._refined: dict[tuple[int, int, float], tuple[float, float]] = {}
@@ -156,28 +157,20 @@ class StretchExtremes:
         return float(sense * self._screen(j, sense)[1])
 
     def _screen(self, j: int, sense: int) -> tuple[np.ndarray, float]:
-        """(candidate steps, bound of sense·q) of observable ``j`` (:func:`_screen_column`)."""
-        key = (j, sense)
-        hit = self._screened.get(key)
+        """(candidate steps, bound of sense·q) of observable ``j`` (:func:`~camsim.engine.screen.screen_rows`)."""
+        hit = self._screened.get((j, sense))
         if hit is None:
-            hit = self._screened[key] = _screen_column(self, j, sense, float(self._excess[j]),
-                                                       1e-13 * float(self._scale[j]))
+            self.screen([j], sense)
+            hit = self._screened[(j, sense)]
         return hit
 
-    def _near(self, sense: int) -> list[np.ndarray]:
-        """Per observable, the nodes within its excess bound of its best node value (sense +1:
-        the largest, −1: the smallest), for every observable in one pass; cached."""
-        hit = self._near_cache.get(sense)
-        if hit is None:
-            tol = 1e-13 * self._scale
-            if sense > 0:
-                mask = self._QT > (self.node_max - self._excess - tol)[:, None]
-            else:
-                mask = self._QT < (self.node_min + self._excess + tol)[:, None]
-            js, rows = np.nonzero(mask)
-            cuts = np.searchsorted(js, np.arange(1, self._QT.shape[0]))
-            hit = self._near_cache[sense] = np.split(rows, cuts)
-        return hit
+    def screen(self, js, sense: int) -> None:
+        """Screen observables ``js`` for ``sense`` in one pass (those not screened yet; the
+        results are kept for :meth:`bound` and the refinement)."""
+        todo = [j for j in js if (j, sense) not in self._screened]
+        if todo:
+            for j, hit in zip(todo, screen_rows(self, np.array(todo, dtype=np.intp), sense)):
+                self._screened[(j, sense)] = hit
 
     def _forced_bounds(self):
         """(steps, upper, lower): the steps next to each piece's ends and, for every
@@ -186,7 +179,8 @@ class StretchExtremes:
         hit = self._forced_cache
         if hit is None:
             steps = self._forced
-            exc = _step_excess(self, self._QT, steps)
+            n_obs, N = self._QT.shape
+            exc = step_excess(self, self._QT.reshape(-1), (np.arange(n_obs) * N)[:, None], steps[None, :])
             q0, q1 = self._QT[:, steps], self._QT[:, steps + 1]
             hit = self._forced_cache = (steps, np.maximum(q0, q1) + exc, np.minimum(q0, q1) - exc)
         return hit
@@ -198,138 +192,11 @@ class StretchExtremes:
         return refine_requests([(self, j, sense, tie)])[0]
 
 
-def _first_node(QT: np.ndarray, starts: np.ndarray, piece: np.ndarray, sense: int) -> np.ndarray:
-    """Per observable, the first node of its largest (sense +1) or smallest (−1) value: the
-    first piece that holds it, then that piece's first such node (``piece``: each piece's
-    extreme, n_obs × pieces)."""
-    n_obs, N = QT.shape
-    best = np.argmax(piece, axis=1) if sense > 0 else np.argmin(piece, axis=1)
-    ends = np.concatenate([starts[1:], [N]])
-    out = np.empty(n_obs, dtype=int)
-    for j in range(n_obs):
-        a, b = int(starts[best[j]]), int(ends[best[j]])
-        seg = QT[j, a:b]
-        out[j] = a + int(np.argmax(seg) if sense > 0 else np.argmin(seg))
-    return out
-
-
-def _excess_bound(QT: np.ndarray, moving: np.ndarray, single: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Per observable, a bound of how far any step rises above its larger node:
-    SAFETY/8·h²·|q̈| ≤ SAFETY/8·max|Δ²q| over the uniform grid steps inside the pieces
-    (the steps next to a piece's ends, which :func:`_screen_column` bounds one by one, and
-    the breaks left out); infinite when a piece has a single step (two events with no grid
-    point between: nothing bounds it, a short contact's force is zero at both ends).
-
-    Returns the bounds (n_obs,) and |Δ²q| at the interior nodes 2 … N − 3 (n_obs, N − 4;
-    zero where the triplet is not of uniform steps inside a piece), or None."""
-    n_obs, N = QT.shape
-    if single:
-        return np.full(n_obs, np.inf), None
-    if N <= 4:
-        return np.zeros(n_obs), None
-    d2 = QT[:, 3:-1] + QT[:, 1:-3]  # interior nodes 2 … N − 3
-    middle = QT[:, 2:-2]
-    d2 -= middle
-    d2 -= middle
-    np.abs(d2, out=d2)
-    if not np.all(moving):
-        # a triplet that straddles a break is no second difference of a smooth q
-        ok = moving[1:-2] & moving[2:-1] & moving[:-3] & moving[3:]
-        d2[:, ~ok] = 0.0
-    return (SCREEN_SAFETY / 8.0) * np.max(d2, axis=1), d2
-
-
-#: Above this many nodes near the best value (a plateau), a column is screened in full
-#: from the stored second differences rather than step by step.
-NEAR_MAX = 256
-
-
-def _screen_column(rec: StretchExtremes, j: int, sense: int, excess: float, tol: float):
-    """The steps of one observable q (times its sense: the maximum is screened) that may
-    hold a value beyond its largest node value, and the bound of its values between nodes.
-
-    Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
-    estimated at each node by the divided second difference of its neighbours (exact to
-    about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
-    :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
-    node value by more than ``tol``, or when it ends at that node (the maximum may sit just
-    beside it). A piece's first and last steps (whose end node has no neighbour beyond it)
-    take the curvature of the node inside and half the slope across the step as well; a
-    piece of one step has no bound and is always a candidate. A break (a step of length
-    zero) is never one: both its nodes are nodes.
-
-    Only the steps that touch a node within ``excess`` (:func:`_excess_bound`) of the best,
-    and those next to a piece's ends (:meth:`StretchExtremes._forced_bounds`, every
-    observable at once), are bounded one by one: no other step can rise above it.
-
-    Returns
-    -------
-    (ndarray, float)
-        The candidate steps, ascending, and the bound of sense·q over the record.
-    """
-    col = rec._QT[j]
-    N = col.size
-    best = int(rec._kmax[j] if sense > 0 else rec._kmin[j])
-    q_best = sense * float(col[best])
-    near = rec._near(sense)[j]
-    forced, hi, lo = rec._forced_bounds()
-    f_local = hi[j] if sense > 0 else -lo[j]
-    parts_steps, parts_local = [forced], [f_local]
-    full = None
-    if near.size > NEAR_MAX and rec._d2 is not None:
-        # a plateau: every interior step's bound from the second differences at once
-        q = sense * col
-        ad = rec._d2[j]  # |Δ²q| at nodes 2 … N − 3 (zero near a break: those steps are forced)
-        up = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
-        full = (np.flatnonzero(up > q_best + tol) + 2, float(np.max(up)) if up.size else -np.inf)
-        near = np.zeros(0, dtype=int)
-    # (a step also among the forced ones is bounded twice, alike: cheaper than excluding it)
-    extra = np.unique(np.concatenate([near - 1, near, [best - 1, best]]))
-    extra = extra[(extra >= 0) & (extra < N - 1)]
-    extra = extra[rec._dense.h[extra] > 0.0]
-    if extra.size:
-        exc = _step_excess(rec, col, extra)
-        q0, q1 = sense * col[extra], sense * col[extra + 1]
-        parts_steps.append(extra)
-        parts_local.append(np.maximum(q0, q1) + exc)
-    steps = np.concatenate(parts_steps)
-    local = np.concatenate(parts_local)
-    chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
-    limit = max(q_best, float(np.max(local)) if local.size else -np.inf)
-    cands = np.unique(steps[chosen])
-    if full is None:
-        return cands, limit
-    return np.union1d(cands, full[0]), max(limit, full[1])
-
-
-def _step_excess(rec: StretchExtremes, Q: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """How far q may rise above the larger node of each step (independent of the sense):
-    SAFETY/8·h²·|q̈| at the step's ends (a piece's end node takes its neighbour's), plus half
-    the slope across a piece's first or last step; infinite for a piece of one step. ``Q``
-    is one observable's node values (N,) or every observable's (n_obs, N)."""
-    h = rec._dense.h
-    N = Q.shape[-1]
-    a, b = rec._cnode[steps], rec._cnode[steps + 1]
-    unbounded = (a < 0) | (b < 0)
-
-    def curvature(k):
-        k = np.clip(np.where(k < 0, 1, k), 1, N - 2)
-        left, right = Q[..., k] - Q[..., k - 1], Q[..., k + 1] - Q[..., k]
-        hl, hr = h[k - 1], h[k]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.abs(right / hr - left / hl) * (2.0 / (hl + hr))
-        return np.where(np.isfinite(out), out, 0.0)
-
-    exc = (SCREEN_SAFETY / 8.0) * h[steps] ** 2 * np.maximum(curvature(a), curvature(b))
-    exc = exc + np.where(rec._end_step[steps], 0.5 * np.abs(Q[..., steps + 1] - Q[..., steps]), 0.0)
-    return np.where(unbounded, np.inf, exc)
-
-
 # ---------------------------------------------------------------------- refinement
 def refine_requests(requests) -> list[tuple[float, float]]:
     """Located extremes of many (record, observable, sense, tie) requests at once.
 
-    Each request's candidate steps (:func:`_screen_column`) are evaluated at the Chebyshev
+    Each request's candidate steps (:func:`~camsim.engine.screen.screen_rows`) are evaluated at the Chebyshev
     points — every linear record's steps in one batch (:func:`~camsim.engine.dense.batch_values`),
     a nonlinear one's from its DOP853 solution — and the interpolants' maxima located in one
     call (:func:`~camsim.engine.dense.maximise`; a nonlinear record's zoomed in twice around
