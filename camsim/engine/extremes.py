@@ -38,10 +38,12 @@ whatever the grid.
 
 from __future__ import annotations
 
+from bisect import bisect_right
+
 import numpy as np
 
 from camsim.heartbeat import working
-from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise
+from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise, row_products
 from camsim.engine.screen import SCREEN_SAFETY, excess_bound, screen_rows, step_excess
 
 #: A located value between nodes replaces the best node value only when it is larger by more
@@ -98,6 +100,8 @@ class StretchExtremes:
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
         ends = np.concatenate([self._starts[1:] - 1, [N - 1]])  # last node of each piece
         self._piece_ends = ends
+        #: each piece's first node and the one after its last, as Python ints (the refinement's scalars)
+        self._piece_spans = (self._starts.tolist(), (ends + 1).tolist())
         # the node whose curvature each node takes (a piece's end node: its neighbour's),
         # -1 where a piece has one step only (nothing bounds it: always refined)
         cnode = np.arange(N)
@@ -220,7 +224,7 @@ def refine_requests(requests) -> list[tuple[float, float]]:
             continue
         steps = rec._screen(j, sense)[0]
         if steps.size == 0:
-            out[i] = rec._refined[(j, sense, tie)] = _settle((i, rec, j, sense, tie, steps), None, None, None, None, None)
+            out[i] = _settle(rec, j, sense, tie, steps, None)
             continue
         todo.append((i, rec, j, sense, tie, steps))
     if not todo:
@@ -236,49 +240,76 @@ def refine_requests(requests) -> list[tuple[float, float]]:
             rec._level1[k] = q
     exact = [t for t in todo if t[1]._dense.exact]
     if exact:
+        # every exact request's candidate steps located in one batch, and the instants and
+        # rounding allowances of their maxima with them (row by row: the same bits as
+        # request by request)
         rows = [t[3] * np.array([t[1]._level1[k][:, t[2]] for k in t[5].tolist()]) for t in exact]
         stacked = np.concatenate(rows)
+        n = stacked.shape[0]
         xs = maximise(stacked)
         vals = chebval_rows(xs, stacked @ _TO_COEF.T)
+        t0 = np.concatenate([t[1]._dense.nodes[t[5]] for t in exact])
+        h = np.concatenate([t[1]._dense.h[t[5]] for t in exact])
+        ties = np.repeat(np.array([t[4] for t in exact]), [t[5].size for t in exact])
+        found = _found(stacked, np.zeros(n), np.ones(n), xs, vals, t0, h, ties)
         k = 0
-        for t, values in zip(exact, rows):
-            n = values.shape[0]
-            out[t[0]] = _settle(t, values, np.zeros(n), np.ones(n), xs[k : k + n], vals[k : k + n])
-            k += n
-    for t in todo:
-        if not t[1]._dense.exact:
-            out[t[0]] = _refine_nonlinear(t)
-            working()  # a chattering revolution refines thousands: the stall watchdog sees them advance
+        for t in exact:
+            m = t[5].size
+            out[t[0]] = _settle(*t[1:], tuple(f[k : k + m] for f in found))
+            k += m
+    nonlinear = [t for t in todo if not t[1]._dense.exact]
+    if nonlinear:
+        for t, result in zip(nonlinear, _refine_nonlinear(nonlinear)):
+            out[t[0]] = result
     return out
 
 
-def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
-    """A request's located extreme from its candidate steps' interpolated maxima (``x`` on
-    [−1, 1] of the sub-interval [lo, lo + width] of each step, ``vals`` there; None: no
-    candidate), piece by piece (see :func:`refine_requests`)."""
-    i, rec, j, sense, tie, steps = request
-    dense = rec._dense
+def _found(values, lo, width, x, vals, t0, h, tie) -> tuple[list, list, list]:
+    """The interpolated maxima of candidate steps as lists (value, time, rounding allowance)
+    for :func:`_settle`: ``x`` on [−1, 1] of the sub-interval [lo, lo + width] of each step
+    (start ``t0``, length ``h``), ``vals`` there; ``values`` the interpolated ones (a row a
+    step); ``tie`` per row or one for all."""
+    sigma_at = lo + width * 0.5 * (x + 1.0)
+    times = t0 + h * sigma_at
+    noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
+    return vals.tolist(), times.tolist(), noise.tolist()
+
+
+def _settle(rec, j: int, sense: int, tie: float, steps: np.ndarray, found) -> tuple[float, float]:
+    """A request's located extreme from its candidate steps' interpolated maxima (``found``:
+    :func:`_found`'s lists, a step each in the order of ``steps``; None: no candidate),
+    piece by piece (see :func:`refine_requests`). Scalars in Python: a request has a few
+    candidates in one or two pieces, where numpy's per-call cost was most of the work."""
     qj = rec._QT[j]
-    starts, ends = rec._starts, rec._piece_ends
+    nodes = rec._dense.nodes
+    starts, stops = rec._piece_spans
     piece_max = rec._piece_max[j] if sense > 0 else -rec._piece_min[j]
-    top_nodes = float(np.max(piece_max))
-    pid = np.searchsorted(starts, steps, side="right") - 1 if steps.size else np.zeros(0, dtype=int)
-    pieces = sorted(set(np.flatnonzero(piece_max >= top_nodes - tie).tolist()) | set(pid.tolist()))
-    if vals is not None:
-        sigma_at = lo + width * 0.5 * (x + 1.0)
-        times = dense.nodes[steps] + dense.h[steps] * sigma_at
-        noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
+    pm = piece_max.tolist()
+    floor = float(np.max(piece_max)) - tie
+    S = steps.size
+    if len(starts) == 1:
+        pid = [0] * S
+    else:
+        pid = [bisect_right(starts, k) - 1 for k in steps.tolist()]
+    pieces = sorted({p for p, v in enumerate(pm) if v >= floor} | set(pid))
+    if found is not None:
+        vals, times, noise = found
+        ordered = all(t == t for t in times)  # no NaN: Python's stable sort is numpy's
     heights = []
     for p in pieces:
-        a, b = int(starts[p]), int(ends[p]) + 1
-        seg = sense * qj[a:b]
-        k = a + int(np.argmax(seg >= piece_max[p] - tie))  # the first node of the piece's best height
-        best = (float(sense * qj[k]), float(dense.nodes[k]))
-        if vals is not None:
-            mine = np.flatnonzero(pid == p)
-            for r in mine[np.argsort(times[mine], kind="stable")]:
+        a, b = starts[p], stops[p]
+        seg = qj[a:b] if sense > 0 else -qj[a:b]
+        k = a + int(np.argmax(seg >= pm[p] - tie))  # the first node of the piece's best height
+        v = float(qj[k])
+        best = (v if sense > 0 else -v, float(nodes[k]))
+        if found is not None:
+            mine = [r for r in range(S) if pid[r] == p]
+            if len(mine) > 1:
+                mine = (sorted(mine, key=times.__getitem__) if ordered
+                        else [mine[q] for q in np.argsort(np.array(times)[mine], kind="stable").tolist()])
+            for r in mine:
                 if vals[r] > best[0] + noise[r]:
-                    best = (float(vals[r]), float(times[r]))
+                    best = (vals[r], times[r])
         heights.append(best)
     top = max(v for v, _ in heights)
     value, when = min(((v, t) for v, t in heights if v >= top - tie), key=lambda h: h[1])
@@ -287,25 +318,67 @@ def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
     return result
 
 
-def _refine_nonlinear(request) -> tuple[float, float]:
-    """A closed nonlinear contact's request: the interpolant of a whole step may be rough
+def _refine_nonlinear(requests) -> list[tuple[float, float]]:
+    """Closed nonlinear contacts' requests: the interpolant of a whole step may be rough
     where the contact's force is not smooth (its ends), so the maximum is located again on
-    narrower intervals around the last one (:data:`ZOOM`)."""
-    i, rec, j, sense, tie, steps = request
-    dense = rec._dense
-    values = sense * np.array([rec._level1[k][:, j] for k in steps.tolist()])  # (S, P)
+    narrower intervals around the last one (:data:`ZOOM`).
+
+    All requests zoom together: each level's states are one evaluation per record (its
+    dense output called once per step, :meth:`~camsim.engine.dense.DenseStretch.states`),
+    each level's maxima one batch. Row by row this is the arithmetic of a request alone; a
+    request of one step keeps the products of a lone row
+    (:func:`~camsim.engine.dense.row_products`)."""
+    sizes = [t[5].size for t in requests]
+    steps = np.concatenate([t[5] for t in requests])
+    values = np.concatenate([t[3] * np.array([t[1]._level1[k][:, t[2]] for k in t[5].tolist()]) for t in requests])
+    lone = np.repeat(np.array([n == 1 for n in sizes]), sizes)  # (rows,): rows of one-step requests
+    # each record's rows, the observable and sense of each
+    groups: dict[int, tuple] = {}
+    first = 0
+    for t, n in zip(requests, sizes):
+        entry = groups.setdefault(id(t[1]), (t[1], [], [], []))
+        entry[1].extend(range(first, first + n))
+        entry[2].extend([t[2]] * n)
+        entry[3].extend([t[3]] * n)
+        first += n
+    groups = [(rec, np.array(rows), np.array(cols), np.array(senses)) for rec, rows, cols, senses in groups.values()]
     lo = np.zeros(steps.size)
     width = np.ones(steps.size)
-    x = maximise(values)
+    x = _maximise_rows(values, lone)
     for zoom in ZOOM:
         centre = lo + width * 0.5 * (x + 1.0)
         width = width * 2.0 * zoom
         lo = np.clip(centre - 0.5 * width, 0.0, 1.0 - width)
         sigma = lo[:, None] + width[:, None] * _SIGMA[None, :]
-        values = sense * dense.values(steps, sigma)[:, :, j]
-        x = maximise(values)
-    vals = chebval_rows(x, values @ _TO_COEF.T)
-    return _settle(request, values, lo, width, x, vals)
+        values = np.empty_like(values)
+        for rec, rows, cols, senses in groups:
+            level = rec._dense.values(steps[rows], sigma[rows])  # (rows, P, n_obs)
+            values[rows] = senses[:, None] * level[np.arange(rows.size), :, cols]
+        x = _maximise_rows(values, lone)
+    vals = np.empty(steps.size)
+    for mask in (lone, ~lone):
+        if np.any(mask):
+            vals[mask] = chebval_rows(x[mask], row_products(values[mask], _TO_COEF, mask is lone))
+    t0 = np.concatenate([t[1]._dense.nodes[t[5]] for t in requests])
+    h = np.concatenate([t[1]._dense.h[t[5]] for t in requests])
+    ties = np.repeat(np.array([t[4] for t in requests]), sizes)
+    found = _found(values, lo, width, x, vals, t0, h, ties)
+    out, k = [], 0
+    for t, n in zip(requests, sizes):
+        out.append(_settle(*t[1:], tuple(f[k : k + n] for f in found)))
+        k += n
+        working()  # a chattering revolution refines thousands: the stall watchdog sees them advance
+    return out
+
+
+def _maximise_rows(values: np.ndarray, lone: np.ndarray) -> np.ndarray:
+    """:func:`~camsim.engine.dense.maximise` of every row, the rows of one-step requests
+    (``lone``) with a lone row's products."""
+    x = np.empty(values.shape[0])
+    for mask in (lone, ~lone):
+        if np.any(mask):
+            x[mask] = maximise(values[mask], lone=mask is lone)
+    return x
 
 
 # ---------------------------------------------------------------------- building the record
