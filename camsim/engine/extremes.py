@@ -164,17 +164,19 @@ class StretchExtremes:
         """(candidate steps, bound of sense·q) of observable ``j`` (:func:`~camsim.engine.screen.screen_rows`)."""
         hit = self._screened.get((j, sense))
         if hit is None:
-            self.screen([j], sense)
+            self.screen([(j, sense)])
             hit = self._screened[(j, sense)]
         return hit
 
-    def screen(self, js, sense: int) -> None:
-        """Screen observables ``js`` for ``sense`` in one pass (those not screened yet; the
-        results are kept for :meth:`bound` and the refinement)."""
-        todo = [j for j in js if (j, sense) not in self._screened]
+    def screen(self, queries) -> None:
+        """Screen the (observable, sense) ``queries`` in one pass (those not screened yet;
+        the results are kept for :meth:`bound` and the refinement)."""
+        todo = [q for q in queries if q not in self._screened]
         if todo:
-            for j, hit in zip(todo, screen_rows(self, np.array(todo, dtype=np.intp), sense)):
-                self._screened[(j, sense)] = hit
+            js = np.array([j for j, _ in todo], dtype=np.intp)
+            senses = np.array([sense for _, sense in todo])
+            for q, hit in zip(todo, screen_rows(self, js, senses)):
+                self._screened[q] = hit
 
     def _forced_bounds(self):
         """(steps, upper, lower): the steps next to each piece's ends and, for every

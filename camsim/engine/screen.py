@@ -87,10 +87,10 @@ def step_excess(rec, flat: np.ndarray, base: np.ndarray, steps: np.ndarray) -> n
     return np.where(unbounded, np.inf, exc)
 
 
-def screen_rows(rec, js: np.ndarray, sense: int) -> list[tuple[np.ndarray, float]]:
-    """The steps of observables ``js`` of one record (times ``sense``: the maximum is
-    screened) that may hold a value beyond their largest node value, and the bound of their
-    values between nodes, every column in one pass.
+def screen_rows(rec, js: np.ndarray, senses: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """The steps of observables ``js`` of one record (each times its sense, ``senses`` ±1:
+    the maximum is screened) that may hold a value beyond their largest node value, and the
+    bound of their values between nodes, every column in one pass.
 
     Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
     estimated at each node by the divided second difference of its neighbours (exact to
@@ -110,39 +110,48 @@ def screen_rows(rec, js: np.ndarray, sense: int) -> list[tuple[np.ndarray, float
     Returns
     -------
     list of (ndarray, float)
-        Per observable of ``js``: the candidate steps, ascending, and the bound of sense·q
-        over the record.
+        Per row of ``js``: the candidate steps, ascending, and the bound of sense·q over the
+        record.
     """
     QT = rec._QT
     N = QT.shape[1]
     js = np.asarray(js, dtype=np.intp)
+    senses = np.asarray(senses)
     M = js.size
-    Q = QT[js]  # (M, N), contiguous: one row per observable screened
+    # the maxima's rows first, then the minima's: each block compared in place
+    order = np.argsort(-senses, kind="stable")
+    js, senses = js[order], senses[order]
+    n_up = int(np.count_nonzero(senses > 0))
+    Q = QT[js]  # (M, N), contiguous: one row per column screened
     tol = 1e-13 * rec._scale[js]
-    if sense > 0:
-        best = rec._kmax[js]
-        near = Q > (rec.node_max[js] - rec._excess[js] - tol)[:, None]
-    else:
-        best = rec._kmin[js]
-        near = Q < (rec.node_min[js] + rec._excess[js] + tol)[:, None]
+    best = np.concatenate([rec._kmax[js[:n_up]], rec._kmin[js[n_up:]]])
+    near = np.empty(Q.shape, dtype=bool)
+    up, down = js[:n_up], js[n_up:]
+    np.greater(Q[:n_up], (rec.node_max[up] - rec._excess[up] - tol[:n_up])[:, None], out=near[:n_up])
+    np.less(Q[n_up:], (rec.node_min[down] + rec._excess[down] + tol[n_up:])[:, None], out=near[n_up:])
     rows = np.arange(M)
+    # the nodes near the best (sparse: a peak's few), then the steps that touch them
+    rn, n = np.nonzero(near)
     plateau = np.zeros(0, dtype=np.intp)
     if rec._d2 is not None and N > NEAR_MAX:
-        plateau = np.flatnonzero(np.count_nonzero(near, axis=1) > NEAR_MAX)
-        near[plateau] = False  # bounded from the second differences below
-    near[rows, best] = True
-    # the steps bounded one by one: those touching a near node (the best among them), the
-    # forced ones; never a break
-    pick = near[:, :-1] | near[:, 1:]
-    pick[:, rec._forced] = True
-    pick &= rec._moving
-    r, k = np.nonzero(pick)  # row-major: each row's steps ascending
+        plateau = np.flatnonzero(np.bincount(rn, minlength=M) > NEAR_MAX)
+        if plateau.size:  # bounded from the second differences below
+            keep = ~np.isin(rn, plateau)
+            rn, n = rn[keep], n[keep]
+    forced = rec._forced
+    rs = np.concatenate([rn, rn, rows, rows, np.repeat(rows, forced.size)])
+    ks = np.concatenate([n - 1, n, best - 1, best, np.tile(forced, M)])
+    ok = (ks >= 0) & (ks < N - 1)
+    rs, ks = rs[ok], ks[ok]
+    ok = rec._moving[ks]  # never a break
+    key = np.unique(rs[ok] * (N - 1) + ks[ok])  # each (row, step) once, row-major
+    r, k = key // (N - 1), key % (N - 1)
     flat = Q.reshape(-1)
     base = r * N
     exc = step_excess(rec, flat, base, k)
-    q0, q1 = flat[base + k], flat[base + k + 1]
-    local = np.maximum(q0, q1) + exc if sense > 0 else np.maximum(-q0, -q1) + exc
-    q_best = sense * Q[rows, best]
+    sign = senses[r].astype(float)  # ±1: sense·q exactly
+    local = np.maximum(sign * flat[base + k], sign * flat[base + k + 1]) + exc
+    q_best = senses * Q[rows, best]
     b = best[r]
     chosen = (local > (q_best + tol)[r]) | (k == b - 1) | (k == b)
     cuts = np.searchsorted(r, np.arange(1, M))
@@ -155,10 +164,13 @@ def screen_rows(rec, js: np.ndarray, sense: int) -> list[tuple[np.ndarray, float
     out = [(cands[i], max(float(q_best[i]), float(top[i]))) for i in range(M)]
     for i in plateau.tolist():
         # a plateau: every interior step's bound from the second differences at once
-        q = sense * Q[i]
+        q = senses[i] * Q[i]
         ad = rec._d2[js[i]]  # |Δ²q| at nodes 2 … N − 3 (zero near a break: those steps are forced)
-        up = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
-        steps = np.flatnonzero(up > q_best[i] + tol[i]) + 2
-        limit = max(out[i][1], float(np.max(up)) if up.size else -np.inf)
+        upper = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
+        steps = np.flatnonzero(upper > q_best[i] + tol[i]) + 2
+        limit = max(out[i][1], float(np.max(upper)) if upper.size else -np.inf)
         out[i] = (np.union1d(out[i][0], steps), limit)
-    return out
+    back = [None] * M
+    for i, o in enumerate(order.tolist()):
+        back[o] = out[i]
+    return back

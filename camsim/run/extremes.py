@@ -241,15 +241,13 @@ def fold_jobs(jobs) -> list[dict]:
             best = max(float(np.max(nodes)), max(prior, default=-np.inf))
             ks = np.flatnonzero(loose >= best - tie).tolist()
             for k in ks:
-                wanted.setdefault(id(records[k]), (records[k], {1: set(), -1: set()}))[1][sense].add(j)
+                wanted.setdefault(id(records[k]), (records[k], set()))[1].add((j, sense))
             passes.append((n, records, j, sense, tie, best, ks))
-    # each record's columns screened together, one pass per sense (the same bounds, bit for
-    # bit, as column by column: engine/screen.py)
-    for r, senses in wanted.values():
-        for sense, js in senses.items():
-            if js:
-                working()  # each screen a step the stall watchdog sees (a chattering revolution has thousands)
-                r.screen(sorted(js), sense)
+    # each record's columns screened together, both senses in one pass (the same bounds, bit
+    # for bit, as column by column: engine/screen.py)
+    for r, queries in wanted.values():
+        working()  # each screen a step the stall watchdog sees (a chattering revolution has thousands)
+        r.screen(sorted(queries))
     requests, owner = [], []
     for n, records, j, sense, tie, best, ks in passes:
         for k in ks:
