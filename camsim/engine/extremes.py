@@ -9,15 +9,16 @@ displacement, velocity or acceleration, an element's force, the cam force, the c
 torque: whatever the caller's ``observe`` computes from the state — the very code that
 makes the traces, so a figure reported in two places is one number):
 
-1. **Screen** the nodes (:func:`~camsim.engine.screen.screen_rows`): between two nodes a smooth q rises at
-   most h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided differences
-   (the internal grid has at least twelve steps per period of the highest natural
+1. **Screen** the nodes (:func:`~camsim.engine.screen.screen_rows`): between two nodes a
+   smooth q rises at most h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided
+   differences (the internal grid has at least twelve steps per period of the highest natural
    frequency) and taken :data:`SCREEN_SAFETY` times over; the steps whose bound exceeds the
    largest node value, and the two beside that node, are the candidates; a stretch's ends
    and a break's nodes are nodes (the one-sided limits there are candidates as they are).
    The whole stretch is scanned three times for every observable at once
-   (:func:`~camsim.engine.screen.excess_bound`: the largest second difference bounds every step); only the
-   steps near the best node are bounded one by one, lazily, for the observables asked.
+   (:func:`~camsim.engine.screen.excess_bound`: the largest second difference bounds every
+   step); only the steps near the best node are bounded one by one, lazily, for the
+   observables asked — all the columns a fold asks of a record in one pass.
 2. **Refine** only where asked (:func:`refine_requests`: a stretch is refined only where its
    bound can reach the best value there is): on each candidate step the exact state is
    evaluated at :data:`~camsim.engine.dense.CHEBYSHEV_POINTS` Chebyshev–Lobatto points — for a
