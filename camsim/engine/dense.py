@@ -84,7 +84,6 @@ class DenseStretch:
         S = steps.size
         sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (S, np.shape(sigma)[-1]))
         h = self.h[steps]
-        D = self.step_derivatives(steps)
         # the cam input from its law: inside a short step, the step's degree-7 polynomial
         # carries the rounding of s amplified into s̈ (7.5e-7 m/s², 6e-8 of the CDTM cam's
         # peak acceleration, in a 20 µs step), and a driven mass's acceleration *is* s̈
@@ -93,11 +92,21 @@ class DenseStretch:
         # one evaluation of the law for every point (the limit from the left at a step's end)
         Us = self.ctx.analytic_inputs_at(times.reshape(-1), ends.reshape(-1)).reshape(times.shape + (self.ctx.n_input,))
         if self.exact:
-            return taylor_states(self.config, self.Z[steps], D, h, sigma), Us
-        Zs = np.empty((S, sigma.shape[1], self.Z.shape[1]))
+            return taylor_states(self.config, self.Z[steps], self.step_derivatives(steps), h, sigma), Us
+        P, m = sigma.shape[1], self.Z.shape[1]
+        Zs = np.empty((S, P, m))
+        # the rows of one step (several requests zooming into it) from one call of its dense
+        # output: its interpolant is evaluated time by time, so the values are those of a call
+        # per row (scipy's per-call cost was most of a zoom)
+        rows_of: dict[int, list[int]] = {}
         for r, k in enumerate(steps.tolist()):
-            sol = self._solution(k)
-            Zs[r] = sol(self.nodes[k] + h[r] * sigma[r]).T if h[r] > 0.0 else self.Z[k]
+            rows_of.setdefault(k, []).append(r)
+        for k, rows in rows_of.items():
+            if not self.h[k] > 0.0:
+                Zs[rows] = self.Z[k]
+                continue
+            times = self.nodes[k] + h[rows][:, None] * sigma[rows]
+            Zs[rows] = self._solution(k)(times.reshape(-1)).T.reshape(len(rows), P, m)
         return Zs, Us
 
     def values(self, steps, sigma) -> np.ndarray:
@@ -144,16 +153,26 @@ def integrate_step(ctx, config, v_impacts, t_a: float, h: float, z0: np.ndarray,
     return sol.sol
 
 
-def maximise(values: np.ndarray) -> np.ndarray:
+def row_products(A: np.ndarray, M: np.ndarray, lone: bool = False) -> np.ndarray:
+    """``A @ M.T``; with ``lone``, each row's products as numpy makes them for a row alone
+    (BLAS's matrix-vector kernel, which rounds differently from the matrix-matrix one that
+    two rows or more take): a step refined alone gives the same bits in a batch."""
+    if lone:
+        return (A[:, None, :] @ M.T)[:, 0, :]
+    return A @ M.T
+
+
+def maximise(values: np.ndarray, lone: bool = False) -> np.ndarray:
     """Where on [−1, 1] each row's Chebyshev interpolant (values at the Chebyshev–Lobatto
-    points) is largest: its best point on a fine grid, polished by Newton on its derivative."""
-    coef = values @ _TO_COEF.T
-    fine = coef @ _FINE_V.T
+    points) is largest: its best point on a fine grid, polished by Newton on its derivative
+    (``lone``: every row's products as for a row alone, :func:`row_products`)."""
+    coef = row_products(values, _TO_COEF, lone)
+    fine = row_products(coef, _FINE_V, lone)
     k = np.argmax(fine, axis=1)
     x = _FINE[k]
     lo = _FINE[np.maximum(k - 1, 0)]
     hi = _FINE[np.minimum(k + 1, _FINE.size - 1)]
-    d1, d2 = coef @ _DER1.T, coef @ _DER2.T
+    d1, d2 = row_products(coef, _DER1, lone), row_products(coef, _DER2, lone)
     # from a point within 1/64 of the maximum, three Newton steps on the derivative reach it
     # to rounding (quadratic convergence: 1e-2, 1e-4, 1e-8, 1e-16 in x; the value's error is
     # the square of x's)

@@ -9,15 +9,16 @@ displacement, velocity or acceleration, an element's force, the cam force, the c
 torque: whatever the caller's ``observe`` computes from the state — the very code that
 makes the traces, so a figure reported in two places is one number):
 
-1. **Screen** the nodes (:func:`_screen_column`): between two nodes a smooth q rises at
-   most h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided differences
-   (the internal grid has at least twelve steps per period of the highest natural
+1. **Screen** the nodes (:func:`~camsim.engine.screen.screen_rows`): between two nodes a
+   smooth q rises at most h²/8·|q̈| above the larger one, q̈ estimated from the nodes' divided
+   differences (the internal grid has at least twelve steps per period of the highest natural
    frequency) and taken :data:`SCREEN_SAFETY` times over; the steps whose bound exceeds the
    largest node value, and the two beside that node, are the candidates; a stretch's ends
    and a break's nodes are nodes (the one-sided limits there are candidates as they are).
    The whole stretch is scanned three times for every observable at once
-   (:func:`_excess_bound`: the largest second difference bounds every step); only the
-   steps near the best node are bounded one by one, lazily, for the observables asked.
+   (:func:`~camsim.engine.screen.excess_bound`: the largest second difference bounds every
+   step); only the steps near the best node are bounded one by one, lazily, for the
+   observables asked — all the columns a fold asks of a record in one pass.
 2. **Refine** only where asked (:func:`refine_requests`: a stretch is refined only where its
    bound can reach the best value there is): on each candidate step the exact state is
    evaluated at :data:`~camsim.engine.dense.CHEBYSHEV_POINTS` Chebyshev–Lobatto points — for a
@@ -38,14 +39,14 @@ whatever the grid.
 
 from __future__ import annotations
 
+from bisect import bisect_right
+
 import numpy as np
 
 from camsim.heartbeat import working
-from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise
+from camsim.engine.dense import _SIGMA, _TO_COEF, DenseStretch, batch_values, chebval_rows, maximise, row_products
+from camsim.engine.screen import SCREEN_SAFETY, excess_bound, screen_rows, step_excess
 
-#: The bound of a smooth q between two nodes, h²/8·|q̈|, is taken this many times over
-#: (q̈ itself estimated from the nodes; see _screen_column).
-SCREEN_SAFETY = 4.0
 #: A located value between nodes replaces the best node value only when it is larger by more
 #: than this fraction of the values interpolated (the interpolation's rounding).
 ROUNDING = 64 * np.finfo(float).eps
@@ -80,6 +81,7 @@ class StretchExtremes:
     def __init__(self, dense: DenseStretch, QT: np.ndarray):
         nodes = dense.nodes
         self.t0, self.t1 = float(nodes[0]), float(nodes[-1])
+        QT = np.ascontiguousarray(QT)  # rows end to end: the screen reads it flat (a window's cut is a view)
         self._QT = QT
         self._dense = dense
         n_obs, N = QT.shape
@@ -87,16 +89,20 @@ class StretchExtremes:
         moving = h > 0.0
         #: first node of each smooth piece (a break's right node starts one)
         self._starts = np.concatenate([[0], np.flatnonzero(~moving) + 1])
-        # each piece's largest and smallest node value, every observable (n_obs, pieces); the
-        # record's, and their first nodes, from them (one pass over the nodes each, not two)
+        # each piece's largest and smallest node value, every observable (n_obs, pieces): the
+        # refinement's tie rule works piece by piece
         self._piece_max = np.maximum.reduceat(QT, self._starts, axis=1)
         self._piece_min = np.minimum.reduceat(QT, self._starts, axis=1)
         rows = np.arange(n_obs)
-        kmax, kmin = _first_node(QT, self._starts, self._piece_max, 1), _first_node(QT, self._starts, self._piece_min, -1)
+        # the first node of each row's extreme (argmax and argmin return the first: it lies
+        # in the first piece that holds the extreme, as the tie rule wants)
+        kmax, kmin = np.argmax(QT, axis=1), np.argmin(QT, axis=1)
         self.node_max, self.node_min = QT[rows, kmax], QT[rows, kmin]
         self.node_tmax, self.node_tmin = nodes[kmax], nodes[kmin]
         ends = np.concatenate([self._starts[1:] - 1, [N - 1]])  # last node of each piece
         self._piece_ends = ends
+        #: each piece's first node and the one after its last, as Python ints (the refinement's scalars)
+        self._piece_spans = (self._starts.tolist(), (ends + 1).tolist())
         # the node whose curvature each node takes (a piece's end node: its neighbour's),
         # -1 where a piece has one step only (nothing bounds it: always refined)
         cnode = np.arange(N)
@@ -116,14 +122,14 @@ class StretchExtremes:
         self._end_step[self._starts[self._starts < N - 1]] = True
         self._end_step[ends[ends > 0] - 1] = True
         self._end_step &= moving
-        self._excess, self._d2 = _excess_bound(QT, moving, bool(np.any(single)))
+        self._moving = moving
+        self._excess, self._d2 = excess_bound(QT, moving, bool(np.any(single)))
         self.upper = self.node_max + self._excess
         self.lower = self.node_min - self._excess
         self._scale = np.maximum(np.abs(self.node_max), np.abs(self.node_min))
         self._screened: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
         self._forced_cache = None
         self._loose_cache = None
-        self._near_cache: dict[int, list[np.ndarray]] = {}
         self._kmax, self._kmin = kmax, kmin
         self._level1: dict[int, np.ndarray] = {}  # step → observables at the Chebyshev points
         self._refined: dict[tuple[int, int, float], tuple[float, float]] = {}
@@ -156,28 +162,22 @@ class StretchExtremes:
         return float(sense * self._screen(j, sense)[1])
 
     def _screen(self, j: int, sense: int) -> tuple[np.ndarray, float]:
-        """(candidate steps, bound of sense·q) of observable ``j`` (:func:`_screen_column`)."""
-        key = (j, sense)
-        hit = self._screened.get(key)
+        """(candidate steps, bound of sense·q) of observable ``j`` (:func:`~camsim.engine.screen.screen_rows`)."""
+        hit = self._screened.get((j, sense))
         if hit is None:
-            hit = self._screened[key] = _screen_column(self, j, sense, float(self._excess[j]),
-                                                       1e-13 * float(self._scale[j]))
+            self.screen([(j, sense)])
+            hit = self._screened[(j, sense)]
         return hit
 
-    def _near(self, sense: int) -> list[np.ndarray]:
-        """Per observable, the nodes within its excess bound of its best node value (sense +1:
-        the largest, −1: the smallest), for every observable in one pass; cached."""
-        hit = self._near_cache.get(sense)
-        if hit is None:
-            tol = 1e-13 * self._scale
-            if sense > 0:
-                mask = self._QT > (self.node_max - self._excess - tol)[:, None]
-            else:
-                mask = self._QT < (self.node_min + self._excess + tol)[:, None]
-            js, rows = np.nonzero(mask)
-            cuts = np.searchsorted(js, np.arange(1, self._QT.shape[0]))
-            hit = self._near_cache[sense] = np.split(rows, cuts)
-        return hit
+    def screen(self, queries) -> None:
+        """Screen the (observable, sense) ``queries`` in one pass (those not screened yet;
+        the results are kept for :meth:`bound` and the refinement)."""
+        todo = [q for q in queries if q not in self._screened]
+        if todo:
+            js = np.array([j for j, _ in todo], dtype=np.intp)
+            senses = np.array([sense for _, sense in todo])
+            for q, hit in zip(todo, screen_rows(self, js, senses)):
+                self._screened[q] = hit
 
     def _forced_bounds(self):
         """(steps, upper, lower): the steps next to each piece's ends and, for every
@@ -186,7 +186,8 @@ class StretchExtremes:
         hit = self._forced_cache
         if hit is None:
             steps = self._forced
-            exc = _step_excess(self, self._QT, steps)
+            n_obs, N = self._QT.shape
+            exc = step_excess(self, self._QT.reshape(-1), (np.arange(n_obs) * N)[:, None], steps[None, :])
             q0, q1 = self._QT[:, steps], self._QT[:, steps + 1]
             hit = self._forced_cache = (steps, np.maximum(q0, q1) + exc, np.minimum(q0, q1) - exc)
         return hit
@@ -198,138 +199,11 @@ class StretchExtremes:
         return refine_requests([(self, j, sense, tie)])[0]
 
 
-def _first_node(QT: np.ndarray, starts: np.ndarray, piece: np.ndarray, sense: int) -> np.ndarray:
-    """Per observable, the first node of its largest (sense +1) or smallest (−1) value: the
-    first piece that holds it, then that piece's first such node (``piece``: each piece's
-    extreme, n_obs × pieces)."""
-    n_obs, N = QT.shape
-    best = np.argmax(piece, axis=1) if sense > 0 else np.argmin(piece, axis=1)
-    ends = np.concatenate([starts[1:], [N]])
-    out = np.empty(n_obs, dtype=int)
-    for j in range(n_obs):
-        a, b = int(starts[best[j]]), int(ends[best[j]])
-        seg = QT[j, a:b]
-        out[j] = a + int(np.argmax(seg) if sense > 0 else np.argmin(seg))
-    return out
-
-
-def _excess_bound(QT: np.ndarray, moving: np.ndarray, single: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Per observable, a bound of how far any step rises above its larger node:
-    SAFETY/8·h²·|q̈| ≤ SAFETY/8·max|Δ²q| over the uniform grid steps inside the pieces
-    (the steps next to a piece's ends, which :func:`_screen_column` bounds one by one, and
-    the breaks left out); infinite when a piece has a single step (two events with no grid
-    point between: nothing bounds it, a short contact's force is zero at both ends).
-
-    Returns the bounds (n_obs,) and |Δ²q| at the interior nodes 2 … N − 3 (n_obs, N − 4;
-    zero where the triplet is not of uniform steps inside a piece), or None."""
-    n_obs, N = QT.shape
-    if single:
-        return np.full(n_obs, np.inf), None
-    if N <= 4:
-        return np.zeros(n_obs), None
-    d2 = QT[:, 3:-1] + QT[:, 1:-3]  # interior nodes 2 … N − 3
-    middle = QT[:, 2:-2]
-    d2 -= middle
-    d2 -= middle
-    np.abs(d2, out=d2)
-    if not np.all(moving):
-        # a triplet that straddles a break is no second difference of a smooth q
-        ok = moving[1:-2] & moving[2:-1] & moving[:-3] & moving[3:]
-        d2[:, ~ok] = 0.0
-    return (SCREEN_SAFETY / 8.0) * np.max(d2, axis=1), d2
-
-
-#: Above this many nodes near the best value (a plateau), a column is screened in full
-#: from the stored second differences rather than step by step.
-NEAR_MAX = 256
-
-
-def _screen_column(rec: StretchExtremes, j: int, sense: int, excess: float, tol: float):
-    """The steps of one observable q (times its sense: the maximum is screened) that may
-    hold a value beyond its largest node value, and the bound of its values between nodes.
-
-    Between two nodes a smooth q exceeds the larger node value by at most h²/8·|q̈|; q̈ is
-    estimated at each node by the divided second difference of its neighbours (exact to
-    about (ω·h)²/12 for a mode resolved at twelve steps per period) and taken
-    :data:`SCREEN_SAFETY` times over. A step is a candidate when its bound exceeds the largest
-    node value by more than ``tol``, or when it ends at that node (the maximum may sit just
-    beside it). A piece's first and last steps (whose end node has no neighbour beyond it)
-    take the curvature of the node inside and half the slope across the step as well; a
-    piece of one step has no bound and is always a candidate. A break (a step of length
-    zero) is never one: both its nodes are nodes.
-
-    Only the steps that touch a node within ``excess`` (:func:`_excess_bound`) of the best,
-    and those next to a piece's ends (:meth:`StretchExtremes._forced_bounds`, every
-    observable at once), are bounded one by one: no other step can rise above it.
-
-    Returns
-    -------
-    (ndarray, float)
-        The candidate steps, ascending, and the bound of sense·q over the record.
-    """
-    col = rec._QT[j]
-    N = col.size
-    best = int(rec._kmax[j] if sense > 0 else rec._kmin[j])
-    q_best = sense * float(col[best])
-    near = rec._near(sense)[j]
-    forced, hi, lo = rec._forced_bounds()
-    f_local = hi[j] if sense > 0 else -lo[j]
-    parts_steps, parts_local = [forced], [f_local]
-    full = None
-    if near.size > NEAR_MAX and rec._d2 is not None:
-        # a plateau: every interior step's bound from the second differences at once
-        q = sense * col
-        ad = rec._d2[j]  # |Δ²q| at nodes 2 … N − 3 (zero near a break: those steps are forced)
-        up = np.maximum(q[2 : N - 3], q[3 : N - 2]) + (SCREEN_SAFETY / 8.0) * np.maximum(ad[:-1], ad[1:])
-        full = (np.flatnonzero(up > q_best + tol) + 2, float(np.max(up)) if up.size else -np.inf)
-        near = np.zeros(0, dtype=int)
-    # (a step also among the forced ones is bounded twice, alike: cheaper than excluding it)
-    extra = np.unique(np.concatenate([near - 1, near, [best - 1, best]]))
-    extra = extra[(extra >= 0) & (extra < N - 1)]
-    extra = extra[rec._dense.h[extra] > 0.0]
-    if extra.size:
-        exc = _step_excess(rec, col, extra)
-        q0, q1 = sense * col[extra], sense * col[extra + 1]
-        parts_steps.append(extra)
-        parts_local.append(np.maximum(q0, q1) + exc)
-    steps = np.concatenate(parts_steps)
-    local = np.concatenate(parts_local)
-    chosen = (local > q_best + tol) | (steps == best - 1) | (steps == best)
-    limit = max(q_best, float(np.max(local)) if local.size else -np.inf)
-    cands = np.unique(steps[chosen])
-    if full is None:
-        return cands, limit
-    return np.union1d(cands, full[0]), max(limit, full[1])
-
-
-def _step_excess(rec: StretchExtremes, Q: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """How far q may rise above the larger node of each step (independent of the sense):
-    SAFETY/8·h²·|q̈| at the step's ends (a piece's end node takes its neighbour's), plus half
-    the slope across a piece's first or last step; infinite for a piece of one step. ``Q``
-    is one observable's node values (N,) or every observable's (n_obs, N)."""
-    h = rec._dense.h
-    N = Q.shape[-1]
-    a, b = rec._cnode[steps], rec._cnode[steps + 1]
-    unbounded = (a < 0) | (b < 0)
-
-    def curvature(k):
-        k = np.clip(np.where(k < 0, 1, k), 1, N - 2)
-        left, right = Q[..., k] - Q[..., k - 1], Q[..., k + 1] - Q[..., k]
-        hl, hr = h[k - 1], h[k]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.abs(right / hr - left / hl) * (2.0 / (hl + hr))
-        return np.where(np.isfinite(out), out, 0.0)
-
-    exc = (SCREEN_SAFETY / 8.0) * h[steps] ** 2 * np.maximum(curvature(a), curvature(b))
-    exc = exc + np.where(rec._end_step[steps], 0.5 * np.abs(Q[..., steps + 1] - Q[..., steps]), 0.0)
-    return np.where(unbounded, np.inf, exc)
-
-
 # ---------------------------------------------------------------------- refinement
 def refine_requests(requests) -> list[tuple[float, float]]:
     """Located extremes of many (record, observable, sense, tie) requests at once.
 
-    Each request's candidate steps (:func:`_screen_column`) are evaluated at the Chebyshev
+    Each request's candidate steps (:func:`~camsim.engine.screen.screen_rows`) are evaluated at the Chebyshev
     points — every linear record's steps in one batch (:func:`~camsim.engine.dense.batch_values`),
     a nonlinear one's from its DOP853 solution — and the interpolants' maxima located in one
     call (:func:`~camsim.engine.dense.maximise`; a nonlinear record's zoomed in twice around
@@ -353,7 +227,7 @@ def refine_requests(requests) -> list[tuple[float, float]]:
             continue
         steps = rec._screen(j, sense)[0]
         if steps.size == 0:
-            out[i] = rec._refined[(j, sense, tie)] = _settle((i, rec, j, sense, tie, steps), None, None, None, None, None)
+            out[i] = _settle(rec, j, sense, tie, steps, None)
             continue
         todo.append((i, rec, j, sense, tie, steps))
     if not todo:
@@ -369,49 +243,76 @@ def refine_requests(requests) -> list[tuple[float, float]]:
             rec._level1[k] = q
     exact = [t for t in todo if t[1]._dense.exact]
     if exact:
+        # every exact request's candidate steps located in one batch, and the instants and
+        # rounding allowances of their maxima with them (row by row: the same bits as
+        # request by request)
         rows = [t[3] * np.array([t[1]._level1[k][:, t[2]] for k in t[5].tolist()]) for t in exact]
         stacked = np.concatenate(rows)
+        n = stacked.shape[0]
         xs = maximise(stacked)
         vals = chebval_rows(xs, stacked @ _TO_COEF.T)
+        t0 = np.concatenate([t[1]._dense.nodes[t[5]] for t in exact])
+        h = np.concatenate([t[1]._dense.h[t[5]] for t in exact])
+        ties = np.repeat(np.array([t[4] for t in exact]), [t[5].size for t in exact])
+        found = _found(stacked, np.zeros(n), np.ones(n), xs, vals, t0, h, ties)
         k = 0
-        for t, values in zip(exact, rows):
-            n = values.shape[0]
-            out[t[0]] = _settle(t, values, np.zeros(n), np.ones(n), xs[k : k + n], vals[k : k + n])
-            k += n
-    for t in todo:
-        if not t[1]._dense.exact:
-            out[t[0]] = _refine_nonlinear(t)
-            working()  # a chattering revolution refines thousands: the stall watchdog sees them advance
+        for t in exact:
+            m = t[5].size
+            out[t[0]] = _settle(*t[1:], tuple(f[k : k + m] for f in found))
+            k += m
+    nonlinear = [t for t in todo if not t[1]._dense.exact]
+    if nonlinear:
+        for t, result in zip(nonlinear, _refine_nonlinear(nonlinear)):
+            out[t[0]] = result
     return out
 
 
-def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
-    """A request's located extreme from its candidate steps' interpolated maxima (``x`` on
-    [−1, 1] of the sub-interval [lo, lo + width] of each step, ``vals`` there; None: no
-    candidate), piece by piece (see :func:`refine_requests`)."""
-    i, rec, j, sense, tie, steps = request
-    dense = rec._dense
+def _found(values, lo, width, x, vals, t0, h, tie) -> tuple[list, list, list]:
+    """The interpolated maxima of candidate steps as lists (value, time, rounding allowance)
+    for :func:`_settle`: ``x`` on [−1, 1] of the sub-interval [lo, lo + width] of each step
+    (start ``t0``, length ``h``), ``vals`` there; ``values`` the interpolated ones (a row a
+    step); ``tie`` per row or one for all."""
+    sigma_at = lo + width * 0.5 * (x + 1.0)
+    times = t0 + h * sigma_at
+    noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
+    return vals.tolist(), times.tolist(), noise.tolist()
+
+
+def _settle(rec, j: int, sense: int, tie: float, steps: np.ndarray, found) -> tuple[float, float]:
+    """A request's located extreme from its candidate steps' interpolated maxima (``found``:
+    :func:`_found`'s lists, a step each in the order of ``steps``; None: no candidate),
+    piece by piece (see :func:`refine_requests`). Scalars in Python: a request has a few
+    candidates in one or two pieces, where numpy's per-call cost was most of the work."""
     qj = rec._QT[j]
-    starts, ends = rec._starts, rec._piece_ends
+    nodes = rec._dense.nodes
+    starts, stops = rec._piece_spans
     piece_max = rec._piece_max[j] if sense > 0 else -rec._piece_min[j]
-    top_nodes = float(np.max(piece_max))
-    pid = np.searchsorted(starts, steps, side="right") - 1 if steps.size else np.zeros(0, dtype=int)
-    pieces = sorted(set(np.flatnonzero(piece_max >= top_nodes - tie).tolist()) | set(pid.tolist()))
-    if vals is not None:
-        sigma_at = lo + width * 0.5 * (x + 1.0)
-        times = dense.nodes[steps] + dense.h[steps] * sigma_at
-        noise = np.maximum(ROUNDING * np.max(np.abs(values), axis=1), tie)
+    pm = piece_max.tolist()
+    floor = float(np.max(piece_max)) - tie
+    S = steps.size
+    if len(starts) == 1:
+        pid = [0] * S
+    else:
+        pid = [bisect_right(starts, k) - 1 for k in steps.tolist()]
+    pieces = sorted({p for p, v in enumerate(pm) if v >= floor} | set(pid))
+    if found is not None:
+        vals, times, noise = found
+        ordered = all(t == t for t in times)  # no NaN: Python's stable sort is numpy's
     heights = []
     for p in pieces:
-        a, b = int(starts[p]), int(ends[p]) + 1
-        seg = sense * qj[a:b]
-        k = a + int(np.argmax(seg >= piece_max[p] - tie))  # the first node of the piece's best height
-        best = (float(sense * qj[k]), float(dense.nodes[k]))
-        if vals is not None:
-            mine = np.flatnonzero(pid == p)
-            for r in mine[np.argsort(times[mine], kind="stable")]:
+        a, b = starts[p], stops[p]
+        seg = qj[a:b] if sense > 0 else -qj[a:b]
+        k = a + int(np.argmax(seg >= pm[p] - tie))  # the first node of the piece's best height
+        v = float(qj[k])
+        best = (v if sense > 0 else -v, float(nodes[k]))
+        if found is not None:
+            mine = [r for r in range(S) if pid[r] == p]
+            if len(mine) > 1:
+                mine = (sorted(mine, key=times.__getitem__) if ordered
+                        else [mine[q] for q in np.argsort(np.array(times)[mine], kind="stable").tolist()])
+            for r in mine:
                 if vals[r] > best[0] + noise[r]:
-                    best = (float(vals[r]), float(times[r]))
+                    best = (vals[r], times[r])
         heights.append(best)
     top = max(v for v, _ in heights)
     value, when = min(((v, t) for v, t in heights if v >= top - tie), key=lambda h: h[1])
@@ -420,25 +321,67 @@ def _settle(request, values, lo, width, x, vals) -> tuple[float, float]:
     return result
 
 
-def _refine_nonlinear(request) -> tuple[float, float]:
-    """A closed nonlinear contact's request: the interpolant of a whole step may be rough
+def _refine_nonlinear(requests) -> list[tuple[float, float]]:
+    """Closed nonlinear contacts' requests: the interpolant of a whole step may be rough
     where the contact's force is not smooth (its ends), so the maximum is located again on
-    narrower intervals around the last one (:data:`ZOOM`)."""
-    i, rec, j, sense, tie, steps = request
-    dense = rec._dense
-    values = sense * np.array([rec._level1[k][:, j] for k in steps.tolist()])  # (S, P)
+    narrower intervals around the last one (:data:`ZOOM`).
+
+    All requests zoom together: each level's states are one evaluation per record (its
+    dense output called once per step, :meth:`~camsim.engine.dense.DenseStretch.states`),
+    each level's maxima one batch. Row by row this is the arithmetic of a request alone; a
+    request of one step keeps the products of a lone row
+    (:func:`~camsim.engine.dense.row_products`)."""
+    sizes = [t[5].size for t in requests]
+    steps = np.concatenate([t[5] for t in requests])
+    values = np.concatenate([t[3] * np.array([t[1]._level1[k][:, t[2]] for k in t[5].tolist()]) for t in requests])
+    lone = np.repeat(np.array([n == 1 for n in sizes]), sizes)  # (rows,): rows of one-step requests
+    # each record's rows, the observable and sense of each
+    groups: dict[int, tuple] = {}
+    first = 0
+    for t, n in zip(requests, sizes):
+        entry = groups.setdefault(id(t[1]), (t[1], [], [], []))
+        entry[1].extend(range(first, first + n))
+        entry[2].extend([t[2]] * n)
+        entry[3].extend([t[3]] * n)
+        first += n
+    groups = [(rec, np.array(rows), np.array(cols), np.array(senses)) for rec, rows, cols, senses in groups.values()]
     lo = np.zeros(steps.size)
     width = np.ones(steps.size)
-    x = maximise(values)
+    x = _maximise_rows(values, lone)
     for zoom in ZOOM:
         centre = lo + width * 0.5 * (x + 1.0)
         width = width * 2.0 * zoom
         lo = np.clip(centre - 0.5 * width, 0.0, 1.0 - width)
         sigma = lo[:, None] + width[:, None] * _SIGMA[None, :]
-        values = sense * dense.values(steps, sigma)[:, :, j]
-        x = maximise(values)
-    vals = chebval_rows(x, values @ _TO_COEF.T)
-    return _settle(request, values, lo, width, x, vals)
+        values = np.empty_like(values)
+        for rec, rows, cols, senses in groups:
+            level = rec._dense.values(steps[rows], sigma[rows])  # (rows, P, n_obs)
+            values[rows] = senses[:, None] * level[np.arange(rows.size), :, cols]
+        x = _maximise_rows(values, lone)
+    vals = np.empty(steps.size)
+    for mask in (lone, ~lone):
+        if np.any(mask):
+            vals[mask] = chebval_rows(x[mask], row_products(values[mask], _TO_COEF, mask is lone))
+    t0 = np.concatenate([t[1]._dense.nodes[t[5]] for t in requests])
+    h = np.concatenate([t[1]._dense.h[t[5]] for t in requests])
+    ties = np.repeat(np.array([t[4] for t in requests]), sizes)
+    found = _found(values, lo, width, x, vals, t0, h, ties)
+    out, k = [], 0
+    for t, n in zip(requests, sizes):
+        out.append(_settle(*t[1:], tuple(f[k : k + n] for f in found)))
+        k += n
+        working()  # a chattering revolution refines thousands: the stall watchdog sees them advance
+    return out
+
+
+def _maximise_rows(values: np.ndarray, lone: np.ndarray) -> np.ndarray:
+    """:func:`~camsim.engine.dense.maximise` of every row, the rows of one-step requests
+    (``lone``) with a lone row's products."""
+    x = np.empty(values.shape[0])
+    for mask in (lone, ~lone):
+        if np.any(mask):
+            x[mask] = maximise(values[mask], lone=mask is lone)
+    return x
 
 
 # ---------------------------------------------------------------------- building the record

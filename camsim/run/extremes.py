@@ -222,7 +222,9 @@ def fold_jobs(jobs) -> list[dict]:
     (:func:`camsim.engine.extremes.refine_requests`): the run's extremes and the peaks of
     the impacts that ended meanwhile.
     """
-    requests, owner = [], []
+    # which records each query must screen: those whose loose bound (known without a
+    # screen) comes within the tie of the best node value there is
+    passes, wanted = [], {}
     for n, (records, queries, before, scale) in enumerate(jobs):
         if not records:
             continue
@@ -237,12 +239,22 @@ def fold_jobs(jobs) -> list[dict]:
             nodes = node_max[:, j] if sense > 0 else -node_min[:, j]
             loose = upper[:, j] if sense > 0 else -lower[:, j]
             best = max(float(np.max(nodes)), max(prior, default=-np.inf))
-            for k in np.flatnonzero(loose >= best - tie).tolist():
-                r = records[k]
-                working()  # each screen a step the stall watchdog sees (a chattering revolution has thousands)
-                if sense * r.bound(j, sense) >= best - tie:
-                    requests.append((r, j, sense, tie))
-                    owner.append((n, j, sense))
+            ks = np.flatnonzero(loose >= best - tie).tolist()
+            for k in ks:
+                wanted.setdefault(id(records[k]), (records[k], set()))[1].add((j, sense))
+            passes.append((n, records, j, sense, tie, best, ks))
+    # each record's columns screened together, both senses in one pass (the same bounds, bit
+    # for bit, as column by column: engine/screen.py)
+    for r, queries in wanted.values():
+        working()  # each screen a step the stall watchdog sees (a chattering revolution has thousands)
+        r.screen(sorted(queries))
+    requests, owner = [], []
+    for n, records, j, sense, tie, best, ks in passes:
+        for k in ks:
+            r = records[k]
+            if sense * r.bound(j, sense) >= best - tie:
+                requests.append((r, j, sense, tie))
+                owner.append((n, j, sense))
     from camsim.engine.extremes import refine_requests
 
     found: dict = {}
