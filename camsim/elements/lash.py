@@ -233,8 +233,8 @@ class Lash(Element):
         if self.locates_kinks:
             return self.contact.guards(self._contact_branch(branch), side)
         # the law's guards on the closed side (its release; a lash of this law has one closed
-        # branch per side, so the kinks a contact locates inside a closed phase — Adams
-        # IMPACT's — are stepped across here: a known limit, docs/contacts.md)
+        # branch per side, so the kinks of its law inside a closed phase are stepped across:
+        # an ElastoGap lash with n ≠ 1; Adams IMPACT's are located, AdamsImpactLash)
         guards = self.contact.guards(self.contact.closed_branch, side)
         return [g for g in guards if g[0] not in _KINKS]
 
@@ -353,35 +353,76 @@ class PowerLash(_NonlinearLash):
     refused_hints: ClassVar[dict[str, str]] = PowerContact.refused_hints
 
 
+#: An Adams IMPACT side's closed pieces in the contact's terms, and the lash's branch for each
+#: (lower, upper): the law acting below its penetration depth, beyond it, and clamped at zero.
+_ADAMS_PIECES: dict[Branch, tuple[Branch, Branch]] = {
+    Branch.CLOSED: (Branch.CLOSED, Branch.CLOSED_HIGH),
+    Branch.CLOSED_DEEP: (Branch.CLOSED_DEEP, Branch.CLOSED_DEEP_HIGH),
+    Branch.CLAMPED: (Branch.CLAMPED, Branch.CLAMPED_HIGH),
+}
+#: The lash's branch → the contact's piece.
+_ADAMS_PIECE_OF = {lash: piece for piece, pair in _ADAMS_PIECES.items() for lash in pair}
+
+
 @register
 @dataclass(frozen=True)
 class AdamsImpactLash(_NonlinearLash):
-    """Lash with an Adams IMPACT contact on each side."""
+    """Lash with an Adams IMPACT contact on each side.
+
+    Each side has the contact's closed pieces as branches -- ``closed`` / ``closed-high``
+    (inside the damping ramp), ``closed-deep`` / ``closed-deep-high`` (beyond it) and, with
+    ``clamp``, ``clamped`` / ``clamped-high`` (the law would pull: no force until δ returns
+    to 0 or the law pushes again) -- and the contact's kink guards, read through the side's
+    penetration, so every kink of the law inside a closed phase is located like an event
+    (no row of the event table), as for the contact. Stepped across, the clamp's kinks
+    (where the damping ramp's pull outweighs k·δⁿ while the side unloads, and the law's
+    push again just before the release) hid a force hump of ~1e-8 N·s from DOP853's error
+    estimate between its stages: the release's speed then hung on where the steps fell
+    (5e-8 m/s of 0.31 m/s, moved by the file's table order on a two-station machine)."""
 
     law_name: ClassVar[str] = "adams-impact"
     summary: ClassVar[str] = "two-sided clearance with an MSC Adams IMPACT contact on each side"
     params: ClassVar[tuple[Param, ...]] = (*LASH_PARAMS, *_law_params(AdamsImpactContact))
     contact_class: ClassVar[type[Contact]] = AdamsImpactContact
+    locates_kinks: ClassVar[bool] = True
 
-    # The contact's law is unclamped (its clamp is a branch of the contact); a side of a lash
-    # has no clamped branch, so the clamp stays in its force.
-    def nonlinear_force(self, delta, delta_rate, v_impact=None):
-        force = self.contact.nonlinear_force(delta, delta_rate, v_impact)
-        return np.maximum(force, 0.0) if self.clamp else force
+    @property
+    def side_branches(self):
+        pieces = (Branch.CLOSED, Branch.CLOSED_DEEP, Branch.CLAMPED) if self.clamp else (Branch.CLOSED,
+                                                                                          Branch.CLOSED_DEEP)
+        return tuple(tuple(_ADAMS_PIECES[p][k] for p in pieces) for k in (0, 1))
 
-    def nonlinear_force_scalar(self, delta: float, delta_rate: float, v_impact=None) -> float:
-        force = self.contact.nonlinear_force_scalar(delta, delta_rate, v_impact)
-        return force if (force > 0.0 or not self.clamp) else 0.0
+    def _contact_branch(self, branch):
+        return _ADAMS_PIECE_OF.get(branch, Branch.CLOSED)
 
-    def scalar_force(self, v_impact=None):
-        return lambda delta, rate: self.nonlinear_force_scalar(delta, rate, v_impact)
+    def _lash_branch(self, contact_branch, sign):
+        return _ADAMS_PIECES.get(contact_branch, _ADAMS_PIECES[Branch.CLOSED])[0 if sign > 0 else 1]
 
-    def nonlinear_tangent(self, delta, delta_rate, v_impact=None):
-        F, kt, ct = self.contact.nonlinear_tangent(delta, delta_rate, v_impact)
-        if not self.clamp:
-            return F, kt, ct
-        off = F <= 0.0
-        return np.where(off, 0.0, F), np.where(off, 0.0, kt), np.where(off, 0.0, ct)
+    def is_nonlinear(self, branch):
+        return bool(self.side_of(branch))
+
+    def acts(self, branch):
+        return branch not in (Branch.CLAMPED, Branch.CLAMPED_HIGH)
+
+    # The law is the contact's, unclamped: its clamp is a branch of each side (the engine
+    # watches the unclamped law there to tell when it pushes again); the element's force
+    # (Lash.force, the contact's on the side's piece) is clamped.
+
+    def outcome_at(self, kind, rate, d):
+        if kind in (GuardKind.KINK_UP, GuardKind.KINK_DOWN, GuardKind.CLAMP, GuardKind.UNCLAMP):
+            sign = self.nearest(d)  # a kink happens inside a closed side: d is beyond it
+            # the contact's own deflection d' = −δ of that side (its piece after UNCLAMP is at δ)
+            own = d - self.low if sign > 0 else self.high - d
+            piece = self.contact.outcome_at(kind, rate if sign > 0 else -rate, own).branch
+            return Outcome(self._lash_branch(piece, sign))
+        return super().outcome_at(kind, rate, d)
+
+    def branch_from_state(self, d, no_impact):
+        branch = super().branch_from_state(d, no_impact)
+        sign = self.side_of(branch)
+        if not sign:
+            return branch
+        return self._lash_branch(self.contact._piece(self.low - d if sign > 0 else d - self.high), sign)
 
 
 @register

@@ -42,8 +42,7 @@ TRACE_TOL = 1e-9
 #: inner kinks stopped stretches and the tolerances were tightened 30-fold. Event times hold
 #: EVENT_TOL for every law (IMPACT's kinks are located like events, issue 34).
 NONLINEAR_TRACE_TOL = 1e-8
-#: Adams's IMPACT law: the same (its kinks are events since issue 34; a lash with the law
-#: still steps across them, a known limit: docs/contacts.md).
+#: Adams's IMPACT law: the same (its kinks are events since issue 34, on a lash's sides too).
 ADAMS_TRACE_TOL = 1e-8
 ADAMS_EVENT_TOL = EVENT_TOL
 

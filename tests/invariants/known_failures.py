@@ -25,31 +25,6 @@ KNOWN = {
         "warm-up revolution than in a continuous run (impact and stick at 0.0273014 s): the "
         "chatter's end is decided at a threshold the last bits move",
     ),
-    "known-multi-cam-yoke-file-order.toml": (
-        "c",
-        "a yoke (a lash with a numerically integrated law) beside a second station moves 6.8e-8 "
-        "of its peak when the [[cam]], [[mass]] and [[element]] tables are shuffled (seed 65536; "
-        "tolerance 1e-8, the known limit 3e-8; events agree)",
-    ),
-    "known-multi-cam-yoke-file-order-seed-840.toml": (
-        "c",
-        "the same defect on another drawn machine (hypothesis 6.155.2's draw): the yoke of station "
-        "S0 moves 3.2e-8 of its peak (M1's acceleration; its force 2.2e-8) when the tables are "
-        "shuffled with seed 840; the engine of 0d74d82 moved it 1.3e-7",
-    ),
-    "known-multi-cam-yoke-peak.toml": (
-        "g",
-        "a yoke impact's located peak force differs by 1.25e-8 of the largest peak between 20 "
-        "and 200 kHz beside a second station (tolerance 1e-8 for its numerically integrated "
-        "law; the station alone holds it)",
-    ),
-    "known-multi-cam-yoke-peak-1226rpm.toml": (
-        "g",
-        "the same defect on another drawn machine (an Adams IMPACT yoke beside a second "
-        "station at 1226 rpm): its impact's located peak force differs by 1.48e-6 N of 148.44 N, "
-        "1.0e-8 of the largest peak, between 20 and 200 kHz; the engine of 0d74d82 has it too "
-        "(the same two peaks to 5e-12 N); drawn by the CI profile under hypothesis 6.170.29",
-    ),
 }
 
 
