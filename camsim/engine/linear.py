@@ -188,6 +188,8 @@ def first_crossing(ctx: EngineContext, config, guards, nodes, Z, U, D, restarts)
         if r < n_steps:
             g0[r, just] = np.maximum(g0[r, just], tol[just])  # just crossed: do not find it again
     hits = screen_steps(g0, g1, Gd, steps[:, 0])
+    if not now_at and not hits.any():
+        return None  # most chunks: no guard can reach zero in any step
     restart_set = set(restarts)
     seg_starts = sorted({0, *restarts})
     for r, r_next in zip(seg_starts, [*seg_starts[1:], n_steps]):
@@ -243,6 +245,8 @@ def screen_steps(g0: np.ndarray, g1: np.ndarray, Gd: np.ndarray, steps: np.ndarr
 def _locate_in(ctx, config, guards, nodes, Z, D, steps, hits, offset, lift, g0, g1, Gd, restarts):
     """The earliest located crossing among the screen's hits of one segment (steps
     ``offset`` …): (t, z, guard, step) or None."""
+    if not hits.any():
+        return None
     candidates = []
     for j, guard in enumerate(guards):
         for k in (np.flatnonzero(hits[:, j])[:4] + offset).tolist():  # the earliest few; false alarms are rare
