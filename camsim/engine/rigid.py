@@ -17,10 +17,18 @@ definite when the contacts are independent, so the LCP has exactly one solution.
 
 **Chatter.** A contact that rebounds with w⁺ > 0 while the rest of the machine presses it
 closed (relative acceleration a < 0 with it open) would bounce in flights of
-2w⁺/|a|, 2e·w⁺/|a|, … ending after 2w⁺/(|a|(1 − e)): when that is below
-:data:`ZENO_TIME`, or the first flight would rise less than the rounding of its own
-guard (:data:`APEX_RTOL`), it rests at once: the velocities are projected onto zero relative velocity
-(the plastic impulse, momentum conserved) and it sticks (spec §4).
+2w⁺/|a|, 2e·w⁺/|a|, … accumulating after 2w⁺/(|a|(1 − e)), the first rising w⁺²/(2|a|).
+When that first flight would not rise out of the touching band (:data:`CHATTER_APEX`,
+= :data:`TOUCH`, a gap the engine takes for contact anyway) it rests now: the velocities
+are projected onto zero relative velocity (the plastic impulse, momentum conserved) and it
+sticks (spec §4), the ``stick`` row at the chatter's Zeno limit t∞ = t + 2w⁺/(|a|(1 − e))
+(= t_k + τ_k·e/(1 − e) from the flight τ_k that ended at t_k; within 1e-9 s while
+|a| is steady over it). The band is decided while the flights are still resolved -- the
+guards round at ~1e-16 m, their apex is 1e4 times that -- so the last bits of the state
+cannot move the chatter's end by an impact (they did with the apex compared to the
+rounding itself). A chatter that stays pressed less than that (its rest more than
+:data:`CHATTER_SPAN` away) is followed on, and rests when its remaining time is below
+:data:`ZENO_TIME` or its flight below the rounding of its own guard (:data:`APEX_RTOL`).
 
 **Resting forces.** Contacts left at zero relative velocity carry forces λ ≥ 0 with
 relative accelerations a = a_open + W·λ ≥ 0, λᵀ·a = 0 (the same W), a_open being the
@@ -59,6 +67,10 @@ TOUCH = 1e-12
 #: the positions that make up its penetration, sticks at once (the flight is below the
 #: rounding of its own guard and cannot be resolved).
 APEX_RTOL = 256 * 2.0**-52
+#: A pressed rebound whose first flight would rise less than this [m] rests now, its
+#: ``stick`` at the chatter's accumulation time (the touching band; far above the guards'
+#: rounding, ~1e-16 m, so that the chatter's end does not hinge on the last bits).
+CHATTER_APEX = TOUCH
 #: Largest number of rigid contacts resolved together at one instant.
 MAX_CONTACTS = 12
 #: A rigid contact that has taken this many impacts within CHATTER_SPAN, its flights not
@@ -232,18 +244,22 @@ def resolve(integrator, state, trigger: int, kind: str):
     scale_a = 1.0 + float(np.max(np.abs(acc), initial=0.0)) + abs(model.gravity)
     acc_tol = 1e-10 * scale_a
     resting = []
+    t_rest = {}  # k → when a chatter that rests now would have come to rest (its stick row)
     for k in range(len(idx)):
         if abs(w_plus[k]) <= vel_tol:
             resting.append(k)
         elif w_plus[k] > 0.0 and a_open[k] < -acc_tol:
             # Pressed closed while it rebounds: flights 2w/|a|, 2e·w/|a|, … ending after
-            # 2w/(|a|(1 − e)), and the first rising w²/(2|a|). Unresolvable (the flight
-            # below the length tolerance) or over within ZENO_TIME: it rests now.
+            # 2w/(|a|(1 − e)), and the first rising w²/(2|a|). Within the touching band
+            # (the chatter's Zeno limit near), unresolvable (the flight below the length
+            # tolerance) or over within ZENO_TIME: it rests now.
             remaining = 2.0 * w_plus[k] / (-a_open[k] * (1.0 - min(e[k], 1.0 - 1e-16)))
             apex = w_plus[k] ** 2 / (-2.0 * a_open[k])
-            i = idx[k]
             scale_x = abs(sides[k][1]) + abs(float(J[k] @ state.x)) + abs(float(_cam(js[k : k + 1], u, 0)[0]))
-            if remaining < ZENO_TIME or apex < APEX_RTOL * scale_x:
+            if apex < CHATTER_APEX and remaining <= CHATTER_SPAN:
+                resting.append(k)
+                t_rest[k] = t + remaining
+            elif remaining < ZENO_TIME or apex < APEX_RTOL * scale_x:
                 resting.append(k)
     stuck = set()
     if resting:
@@ -301,7 +317,7 @@ def resolve(integrator, state, trigger: int, kind: str):
         was_stuck = model.is_rigid(i, was)
         now = model.elements[i].stuck_branch(sides[k][0]) if k in stuck else Branch.OPEN
         if now != Branch.OPEN and not was_stuck:
-            integrator._record(t, i, EventKind.STICK, 0.0)
+            integrator._record(t_rest.get(k, t), i, EventKind.STICK, 0.0)
         elif now == Branch.OPEN and was_stuck:
             integrator._record(t, i, EventKind.RELEASE, -w_plus[k])
         branches[pos] = now

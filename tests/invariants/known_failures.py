@@ -19,12 +19,6 @@ MACHINES = Path(__file__).parent / "machines"
 
 #: machine file → (the invariant it breaks, what is wrong, measured)
 KNOWN = {
-    "known-multi-cam-warmup-chatter.toml": (
-        "b",
-        "a power-law roller's chatter against a rigid contact ends one impact earlier after a "
-        "warm-up revolution than in a continuous run (impact and stick at 0.0273014 s): the "
-        "chatter's end is decided at a threshold the last bits move",
-    ),
 }
 
 
