@@ -233,8 +233,10 @@ def _print_machine(machine: Machine, u: DisplayUnits) -> None:
     _print_loads(machine, u)
     sim = machine.simulation
     run = (f"{sim.duration:.6g} s recorded" if sim.duration is not None else f"{sim.cycles} cycle(s) recorded")
+    start = (f"steady state by shooting ({sim.warmup_cycles} warm-up cycle(s) where it does not apply)"
+             if sim.steady_state == "shooting" else f"{sim.warmup_cycles} warm-up cycle(s)")
     err_console.print(
-        f"simulation: {run}, {sim.warmup_cycles} warm-up cycle(s), {engineering(sim.sample_rate, 'Hz', 6)}, "
+        f"simulation: {run}, {start}, {engineering(sim.sample_rate, 'Hz', 6)}, "
         f"gravity {_g(sim.gravity, 'm/s^2', u)}"
     )
     for ic in machine.initial:

@@ -203,3 +203,11 @@ def test_the_run_file_says_how_the_steady_state_was_reached(tmp_path):
     with h5py.File(tmp_path / "run.h5") as f:
         assert f.attrs["steady_state"] == "shooting"
         assert f.attrs["steady_state_revolutions"] == 1
+
+
+def test_validate_says_how_the_steady_state_is_reached():
+    proc = subprocess.run([sys.executable, "-m", "camsim", "validate", str(CDTM), "--set",
+                           "simulation.steady_state=shooting"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    line = [x for x in (proc.stdout + proc.stderr).splitlines() if x.startswith("simulation:")]
+    assert line and "steady state by shooting (1 warm-up cycle(s) where it does not apply)" in line[0]
