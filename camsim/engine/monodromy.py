@@ -137,6 +137,9 @@ class Monodromy:
         grad = np.asarray(guard.value.Cz, dtype=float).reshape(-1)
         rate = self.ctx.guard_rate(config, guard, z, u, np.zeros((1, 0)))
         size = float(np.abs(grad * f_before).sum())
-        if not np.isfinite(rate) or abs(rate) <= GRAZE_RATE * max(size, 1e-300):
+        if not np.isfinite(rate):
+            raise self._decline(f"the rate of element {model.elements[guard.element].name}'s guard is not known "
+                                "in closed form")
+        if abs(rate) <= GRAZE_RATE * max(size, 1e-300):
             raise self._decline(f"an event at t = {end.t:.9g} s is a graze (its guard's rate is zero)")
         self.matrix = (np.eye(z.size) + np.outer(f_after - f_before, grad) / rate) @ self.matrix
