@@ -211,3 +211,19 @@ def test_validate_says_how_the_steady_state_is_reached():
     assert proc.returncode == 0, proc.stderr
     line = [x for x in (proc.stdout + proc.stderr).splitlines() if x.startswith("simulation:")]
     assert line and "steady state by shooting (1 warm-up cycle(s) where it does not apply)" in line[0]
+
+
+def test_the_shot_steady_state_is_the_same_at_any_sample_rate(tmp_path):
+    """Invariant (spec §4): the located scalars of a shot run are the same at 10 and 50 kHz,
+    to 1e-9 relative (the events to 1e-9 s), as a warmed-up run's are."""
+    machine = with_steady(load_machine(light_cdtm(tmp_path)), "shooting")
+    a = simulate(machine, sample_rate=1e4)
+    b = simulate(machine, sample_rate=5e4)
+    assert a.steady_state["method"] == b.steady_state["method"] == "shooting"
+    assert [e.kind for e in a.events] == [e.kind for e in b.events]
+    assert max(abs(x.time - y.time) for x, y in zip(a.events, b.events)) <= 1e-9
+    sa, sb = a.scalars(), b.scalars()
+    for key, value in sb.items():
+        if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
+            continue
+        assert sa[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
