@@ -316,6 +316,12 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     if has_cam and not record_all:
         result.steady_state = ({"method": "shooting", "revolutions": found.shooting.iterations} if found is not None
                                else {"method": "warmup", "revolutions": warm})
+        if found is not None and result.periodicity_residual > SHOT_RESIDUAL_CHECK:
+            # the iteration's own residual (or its contraction bound) said rounding; the
+            # recorded revolution says otherwise: say so rather than report it as steady
+            result.warnings.append(
+                f'steady_state = "shooting": the recorded revolution repeats itself only to '
+                f"{result.periodicity_residual:.3g} of each peak (the event sequence changed from the shooting's)")
     result.sample_rate = sim.sample_rate
     if dynamics is not None and dynamics[1] is not None:
         from camsim.run.shaft import dynamics_summary
@@ -378,6 +384,11 @@ def warmup_step(machine: Machine, f_max: float, h: float) -> float:
     best = min(bounds)
     return best if math.isfinite(best) else h
 
+
+
+#: A shot steady state whose recorded revolution repeats itself less well than this (relative to
+#: each peak) gets a warning: the shooting had converged on another event sequence.
+SHOT_RESIDUAL_CHECK = 1e-9
 
 
 def _residual(model: Model, saved: dict, stops, peak) -> float:

@@ -227,3 +227,16 @@ def test_the_shot_steady_state_is_the_same_at_any_sample_rate(tmp_path):
         if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
             continue
         assert sa[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+
+
+def test_a_recorded_revolution_that_does_not_repeat_itself_is_said(tmp_path, monkeypatch):
+    """The recorded revolution's residual is checked against the shooting's claim: above
+    SHOT_RESIDUAL_CHECK a warning says so (here the check is set below the 8e-14 this machine
+    reaches, so that it fires)."""
+    import camsim.run.simulation as simulation
+
+    monkeypatch.setattr(simulation, "SHOT_RESIDUAL_CHECK", 1e-16)
+    result = simulate(with_steady(load_machine(light_cdtm(tmp_path)), "shooting"), sample_rate=2e3)
+    assert result.periodicity_residual > 1e-16
+    said = [w for w in result.warnings if "repeats itself only to" in w]
+    assert len(said) == 1 and f"{result.periodicity_residual:.3g}" in said[0]
