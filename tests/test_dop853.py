@@ -21,6 +21,7 @@ References:
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -330,3 +331,28 @@ def test_projected_dense_output_is_the_dense_output():
     at = dense.project(g)
     for t in np.linspace(ours.t_old, ours.t, 9):
         assert at(float(t)) == pytest.approx(float(g @ dense(t)), rel=1e-14, abs=1e-20)
+
+
+def test_the_located_extremes_of_a_power_law_seat_are_those_of_scipys_dop853(monkeypatch):
+    """The located extremes re-integrate a closed contact's candidate steps with
+    OneContactDOP853 (scipy's steps, its stages as one linear map; camsim.engine.dense).
+    Reference: the same refinement with scipy's solve_ivp DOP853 at the same tolerances
+    (dense.ONE_CONTACT = False): every located extreme of machines/cdtm-power.toml's
+    revolution to 1e-12 of its value (measured 5.4e-14)."""
+    import camsim
+    import camsim.engine.dense as dense
+
+    machine = camsim.load_machine(Path(__file__).resolve().parents[1] / "machines" / "cdtm-power.toml")
+    ours = camsim.simulate(machine, warmup_cycles=0, sample_rate=10e3).located
+    monkeypatch.setattr(dense, "ONE_CONTACT", False)
+    scipys = camsim.simulate(machine, warmup_cycles=0, sample_rate=10e3).located
+    assert set(ours) == set(scipys)
+    worst = 0.0
+    for path, senses in scipys.items():
+        for sense, ref in senses.items():
+            got = ours[path][sense]
+            if ref is None:
+                assert got is None
+                continue
+            worst = max(worst, abs(got.value - ref.value) / max(abs(ref.value), 1e-300))
+    assert worst <= 1e-12

@@ -137,6 +137,10 @@ class OneContactDOP853:
         after an onset); for the release approach (None: this span's first step when it
         starts at an onset, else the step the control proposes: a step never crosses a
         predicted release by more than :data:`LANDING` of the distance to it).
+    measured_order : bool
+        After two rejections from one point, shrink by the order measured from them
+        (False: scipy's shrink, so that without ``exponent`` the steps are scipy's, step
+        for step, to the rounding of the stages).
 
     The interface is the part of :class:`scipy.integrate.OdeSolver` the caller uses:
     :meth:`step`, ``status``, ``t``, ``t_old``, ``y``, :meth:`dense_output`; besides,
@@ -144,7 +148,7 @@ class OneContactDOP853:
     """
 
     def __init__(self, A, L, M, inputs, input_at, force, t0, z0, t_bound, rtol, atol, max_step, first_step=None,
-                 structure=None, exponent=None, onset=False, crossing_step=None):
+                 structure=None, exponent=None, onset=False, crossing_step=None, measured_order=True):
         self.A, self.L, self.M = A, L, M
         self.inputs, self.input_at, self.force = inputs, input_at, force
         self.t = float(t0)
@@ -160,6 +164,7 @@ class OneContactDOP853:
         self.exponent = exponent
         self.t_onset = self.t if onset else None
         self.crossing_step = crossing_step
+        self.measured_order = measured_order
         self.first_accepted = None
         self.largest = 0.0
         self.h_abs = min(first_step, max_step) if first_step else self._initial_step()
@@ -267,7 +272,7 @@ class OneContactDOP853:
                     factor = max(factor, self._ramp(t, h_abs, error))
                 break
             factor = max(MIN_FACTOR, SAFETY * error**ERROR_EXPONENT)
-            if rejected is not None and rejected[1] > error and rejected[0] > h_abs:
+            if self.measured_order and rejected is not None and rejected[1] > error and rejected[0] > h_abs:
                 # the error's order in h, measured from the two tries (a singular end:
                 # about a + 1 for F ∝ δ^a)
                 order = min(max(math.log(rejected[1] / error) / math.log(rejected[0] / h_abs), 1.0), 9.0)
