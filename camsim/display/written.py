@@ -23,7 +23,6 @@ dimension.
 from __future__ import annotations
 
 import functools
-
 import math
 import re
 import tomllib

@@ -171,7 +171,6 @@ def _one_contact(A, B, b, C, contact, t_a: float, h: float, z0: np.ndarray, atol
     from camsim.engine.dop853 import OneContactDOP853
 
     Lk, dz, du, de, rz, ru, re, force, v = contact
-    n = z0.size
     # [B·u + b; δ's and δ̇'s input terms] as polynomials in τ: one product per evaluation
     BMC = np.vstack([B, du[None, :], ru[None, :]]) @ C
     BMC[:, 0] += np.concatenate([b, [de, re]])

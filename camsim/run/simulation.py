@@ -259,30 +259,25 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     if any(e.is_nonlinear(b) for e in model.elements for b in Branch):
         h_warm = integrator.h
     shot_residual = None
+    found = None  # a steady state found by shooting (camsim.run.steady): no warm-up revolution
     with numerical_failure(machine):
         if sim.steady_state == "shooting" and not record_all:
             state, found = find_steady_state(machine, model, inputs, integrator.h, state, period, t_rec, bounds, report,
                                              warnings)
-            if found is not None:
-                # the recorded window starts on the steady state: no warm-up revolution
-                integrator.watch.last = found.watch_last
-                warm_done = True
-                if t_end >= t_rec + period * (1 - 1e-12):
-                    # its residual is the recorded revolution's own: its end against its start
-                    stops = (t_rec, t_rec + period)
-                    if t_rec + period not in all_stops:
-                        all_stops = all_stops + (t_rec + period,)
-                elif found.shooting.contracted:
-                    shot_residual = found.shooting.residual  # the contraction bound
-                else:
-                    saved[round(t_rec - period, 9)] = replace(found.shooting.start, t=t_rec - period)
-                    saved[round(t_rec, 9)] = state
-                    stops = (t_rec - period, t_rec)
+        if found is not None:
+            integrator.watch.last = found.watch_last
+            if t_end >= t_rec + period * (1 - 1e-12):
+                # its residual is the recorded revolution's own: its end against its start
+                stops = (t_rec, t_rec + period)
+                if t_rec + period not in all_stops:
+                    all_stops = all_stops + (t_rec + period,)
+            elif found.shooting.contracted:
+                shot_residual = found.shooting.residual  # the contraction bound
             else:
-                warm_done = False
-        else:
-            warm_done, found = False, None
-        if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all and not warm_done:
+                saved[round(t_rec - period, 9)] = replace(found.shooting.start, t=t_rec - period)
+                saved[round(t_rec, 9)] = state
+                stops = (t_rec - period, t_rec)
+        if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all and found is None:
             warm_integrator = Integrator(model, inputs, h_warm, t_ref=0.0)
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report,
                                            check=bounds.check)

@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from camsim.engine.integrator import Integrator
 from camsim.engine.monodromy import Declined, Monodromy, not_differentiable
 from camsim.engine.state import State
 
@@ -85,7 +86,7 @@ def not_periodic(machine) -> str | None:
     in the cam angle, or its derivative is not tracked), or None."""
     if machine.cam is None:
         return "the machine has no cam"
-    if machine.camshaft is not None and getattr(machine.camshaft, "model", None) == "dynamic":
+    if machine.camshaft is not None and machine.camshaft.model == "dynamic":
         return "a dynamic camshaft's speed varies from revolution to revolution"
     for load in machine.loads:
         if load.kind == "sine" or (load.kind == "table" and load.table is not None and load.table.over == "time"):
@@ -172,8 +173,6 @@ def find_steady_state(machine, model, inputs, step: float, state: State, period:
     (at ``t_rec``) and how it was found, or (``state`` unchanged, None) with a warning saying
     why the warm-up is used instead. ``step``: the recording grid's [s] (its grid passes
     through ``t_rec``)."""
-    from camsim.engine.integrator import Integrator
-
     why = not_periodic(machine) or not_differentiable(model)
     if why is None:
         engine = Integrator(model, inputs, step, t_ref=t_rec)
