@@ -47,6 +47,15 @@ def with_steady(machine, mode: str, **sim):
     return dataclasses.replace(machine, simulation=dataclasses.replace(machine.simulation, steady_state=mode, **sim))
 
 
+def assert_same_scalars(got: dict, ref: dict, rel: float, abs_: float) -> None:
+    """Every finite float scalar of ``ref`` (the periodicity residual aside: it is what the
+    runs differ in) equals ``got``'s to ``rel`` relative, ``abs_`` absolute."""
+    for key, value in ref.items():
+        if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
+            continue
+        assert got[key] == pytest.approx(value, rel=rel, abs=abs_), key
+
+
 def test_the_monodromy_matrix_is_the_derivative_of_the_revolution_map(tmp_path):
     """M = ∂F/∂y against central differences, ε = 1e-7 of each coordinate's scale."""
     from threadpoolctl import threadpool_limits
@@ -133,10 +142,7 @@ def test_shooting_gives_the_scalars_of_thirty_warm_up_revolutions(tmp_path):
     warm = simulate(with_steady(machine, "warmup", warmup_cycles=30), sample_rate=2.0)
     assert warm.periodicity_residual < 1e-11
     ref = warm.scalars()
-    for key, value in ref.items():
-        if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
-            continue
-        assert shot[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    assert_same_scalars(shot, ref, rel=1e-9, abs_=1e-12)
 
 
 def test_shooting_on_the_cdtm_takes_the_one_revolution_a_warm_up_takes():
@@ -151,10 +157,7 @@ def test_shooting_on_the_cdtm_takes_the_one_revolution_a_warm_up_takes():
     assert shot.steady_state == {"method": "shooting", "revolutions": 1}
     assert shot.periodicity_residual <= 1e-14 < 1e-5 < warm.periodicity_residual
     a, b = shot.scalars(), warm.scalars()
-    for key, value in b.items():
-        if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
-            continue
-        assert a[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key
+    assert_same_scalars(a, b, rel=1e-12, abs_=1e-15)
 
 
 @pytest.mark.parametrize("name, why", [
@@ -223,10 +226,7 @@ def test_the_shot_steady_state_is_the_same_at_any_sample_rate(tmp_path):
     assert [e.kind for e in a.events] == [e.kind for e in b.events]
     assert max(abs(x.time - y.time) for x, y in zip(a.events, b.events)) <= 1e-9
     sa, sb = a.scalars(), b.scalars()
-    for key, value in sb.items():
-        if key == "periodicity_residual" or not isinstance(value, float) or not math.isfinite(value):
-            continue
-        assert sa[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    assert_same_scalars(sa, sb, rel=1e-9, abs_=1e-12)
 
 
 def test_a_recorded_revolution_that_does_not_repeat_itself_is_said(tmp_path, monkeypatch):
