@@ -121,7 +121,8 @@ def render_run_summary(result, console: Console, units: DisplayUnits | str | Non
     console.print(
         "periodicity residual (state one revolution apart, relative to peak): "
         + ("not computed" if math.isnan(residual) else f"{residual:.3g}")
-        + (f" (steady state by shooting, {result.steady_state['revolutions']} revolutions)"
+        + (f" (steady state by shooting, {result.steady_state['revolutions']} "
+           f"revolution{'' if result.steady_state['revolutions'] == 1 else 's'})"
            if (result.steady_state or {}).get("method") == "shooting" else "")
         + (" [-], above 1e-3: not a steady state (add warm-up revolutions, --warmup); per-revolution figures "
            "such as work and energy are of this revolution only" if residual > 1e-3 else "")

@@ -240,3 +240,12 @@ def test_a_recorded_revolution_that_does_not_repeat_itself_is_said(tmp_path, mon
     assert result.periodicity_residual > 1e-16
     said = [w for w in result.warnings if "repeats itself only to" in w]
     assert len(said) == 1 and f"{result.periodicity_residual:.3g}" in said[0]
+
+
+def test_camsim_run_prints_how_the_steady_state_was_reached(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "camsim", "run", str(CDTM), "--set", "simulation.steady_state=shooting",
+                           "--set", "simulation.sample_rate=2 kHz", "-o", str(tmp_path / "run.h5")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    line = [x for x in (proc.stdout + proc.stderr).splitlines() if x.startswith("periodicity residual")]
+    assert line and line[0].endswith("(steady state by shooting, 1 revolution)")
