@@ -21,6 +21,7 @@ start. The engine then integrates the stations exactly as before.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -191,12 +192,28 @@ class WarpedProgram:
         return self.base.boundary_angles()
 
 
-def cam_input(machine, warps=None):
+@functools.lru_cache(maxsize=16)
+def shared_program(description) -> CamProgram:
+    """The :class:`CamProgram` of a cam description (hashable, frozen), built once per process.
+
+    A study's or a sweep's runs mostly share their cam: its program, the join checks made
+    when it is built and the cam input the engine caches on the grid
+    (:class:`camsim.engine.context.EngineContext`) are then computed once per worker, not
+    once per run (issue 42). A program is read-only once built, so sharing it changes no
+    number; a description that fails to build raises each time (nothing is cached).
+    """
+    return CamProgram(description)
+
+
+def cam_input(machine, warps=None, shared: bool = True):
     """The engine's cam input of a machine: its :class:`CamProgram` (one ``[cam]`` or none) or
     a :class:`CamshaftInput` of its ``[[cam]]`` tables. ``warps``: per cam, None or
-    (theta, times_at) of a :class:`WarpedProgram` (a dynamic camshaft)."""
+    (theta, times_at) of a :class:`WarpedProgram` (a dynamic camshaft).
+
+    One ``[cam]`` gives the program of its description shared by every run of this process
+    (:func:`shared_program`) unless ``shared`` is False (a caller that sets attributes on it)."""
     if not machine.multi_cam and warps is None:
-        return CamProgram(machine.cam)
+        return shared_program(machine.cam) if shared else CamProgram(machine.cam)
     programs = []
     for q, cam in enumerate(machine.cams):
         program = CamProgram(cam)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import weakref
 
 import numpy as np
 
@@ -70,6 +71,35 @@ class _GuardContext:
         return float(value(z[None, :], u)[0, 0])
 
 
+#: Per engine input object (a cam program shared by a worker's runs,
+#: :func:`camsim.cam.camshaft.shared_program`), stores of what the engine reads of it at
+#: fixed times: the cam input on a grid t_ref + k·h per block of :attr:`EngineContext._BLOCK`
+#: points, and at the cam's break times. Weak keys: a run's own input object takes its
+#: stores with it.
+_INPUT_STORES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Stores kept per input object (a study's warm-up and recording grids, its breaks).
+_STORES_PER_INPUT = 8
+
+
+def input_store(cam, key: tuple) -> dict:
+    """The store ``key`` of the engine input ``cam``: the same dict for every run of this
+    process on that input (issue 42: a study's runs share their cam, and each evaluated its
+    laws on the same grid and at the same breaks again). What is stored is what ``cam``
+    returns for those times, so a run reads the same bits either way."""
+    try:
+        stores = _INPUT_STORES.get(cam)
+    except TypeError:  # an input that cannot be weakly referenced: a store of the run's own
+        return {}
+    if stores is None:
+        stores = _INPUT_STORES[cam] = {}
+    store = stores.get(key)
+    if store is None:
+        if len(stores) >= _STORES_PER_INPUT:
+            stores.clear()
+        store = stores[key] = {}
+    return store
+
+
 class EngineContext:
     """What every stepper shares: the model, the cam input, the grid, the caches, the events.
 
@@ -110,7 +140,8 @@ class EngineContext:
         self.rtol_nonlinear = 3e-13
         self._chunk = 512
         self._input_cache: dict[float, np.ndarray] = {}
-        self._grid_cache: dict[int, np.ndarray] = {}  # cam input on the grid, per block
+        self._grid_cache = input_store(cam, ("grid", float(t_ref), float(step)))  # cam input on the grid, per block
+        self._break_cache = input_store(cam, ("breaks",))  # cam input at each break time, both limits
         self._join_array: list[float] | None = None  # sorted cam joins of the current run
         self._joins: set[float] = set()  # cam segment joins of the current run
         self._stacked = None  # the current stretch's guards stacked into matrices
@@ -199,7 +230,7 @@ class EngineContext:
                 nodes = np.delete(nodes, near)
                 U = np.delete(U, near, axis=0)
         at = np.searchsorted(nodes, breaks, side="left")
-        pair_u = [np.stack([self.cam.channels_at(b, side="left"), self.cam.channels_at(b, side="right")]) for b in breaks]
+        pair_u = [self._break_input(b) for b in breaks]
         t_parts, u_parts, pairs, prev = [], [], [], 0
         for b, i, uu in zip(breaks, at.tolist(), pair_u):
             t_parts += [nodes[prev:i], np.array([b, b])]
@@ -209,6 +240,17 @@ class EngineContext:
         t_parts.append(nodes[prev:])
         u_parts.append(U[prev:])
         return np.concatenate(t_parts), np.concatenate(u_parts), pairs, at_break
+
+    def _break_input(self, b: float) -> np.ndarray:
+        """The cam input's limits from the left and from the right at a break time: (2, 4·c),
+        kept with the grid's blocks (a break is at the same time in every run on the grid)."""
+        hit = self._break_cache.get(b)
+        if hit is None:
+            hit = np.stack([self.cam.channels_at(b, side="left"), self.cam.channels_at(b, side="right")])
+            if len(self._break_cache) > 4096:
+                self._break_cache.clear()
+            self._break_cache[b] = hit
+        return hit
 
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
         """Cam input at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.
@@ -221,7 +263,7 @@ class EngineContext:
         U[1:-1] = self._grid_inputs(k0, k1)
         U[-1] = self._node_input(float(nodes[-1]))
         if nodes[-1] in self._joins:
-            U[-1] = self.cam.channels_at(float(nodes[-1]), side="left")
+            U[-1] = self._break_input(float(nodes[-1]))[0]
         return U
 
     def _node_input(self, t: float) -> np.ndarray:

@@ -45,6 +45,7 @@ import numpy as np
 
 from camsim.cam.program import CamProgram
 from camsim.elements import GROUND
+from camsim.engine.context import input_store
 from camsim.errors import SimulationError
 
 __all__ = ["BOUND_FACTOR", "Bounds", "physical_bounds"]
@@ -173,7 +174,11 @@ def physical_bounds(model, cam, state, t_end: float) -> Bounds:
             lift = sum(q[0] for q in scales)
             v_cam, a_cam = max(q[1] for q in scales), max(q[2] for q in scales)
         else:
-            lift, v_cam, a_cam = _cam_scales(machine.cam, cam)
+            # kept with the cam's program: a worker's runs share it (camsim.cam.camshaft.shared_program)
+            store = input_store(cam, ("scales",))
+            if "scales" not in store:
+                store["scales"] = _cam_scales(machine.cam, cam)
+            lift, v_cam, a_cam = store["scales"]
         revolutions = t_end / cam.period
     lengths = forces = 0.0
     for element in machine.elements:

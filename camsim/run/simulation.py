@@ -156,7 +156,7 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
             machine, no_impact, None, None, None, None, shaft=solution, record_all=True, rigid_shaft=solution is None),
             t_rec_dyn)
     warps = dynamics[0].warps() if dynamics is not None else None
-    cam = cam_input(machine, warps)  # one cam: its CamProgram; [[cam]]: every cam's, stacked (issue 38)
+    cam = cam_input(machine, warps, shared=dynamics is None)  # one cam: its CamProgram; [[cam]]: every cam's, stacked (issue 38)
     if dynamics is not None:
         cam.dynamics = dynamics[0]
     model = Model(machine, no_impact=no_impact)
