@@ -192,7 +192,7 @@ class WarpedProgram:
         return self.base.boundary_angles()
 
 
-@functools.lru_cache(maxsize=16)
+@functools.lru_cache(maxsize=4)
 def shared_program(description) -> CamProgram:
     """The :class:`CamProgram` of a cam description (hashable, frozen), built once per process.
 

@@ -77,8 +77,9 @@ class _GuardContext:
 #: points, and at the cam's break times. Weak keys: a run's own input object takes its
 #: stores with it.
 _INPUT_STORES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-#: Stores kept per input object (a study's warm-up and recording grids, its breaks).
-_STORES_PER_INPUT = 8
+#: Stores kept per input object (a study's warm-up and recording grids, its breaks, its
+#: scales; a grid's store keeps at most 65 blocks of 128 kB per cam: 8 MB).
+_STORES_PER_INPUT = 4
 
 
 def input_store(cam, key: tuple) -> dict:
