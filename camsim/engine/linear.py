@@ -222,20 +222,32 @@ def screen_steps(g0: np.ndarray, g1: np.ndarray, Gd: np.ndarray, steps: np.ndarr
     if not maybe.any():
         return hits
     k_idx, j_idx = np.nonzero(maybe)
-    h = steps[k_idx]
     a0, a1 = g0[k_idx, j_idx], g1[k_idx, j_idx]
-    b0, b1 = Gd[k_idx, j_idx] * h, Gd[k_idx + 1, j_idx] * h
     crossing = (a1 <= 0.0) & (a0 > 0.0)
+    hits[k_idx[crossing], j_idx[crossing]] = True
+    # the others: a dip to zero at an interior minimum of the cubic (the same arithmetic,
+    # element by element, whatever else is screened: the same flags)
+    rest = np.flatnonzero(~crossing)
+    if not rest.size:
+        return hits
+    k_idx, j_idx, a0, a1 = k_idx[rest], j_idx[rest], a0[rest], a1[rest]
+    h = steps[k_idx]
+    b0, b1 = Gd[k_idx, j_idx] * h, Gd[k_idx + 1, j_idx] * h
     c2 = 3 * (a1 - a0) - 2 * b0 - b1
     c3 = 2 * (a0 - a1) + b0 + b1
     qa, qb, qc = 3 * c3, 2 * c2, b0
     disc = qb * qb - 4 * qa * qc
-    found = crossing.copy()
+    real = np.flatnonzero(disc >= 0)
+    if not real.size:
+        return hits
+    k_idx, j_idx, a0, b0, c2, c3 = k_idx[real], j_idx[real], a0[real], b0[real], c2[real], c3[real]
+    qa, qb, qc, disc = qa[real], qb[real], qc[real], disc[real]
+    found = np.zeros(real.size, dtype=bool)
     with np.errstate(divide="ignore", invalid="ignore"):
-        sq = np.sqrt(np.maximum(disc, 0.0))
+        sq = np.sqrt(disc)
         for sign in (-1.0, 1.0):
             sig = np.where(np.abs(qa) > 1e-300, (-qb + sign * sq) / (2 * qa), -qc / qb)
-            ok = (disc >= 0) & (sig > 0) & (sig < 1) & np.isfinite(sig)
+            ok = (sig > 0) & (sig < 1) & np.isfinite(sig)
             val = a0 + b0 * sig + c2 * sig**2 + c3 * sig**3
             found |= ok & (val <= 0.0)
     hits[k_idx[found], j_idx[found]] = True
