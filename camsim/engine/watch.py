@@ -70,6 +70,10 @@ class CamForceWatch:
         #: instant are recorded in that order, whatever the order of the cams in the file).
         self.drives: list[tuple[str, int]] = sorted(model.drives.items(), key=lambda d: model.cam_names[d[1]])
         self.active = bool(self.drives)
+        #: False: the jumps are not looked for, only F_c's sign where each watched piece ends
+        #: is kept (a warm-up whose events are not reported: its ``last`` is all the recording
+        #: reads of it).
+        self.locating = True
         #: Per driven mass, (t [s], F_c [N]) at the end of the last watched piece (absent
         #: before the first).
         self.last: dict[str, tuple[float, float]] = {}
@@ -168,6 +172,18 @@ class CamForceWatch:
         if not self.active:
             return
         integ = self.integrator
+        if not self.locating:
+            # the chunk's last node (the event's instant when it ends at one): F_c there
+            if t_cut is None:
+                t_last, z_last, u_last = nodes[-1], Z[-1:], U[-1:]
+            elif t_cut - nodes[index] > 0.0:
+                t_last, z_last, u_last = t_cut, z_cut[None, :], integ.inputs(np.array([t_cut]))
+            else:
+                t_last, z_last, u_last = nodes[index], Z[index : index + 1], U[index : index + 1]
+            for driven, _ in self.drives:
+                value, _ = self.affine(config, driven)
+                self.last[driven] = (float(t_last), float((z_last @ value.Cz.T + u_last @ value.Du.T + value.e)[0, 0]))
+            return
         if t_cut is not None:
             # the chunk up to the event: nodes ≤ index, then the partial step to t_cut
             u_cut = integ.inputs(np.array([t_cut]))
@@ -244,6 +260,15 @@ class CamForceWatch:
         """Watch a stretch integrated without an exact solution between samples (a closed
         power-law contact): its start state, recorded samples and end state."""
         if not self.active:
+            return
+        if not self.locating:  # F_c where the stretch ends (see linear_chunk)
+            integ = self.integrator
+            u = integ.inputs(np.array([end.t]))
+            z = config.state_from_input(end.x, end.v, u[0])
+            fn = integ.nonlinear_forces(config, z[None, :], u, end.v_impacts)
+            for driven, _ in self.drives:
+                value, _ = self.affine(config, driven)
+                self.last[driven] = (float(end.t), float(value(z[None, :], u, fn)[0, 0]))
             return
         for driven, _ in self.drives:
             self._samples(start, end, stretch, config, driven)

@@ -279,6 +279,7 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
                 stops = (t_rec - period, t_rec)
         if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all and found is None:
             warm_integrator = Integrator(model, inputs, h_warm, t_ref=0.0)
+            warm_integrator.watch.locating = False  # its events are not reported: F_c's last sign is enough
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report,
                                            check=bounds.check)
             # the cam contact force's sign where the warm-up ends: the recorded window starts
