@@ -140,6 +140,11 @@ class EngineContext:
         #: DOP853's relative tolerance in a closed nonlinear contact (see camsim.engine.nonlinear.RTOL).
         self.rtol_nonlinear = 3e-13
         self._chunk = 512
+        #: The period of the input [s] (a cam's revolution), or None: events of one period
+        #: predict the next period's (chunk_steps).
+        self.period: float | None = None
+        self._predicted: list[float] = []  # one period after each event that ended a stretch [s], ascending
+        self._noted_since: float | None = None  # events are noted from this time on [s]
         self._input_cache: dict[float, np.ndarray] = {}
         self._grid_cache = input_store(cam, ("grid", float(t_ref), float(step)))  # cam input on the grid, per block
         self._break_cache = input_store(cam, ("breaks",))  # cam input at each break time, both limits
@@ -252,6 +257,47 @@ class EngineContext:
                 self._break_cache.clear()
             self._break_cache[b] = hit
         return hit
+
+    # ------------------------------------------------------------------ chunk sizes
+    def note_event(self, t: float) -> None:
+        """An event ended a stretch at t [s]: one period later it predicts the next (chunk_steps)."""
+        if self.period is None:
+            return
+        self._predicted.append(t + self.period)  # in time order: the run goes forwards
+        if len(self._predicted) > 4096 and self._predicted[0] < t - self.period:
+            del self._predicted[: bisect.bisect_left(self._predicted, t - self.period)]
+
+    def noting_from(self, t: float) -> None:
+        """Events are noted from t [s] on (a run's start): a period later they predict."""
+        if self._noted_since is None:
+            self._noted_since = t
+
+    def predict_from(self, other: "EngineContext") -> None:
+        """Take ``other``'s predictions (a warm-up's, for the recording that continues it)."""
+        if self.period is not None and other.period == self.period and other._noted_since is not None:
+            self._predicted = list(other._predicted)
+            self._noted_since = other._noted_since
+
+    def chunk_steps(self, t_start: float) -> int | None:
+        """Grid steps for a chunk from ``t_start`` that ends a little past the next event
+        predicted by the events one period earlier, or None without a prediction.
+
+        A chunk is one pass of numpy work whatever its length, and the steps computed past
+        an event are thrown away: after an event the next one is looked for in a chunk
+        sized to reach it (the events of a periodic machine recur every revolution, within
+        the transient's drift), where doubling from 512 steps took four chunks and half a
+        chunk's waste to cross a gap of 4,000 steps. Where no event comes in the predicted
+        chunk, the chunks double from its length as before: a prediction only ever moves
+        the chunks' ends, and every step is screened whatever they are."""
+        if self.period is None or self._noted_since is None or t_start < self._noted_since + self.period:
+            return None  # the period before is not all seen: an event may come before any predicted
+        i = bisect.bisect_right(self._predicted, t_start + 0.5 * self.h)
+        if i == len(self._predicted):
+            return None
+        steps = (self._predicted[i] - t_start) / self.h
+        if steps > 16384:
+            return None
+        return int(max(math.ceil(steps) + 8 + int(steps) // 64, 16))
 
     def chunk_inputs(self, nodes: np.ndarray, k0: int, k1: int) -> np.ndarray:
         """Cam input at a chunk's nodes: its start, grid points k0 ≤ k < k1, its end.

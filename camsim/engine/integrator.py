@@ -241,6 +241,7 @@ class Integrator(EngineContext):
         """
         stretches: list[Stretch] = []
         state = self.settle(state)
+        self.noting_from(state.t)
         if on_stop and any(abs(s - state.t) <= TIME_EPS for s in stops):
             on_stop(state)
         joins = [float(t) for t in self.cam.break_times(state.t - self.h, t_end + self.h)]  # joins and inner kinks
@@ -267,6 +268,7 @@ class Integrator(EngineContext):
                 raise SimulationError(f"the run diverged before t = {new_state.t:.9g} s (non-finite state)")
             start, state = state, new_state
             if guard is not None:
+                self.note_event(new_state.t)
                 state = self.handle(state, guard)
                 state = self.settle(state)
             if on_advance is not None:

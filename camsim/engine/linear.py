@@ -40,7 +40,8 @@ def advance_linear(ctx: EngineContext, state: State, config, z0, guards, t_stop:
     """
     maps = ctx.maps(config)
     h = ctx.h
-    chunk = ctx._chunk
+    predicted = ctx.chunk_steps(state.t)
+    chunk = predicted if predicted is not None else ctx._chunk
     parts: list[tuple] = []  # (nodes, Z, U, kind) per chunk, for the record
     z_start, t_start = z0, state.t
     restart = True  # the chunk starts the stretch
@@ -91,7 +92,7 @@ def advance_linear(ctx: EngineContext, state: State, config, z0, guards, t_stop:
         restart = at_break
         if t_start >= t_stop - TIME_EPS:
             break
-        chunk = min(chunk * 2, 16384)
+        chunk = min(max(chunk * 2, 512), 16384)
         ctx._chunk = chunk
     end = ctx._state_from(config, z_start, t_stop, state)
     if record:

@@ -203,6 +203,8 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
     motion_step = min([cam_input_step(machine)] + [p.shortest for p in programs])
     substeps = max(1, math.ceil(steps_per_sample), math.ceil(h_out / motion_step * (1 - 1e-12)))
     integrator = Integrator(model, inputs, h_out / substeps, t_ref=t_rec)
+    if has_cam:
+        integrator.period = period  # a revolution's events size the next one's chunks (chunk_steps)
     run = RunSetup(machine, model, cam, integrator, t_rec, t_end, h_out, warnings, no_impact, period if has_cam else None)
     run = replace(run, observables=Observables(run))  # the located extremes' quantities (spec §4)
     work_stop = None
@@ -280,11 +282,13 @@ def _run(machine, no_impact, cycles, warmup_cycles, sample_rate, progress, strea
         if t_rec > 0 and h_warm > 1.5 * integrator.h and not record_all and found is None:
             warm_integrator = Integrator(model, inputs, h_warm, t_ref=0.0)
             warm_integrator.watch.locating = False  # its events are not reported: F_c's last sign is enough
+            warm_integrator.period = integrator.period
             state, _ = warm_integrator.run(state, t_rec, record_from=math.inf, stops=stops, on_stop=on_stop, progress=report,
                                            check=bounds.check)
             # the cam contact force's sign where the warm-up ends: the recorded window starts
             # with no jump row the continuous run does not have (issue 25)
             integrator.watch.last = warm_integrator.watch.last
+            integrator.predict_from(warm_integrator)
         if consumer is None:
             _, stretches = integrator.run(state, t_final, record_from=0.0 if record_all else t_rec, stops=all_stops,
                                           on_stop=on_stop, progress=report, check=bounds.check)
