@@ -73,6 +73,9 @@ def _polynomial_dip(coef, values):
     points positive) that Newton's method on p′ takes to or below zero, or None."""
     d1 = _derivative(coef)
     d2 = _derivative(d1)
+    # Horner in Python floats over lists: iterating numpy arrays element by element made
+    # each step's scalars numpy objects (the same IEEE arithmetic, several times slower)
+    coef, d1, d2 = coef.tolist(), d1.tolist(), d2.tolist()
     inner = np.flatnonzero((values[1:-1] <= values[:-2]) & (values[1:-1] <= values[2:]) & (values[1:-1] > 0.0)) + 1
     for k in inner.tolist():
         a, b = float(_SCREEN[k - 1]), float(_SCREEN[k + 1])
@@ -93,6 +96,7 @@ def _polynomial_dip(coef, values):
 
 def _polynomial_root(coef, lo: float, hi: float) -> float:
     """The root of p in (lo, hi], p(lo) > 0 ≥ p(hi): safeguarded Newton to rounding."""
+    coef = coef.tolist() if hasattr(coef, "tolist") else coef  # plain floats (see _polynomial_dip)
     x = 0.5 * (lo + hi)
     for _ in range(100):
         p, dp = poly_value_and_slope(coef, x)
