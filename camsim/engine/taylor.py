@@ -67,11 +67,12 @@ def taylor_coefficients(config, z0: np.ndarray, D: np.ndarray, h: np.ndarray) ->
     forcing = np.einsum("sck,sk,mc->skm", rows, hk, Bb)  # (S, n_in, m)
     forcing[:, 0] += bb
     AbT = Ab.T
+    steps = (h[None, :] / np.arange(1, terms + 1, dtype=float)[:, None])[:, :, None]  # h/(k+1), (terms, S, 1)
     for k in range(terms):
         e = e @ AbT
         if k < n_in:
             e += forcing[:, k]
-        e *= (h / (k + 1))[:, None]
+        e *= steps[k]
         out[:, k + 1] = e
     return out * T
 
