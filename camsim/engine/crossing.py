@@ -110,7 +110,7 @@ def polish_crossing(integrator, config, guard, t_step: float, h_step: float, tau
     u0 = _analytic_inputs(cam, np.array([t_root]), step_end)[0]
     if Dk is not None:
 
-        u_h = input_at(Dk, tau)
+        u_h = input_at(Dk, tau, channels=1)  # every cam's s is all the check reads
         s_h, s_0 = u_h[0::N_INPUT], u0[0::N_INPUT]  # every cam's s
         if np.any(np.abs(s_h - s_0) > 1e-11 * (np.abs(s_0) + np.abs(s_h)) + 1e-300):
             return tau, z

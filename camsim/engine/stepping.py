@@ -185,14 +185,14 @@ def forcing_coefficients(config: Configuration, D: np.ndarray) -> np.ndarray:
     return E
 
 
-def input_at(D: np.ndarray, tau: float) -> np.ndarray:
+def input_at(D: np.ndarray, tau: float, channels: int = N_INPUT) -> np.ndarray:
     """The cam input ([s, ṡ, s̈, s⃛] per cam) at τ into a step from its Taylor derivatives
-    D (8·c,)."""
+    D (8·c,); with ``channels`` < 4 only each cam's first few (s alone: 1), the others NaN."""
     n = _P + 1
-    out = np.empty(N_INPUT * (D.size // n))
+    out = np.full(N_INPUT * (D.size // n), np.nan)
     for q in range(D.size // n):
         Dq = D[q * n : (q + 1) * n]
-        for c in range(N_INPUT):
+        for c in range(channels):
             terms = Dq[c:]
             out[N_INPUT * q + c] = np.sum(terms * tau ** np.arange(terms.size) / _FACT[: terms.size])
     return out
