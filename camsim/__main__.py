@@ -9,7 +9,17 @@ import sys
 
 def main() -> None:
     """Console entry point: run the command line; Ctrl-C before it is up exits 130 quietly."""
+    import faulthandler
     import signal
+
+    # A crash in native code (HDF5, BLAS) ends the process with SIGSEGV and, without the
+    # fault handler, not one line on stderr: CI once saw `fit --workers 2` die so after
+    # SIGTERM, with nothing to say where. It prints the Python stack of every thread first.
+    if not faulthandler.is_enabled():  # PYTHONFAULTHANDLER or -X faulthandler: already on
+        try:
+            faulthandler.enable(all_threads=True)
+        except (AttributeError, OSError, RuntimeError, ValueError):  # a stderr without a file descriptor
+            pass
 
     # SIGTERM (a batch system's stop, `kill PID`) takes Ctrl-C's orderly way out everywhere,
     # from start-up to exit, in every command (issue 45): it killed a command outright, with

@@ -146,6 +146,48 @@ def test_second_writer_refused(tmp_path):
     RowStore.resume(path, META).close()
 
 
+def _interrupt_after_closing(monkeypatch, chosen):
+    """``os.close`` that closes, then raises KeyboardInterrupt when the descriptor is ``chosen()``:
+    Ctrl-C or SIGTERM landing on the line after a close."""
+    real_close = os.close
+
+    def close(fd):
+        real_close(fd)
+        if fd == chosen():
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "close", close)
+
+
+def test_an_interrupt_just_after_a_close_closes_nothing_twice(tmp_path, monkeypatch):
+    """Ctrl-C or SIGTERM right after the journal or a file being written is closed: the
+    cleanup that follows (the caller's close(), the output policy's discard) does not close
+    that number again. It did: an OSError (EBADF) replaced the interrupt, so the command's
+    "interrupted: ... kept" line was lost, or it closed the file another part of the process
+    had been given the number since (found by raising KeyboardInterrupt at each Python line
+    of a store's append and close)."""
+    from camsim.io.outputs import writing
+
+    store = RowStore.create(tmp_path / "job.h5", COLUMNS, META)
+    store.append(0, expected_row(0))
+    journal = store._fd
+    with monkeypatch.context() as m:
+        _interrupt_after_closing(m, lambda: journal)
+        with pytest.raises(KeyboardInterrupt):
+            store.close()
+    store.close()  # the caller's cleanup on the way out: nothing left to close
+    assert RowStore.resume(tmp_path / "job.h5", META).rows().keys() == {0}  # lock and journal released
+
+    sink = []
+    with monkeypatch.context() as m:
+        _interrupt_after_closing(m, lambda: sink[0] if sink else None)
+        with pytest.raises(KeyboardInterrupt), writing(tmp_path / "out.bin") as target:
+            target.binary().write(b"x")
+            sink.append(target._sink.fd)
+    assert not (tmp_path / "out.bin").exists()
+    assert not list(tmp_path.glob(".out.bin.*.tmp"))
+
+
 def test_stale_temp_files_of_dead_writers_removed(tmp_path):
     target = tmp_path / "job.h5"
     dead = subprocess.Popen([sys.executable, "-c", "pass"])

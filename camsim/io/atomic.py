@@ -232,17 +232,22 @@ class Sink(io.RawIOBase):
             if exc.errno not in (errno.EINVAL, errno.EROFS):  # some file systems cannot sync
                 self.error = exc
         finally:
-            os.close(self.fd)
-            self.fd = -1
-            self._overlay = []
+            self._release()
         if self.error is not None:
             raise self.error
 
     def abandon(self) -> None:
         if self.fd >= 0:
-            os.close(self.fd)
-            self.fd = -1
+            self._release()
         self._overlay = []
+
+    def _release(self) -> None:
+        # marked closed before it is closed: Ctrl-C or SIGTERM landing between the two would
+        # leave fd set, and the policy's abandon() would close the number again (EBADF, or
+        # a file that another part of the process had been given that number since)
+        fd, self.fd = self.fd, -1
+        self._overlay = []
+        os.close(fd)
 
 
 def raw_write(fd: int, data: bytes, offset: int | None = None) -> int:

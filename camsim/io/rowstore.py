@@ -469,11 +469,15 @@ class RowStore:
             if (self._dirty or complete) and not self._failed:
                 self._refresh_view(force=True, complete=complete)
         finally:
-            os.close(self._fd)
-            self._fd = None
-            if self._lock is not None:
-                self._lock.release()
-                self._lock = None
+            # marked closed before it is closed: an interrupt between the two must not make
+            # the next close() (a caller's cleanup) close the number a second time
+            fd, self._fd = self._fd, None
+            try:
+                os.close(fd)
+            finally:
+                if self._lock is not None:
+                    lock, self._lock = self._lock, None
+                    lock.release()
 
     def remove_journal(self) -> None:
         """Delete the journal (after the job's final files are written); closes first."""

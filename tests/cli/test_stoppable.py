@@ -97,6 +97,24 @@ def test_signal_to_a_pooled_job_stops_it_within_5_s(name, sig, tmp_path):
     assert not list(tmp_path.rglob("*.tmp")), list(tmp_path.rglob("*"))
 
 
+def test_a_native_crash_says_where(tmp_path):
+    """A crash in native code (HDF5, BLAS) prints the Python stack on stderr before the
+    process dies of SIGSEGV (the fault handler, on in every camsim process): CI once saw
+    ``fit --workers 2`` end with -11 after SIGTERM and not one line to say where."""
+    code = ("import ctypes, sys\n"
+            "import camsim.cli\n"
+            "camsim.cli.main = lambda: ctypes.string_at(0)  # a read at address 0, as a native bug makes\n"
+            "sys.argv = ['camsim', 'validate']\n"
+            "from camsim.__main__ import main\n"
+            "main()\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONFAULTHANDLER"}
+    env["PYTHONPATH"] = str(ROOT)
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, timeout=60)
+    text = r.stderr.decode(errors="replace")
+    assert r.returncode == -signal.SIGSEGV, (r.returncode, text)
+    assert "Fatal Python error: Segmentation fault" in text and "in main" in text, text
+
+
 def test_an_interrupt_wrapped_by_python_is_an_interrupt(monkeypatch):
     """Ctrl-C inside a class's ``__set_name__`` (Bokeh's import: the conformance suite's SIGINT
     at a random moment) reaches camsim as "RuntimeError: Error calling __set_name__": exit 130 and
