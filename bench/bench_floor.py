@@ -34,7 +34,9 @@ is less sensitive to other jobs than wall time, and the ratios to the floor meas
 the same rounds carry over between runs on differently loaded machines better than the
 absolute times.
 
-One design evaluation (issue 42) is what a study pays per run of the file:
+Each single-run call starts without the cam programs and input stores that a process's
+earlier runs leave (``camsim.cam.camshaft.shared_program``): a ``camsim run`` pays its cam's
+laws on the grid, as the floor does. One design evaluation (issue 42) is what a study pays per run of the file:
 ``camsim.run.evaluation.evaluate(machine)`` with the file's own settings (a warm-up revolution
 and one recorded revolution, every located scalar, no traces); its target is 2× the floor's
 revolution.
@@ -94,8 +96,15 @@ class CamsimCalls:
 
         self.camsim = camsim
         self.machine = camsim.load_machine(CDTM)
-        self.calls = {label: (lambda kw=kw: camsim.simulate(self.machine, warmup_cycles=0, **kw))
-                      for label, kw in CAMSIM_CASES.items()}
+        # a run of `camsim run` builds its cam's program and evaluates its laws on the grid:
+        # each single-run call starts without the programs and stores a process's earlier runs
+        # left (camsim.cam.camshaft.shared_program); a design evaluation reuses them, as a
+        # study's runs on one cam do
+        def single(kw):
+            _forget_shared_inputs()
+            return camsim.simulate(self.machine, warmup_cycles=0, **kw)
+
+        self.calls = {label: (lambda kw=kw: single(kw)) for label, kw in CAMSIM_CASES.items()}
         # issue 42: one design evaluation, what a study pays per run of the file (its warm-up and
         # one recorded revolution, every located scalar, no traces); a tree without the
         # scalars-only evaluation pays a full run of the file's settings
@@ -111,6 +120,17 @@ class CamsimCalls:
 
     def round(self, order: list[str]) -> dict[str, tuple[float, float]]:
         return {label: timed(self.calls[label]) for label in order}
+
+
+def _forget_shared_inputs() -> None:
+    """Drop the cam programs and input stores shared by a process's runs (a tree without them: nothing)."""
+    try:
+        from camsim.cam.camshaft import shared_program
+        from camsim.engine import context
+    except ImportError:
+        return
+    shared_program.cache_clear()
+    context._INPUT_STORES.clear()
 
 
 def serve() -> None:
