@@ -564,3 +564,40 @@ def test_table_cam_below_its_base_circle_warns(tmp_path):
     assert float(warning.split("(lift 0): ")[1].split(" m")[0]) <= -0.0005  # at least the row's dip
     text, base = _table_machine(tmp_path, "angle [deg],displacement [mm]\n0,0\n90,10\n180,20\n270,10\n")
     assert not [w for w in CamProgram(load_machine_text(text, base_dir=base).cam).warnings if "base circle" in w]
+
+
+# ---------------------------------------------------------------------------------------
+# Issue 42: a file is parsed once per process; its bare-number notes are computed once per text
+# ---------------------------------------------------------------------------------------
+def _bare_text() -> str:
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "machines" / "cdtm.toml").read_text()
+    text = re.sub(r'preload = "[^"]*"', "preload = 125", text, count=1)  # bare numbers in a file with units
+    return re.sub(r'gap = "[^"]*"', "gap = 0.0016", text, count=1)
+
+
+@pytest.mark.parametrize("overrides", [
+    [], ["element.K23.preload=28 lbf"], ["element.seat.gap=0.06 in"], ["element.seat.stiffness=8e6"],
+    ["element.K01.preload=30"], ["cam.speed=100 rpm", "simulation.cycles=2"],
+])
+def test_bare_number_notes_as_from_the_overridden_document(overrides):
+    """Reference: camsim.machine.keys.bare_number_notes walking the overridden document itself
+    (what every load did before the file's rows were kept per text)."""
+    from camsim.display import option_quantities, written_units
+    from camsim.machine import keys
+    from camsim.machine import loader
+
+    text = _bare_text()
+    doc = loader._parsed(text, "x.toml")
+    origin = {loader._apply_override(doc, a, "x.toml"): a for a in overrides}
+    shown = written_units(text, option_quantities(overrides))
+    assert loader._document_notes(doc, text, shown, origin) == keys.bare_number_notes(doc, shown, skip=origin)
+
+
+def test_a_parsed_file_is_not_changed_by_an_earlier_loads_overrides():
+    text = _bare_text()
+    bent = load_machine_text(text, "x.toml", overrides=["element.K01.preload=300 N", "simulation.cycles=3"])
+    plain = load_machine_text(text, "x.toml")
+    assert bent.simulation.cycles == 3 and plain.simulation.cycles != 3
+    assert [e.preload for e in plain.elements if e.name == "K01"] == [125.0]

@@ -77,9 +77,11 @@ class _GuardContext:
 #: points, and at the cam's break times. Weak keys: a run's own input object takes its
 #: stores with it.
 _INPUT_STORES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-#: Stores kept per input object (a study's warm-up and recording grids, its breaks, its
-#: scales; a grid's store keeps at most 65 blocks of 128 kB per cam: 8 MB).
-_STORES_PER_INPUT = 4
+#: Stores kept per input object, the least recently asked for dropped first (a study's
+#: recording grid, its breaks and scales, and each design's warm-up grid, whose step follows
+#: the design's highest natural frequency; a grid's store keeps at most 65 blocks of 128 kB per
+#: cam: 8 MB).
+_STORES_PER_INPUT = 6
 
 
 def input_store(cam, key: tuple) -> dict:
@@ -93,11 +95,12 @@ def input_store(cam, key: tuple) -> dict:
         return {}
     if stores is None:
         stores = _INPUT_STORES[cam] = {}
-    store = stores.get(key)
+    store = stores.pop(key, None)
     if store is None:
-        if len(stores) >= _STORES_PER_INPUT:
-            stores.clear()
-        store = stores[key] = {}
+        store = {}
+        while len(stores) >= _STORES_PER_INPUT:
+            stores.pop(next(iter(stores)))  # the least recently asked for (a design's own warm-up grid)
+    stores[key] = store  # the most recent last
     return store
 
 

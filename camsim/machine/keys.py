@@ -722,11 +722,22 @@ def bare_number_notes(doc: Mapping[str, Any], shown: Any, skip: Iterable[str] = 
     frequency (shown the same in every system). ``skip``: canonical paths not to report
     (the values ``--set`` wrote: their own note says so).
     """
-    from camsim.machine.reading import _has_unit
+    return notes_of(value_notes(doc, shown), skip)
 
+
+def notes_of(rows: Sequence[tuple[str, bool, str | None]], skip: Iterable[str] = ()) -> list[str]:
+    """:func:`bare_number_notes` from the rows of :func:`value_notes`: none where no value
+    writes a unit, else each note whose canonical path is not in ``skip``."""
     skip = set(skip)
-    values: list[tuple[str, Any, Param]] = []
-    writes_units = False
+    if not any(writes for _, writes, _ in rows):
+        return []
+    return [note for path, _, note in rows if note and path not in skip]
+
+
+def value_notes(doc: Mapping[str, Any], shown: Any) -> list[tuple[str, bool, str | None]]:
+    """Per value of the document, in its order: (canonical path, whether it is written with a
+    unit, its bare-number note or None)."""
+    rows: list[tuple[str, bool, str | None]] = []
     for path in document_paths(doc):
         p = param(path)
         try:
@@ -736,19 +747,18 @@ def bare_number_notes(doc: Mapping[str, Any], shown: Any, skip: Iterable[str] = 
         value = where.table.get(where.leaf) if isinstance(where.table, dict) else None
         if value is None:
             continue
-        writes_units = writes_units or (isinstance(value, str) and bool(_NUMBER_FIRST.match(value))
-                                        and not is_bare_number(value) and _has_unit(value))
-        if p is not None and where.path not in skip and p.dimension not in _SAME_EVERYWHERE and p.unit \
-                and p.unit != "N/m^exponent":
-            values.append((path, value, p))
-    if not writes_units:
-        return []
-    notes = []
-    for path, value, p in values:
-        note = bare_number_note(path, value, p.unit, shown)
-        if note:
-            notes.append(note)
-    return notes
+        note = None
+        if p is not None and p.dimension not in _SAME_EVERYWHERE and p.unit and p.unit != "N/m^exponent":
+            note = bare_number_note(path, value, p.unit, shown) or None
+        rows.append((where.path, writes_unit(value), note))
+    return rows
+
+
+def writes_unit(value: Any) -> bool:
+    """Whether a document value is a quantity written with its unit (``"28.12 lbf"``)."""
+    from camsim.machine.reading import _has_unit
+
+    return isinstance(value, str) and bool(_NUMBER_FIRST.match(value)) and not is_bare_number(value) and _has_unit(value)
 
 
 class _Absent(Exception):

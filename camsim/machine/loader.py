@@ -18,6 +18,9 @@ See ``docs/machine-file.md`` for the full reference.
 
 from __future__ import annotations
 
+import copy
+import functools
+
 import os
 import tomllib
 from collections.abc import Sequence
@@ -179,10 +182,7 @@ def load_machine_text(
     ------
     MachineFileError
     """
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise MachineFileError(source, "", f"invalid TOML: {exc}") from None
+    doc = _parsed(text, source)
     origin: dict[str, str] = {}
     for assignment in overrides:
         path = _apply_override(doc, assignment, source)
@@ -215,6 +215,30 @@ def load_machine_text(
     return _replace_text(machine, text, base_dir, notes)
 
 
+def _parsed(text: str, source: str) -> dict:
+    """The TOML document of ``text``, a copy of its own (the overrides edit it in place);
+    parsed once per text in a process (issue 42: an analysis loads the same file with other
+    overrides for every run)."""
+    try:
+        return copy.deepcopy(_parse_once(text))
+    except tomllib.TOMLDecodeError as exc:
+        raise MachineFileError(source, "", f"invalid TOML: {exc}") from None
+
+
+@functools.lru_cache(maxsize=8)
+def _parse_once(text: str) -> dict:
+    return tomllib.loads(text)
+
+
+@functools.lru_cache(maxsize=8)
+def _file_value_notes(text: str, shown) -> tuple:
+    """:func:`camsim.machine.keys.value_notes` of the file's own document (no override), per
+    text and display units: an analysis's runs differ from it only in their overrides' values."""
+    from camsim.machine import keys
+
+    return tuple(keys.value_notes(_parse_once(text), shown))
+
+
 def _bare_number_notes(doc: dict, text: str, overrides: Sequence[str], origin: dict[str, str]) -> tuple[str, ...]:
     """Issue 44: each bare number read as SI where the file otherwise writes units, and each one
     given with ``--set``, in one line with its value in the file's units (camsim.machine.keys)."""
@@ -229,7 +253,35 @@ def _bare_number_notes(doc: dict, text: str, overrides: Sequence[str], origin: d
         note = keys.bare_number_note(f"--set {key.strip()}", _parse_value(raw), keys.unit(path), shown)
         if note:
             notes.append(note)
-    return tuple(keys.bare_number_notes(doc, shown, skip=origin) + notes)
+    return tuple(_document_notes(doc, text, shown, origin) + notes)
+
+
+def _document_notes(doc: dict, text: str, shown, origin: dict[str, str]) -> list[str]:
+    """The bare-number notes of the document's own values (``keys.bare_number_notes`` with the
+    overridden values skipped), from the file's rows computed once per text: the rows of the
+    values no override wrote are the file's, and whether the document writes units at all
+    takes the overridden values as they now are. An override that is not a plain value of the
+    file (a table, a list, a key the file leaves out) walks the document as it is."""
+    from camsim.machine import keys
+
+    rows = _file_value_notes(text, shown)
+    values = {path: k for k, (path, _, _) in enumerate(rows)}
+    base = _parse_once(text)
+    now = {}
+    for path in origin:
+        if path not in values:
+            return keys.bare_number_notes(doc, shown, skip=origin)
+        try:
+            before = keys.address(base, path, make_table=keys._no_table)
+            after = keys.address(doc, path, make_table=keys._no_table)
+        except (MachineFileError, keys._Absent):
+            return keys.bare_number_notes(doc, shown, skip=origin)
+        old, new = before.table.get(before.leaf), after.table.get(after.leaf)
+        if isinstance(old, (dict, list)) or isinstance(new, (dict, list)):
+            return keys.bare_number_notes(doc, shown, skip=origin)
+        now[path] = keys.writes_unit(new)
+    rows = [(path, now.get(path, writes), note) for path, writes, note in rows]
+    return keys.notes_of(rows, skip=origin)
 
 
 def _in_file_units(message: str, text: str, overrides: Sequence[str]) -> str:
