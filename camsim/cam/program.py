@@ -89,6 +89,14 @@ def law_peaks(law: str) -> tuple[tuple[float, float], tuple[float, float], tuple
     return tuple(out)  # type: ignore[return-value]
 
 
+#: Shapes that are a function of their law's name alone (camsim.cam.synthesis.SegmentShape).
+_NAMED_SHAPES = ("law", "constant-velocity", "dwell")
+#: (kind, law, order, points) -> their values (read-only; see CamProgram._shape_values).
+_SHAPE_VALUES: dict[tuple, np.ndarray] = {}
+#: Law names already checked by evaluating them once (an unknown name raises, every time).
+_KNOWN_LAWS: set[str] = set()
+
+
 class CamProgram:
     """Prescribed motion of the ``cam`` node on the model axis.
 
@@ -166,8 +174,9 @@ class CamProgram:
             if seg.motion == "dwell":
                 laws.append(None)
             elif seg.motion in ("rise", "fall"):
-                if seg.law not in SYNTHESIS_LAWS:
+                if seg.law not in SYNTHESIS_LAWS and seg.law not in _KNOWN_LAWS:
                     rise(str(seg.law), 0.0)  # raises ValueError on an unknown law
+                    _KNOWN_LAWS.add(seg.law)
                 laws.append(seg.law)
                 signed[i] = seg.lift if seg.motion == "rise" else -seg.lift
             else:
@@ -228,9 +237,24 @@ class CamProgram:
                                f"{math.degrees(float(th)):g} deg")
         return out
 
-    def _shape_values(self, i: int, u, order: int) -> np.ndarray:
-        """Normalised y and derivatives 0…order of segment ``i`` at u (array (order+1, n))."""
-        return self._shapes[i].evaluate(np.atleast_1d(np.asarray(u, dtype=float)), order)
+    def _shape_values(self, i: int, u, order: int, keep: bool = False) -> np.ndarray:
+        """Normalised y and derivatives 0…order of segment ``i`` at u (array (order+1, n)).
+        ``keep``: a standard law's values (a function of its name alone) are kept per law and
+        points, read-only (every new program of an optimiser's search checks its joins on
+        the same few points)."""
+        shape = self._shapes[i]
+        u = np.atleast_1d(np.asarray(u, dtype=float))
+        if not keep or shape.kind not in _NAMED_SHAPES:
+            return shape.evaluate(u, order)
+        key = (shape.kind, str(getattr(shape, "law", "")), order, u.tobytes())
+        hit = _SHAPE_VALUES.get(key)
+        if hit is None:
+            hit = shape.evaluate(u, order)
+            hit.setflags(write=False)
+            if len(_SHAPE_VALUES) > 256:
+                _SHAPE_VALUES.clear()
+            _SHAPE_VALUES[key] = hit
+        return hit
 
     def lift_derivatives(self, theta, order: int, side: str = "right") -> np.ndarray:
         """Roller lift and its derivatives 0…``order`` with respect to cam angle, exact.
@@ -434,7 +458,7 @@ class CamProgram:
         if law is None:
             y = (0.0, 0.0, 0.0)
         else:
-            y = tuple(float(v) for v in self._shape_values(i, u, 2)[:, 0])
+            y = tuple(float(v) for v in self._shape_values(i, u, 2, keep=True)[:, 0])
         k = self.speed / beta
         return self.ratio * np.array([h0 + h * y[0], h * y[1] * k, h * y[2] * k * k])
 
@@ -449,7 +473,7 @@ class CamProgram:
             if law is None:
                 continue
             k = self.speed / self._betas[i]
-            y = self._shape_values(i, u, 2)
+            y = self._shape_values(i, u, 2, keep=True)
             speed_peak = max(speed_peak, abs(self.ratio * self._signed[i]) * k * float(np.max(np.abs(y[1]))))
             accel_peak = max(accel_peak, abs(self.ratio * self._signed[i]) * k * k * float(np.max(np.abs(y[2]))))
         scale = np.array(

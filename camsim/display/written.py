@@ -218,8 +218,15 @@ def written_units(text: str, options: Iterable[str] = ()) -> DisplayUnits:
     DisplayUnits
         ``system = "file"``. A document that is not TOML gives the ``si`` choice.
     """
-    options = tuple(options)
+    options = tuple(_one_of_each(o) for o in options)
     return DisplayUnits.of("file", _resolve(_file_votes(text), _option_votes(options) if options else None))
+
+
+def _one_of_each(option: str) -> str:
+    """``"28.12 lbf"`` → ``"1 lbf"``: a quantity votes by its unit alone (:func:`_classify`), so
+    an analysis's runs, whose overrides differ in their numbers only, share one cached count."""
+    m = _TRAILING.search(option)
+    return f"1 {m.group('unit').strip()}" if m else option
 
 
 @functools.lru_cache(maxsize=16)
