@@ -9,6 +9,9 @@ starting where F_c is negative (no jump row there) and where it is positive.
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import pytest
 
 from camsim.engine.watch import CamForceWatch
@@ -16,42 +19,8 @@ from camsim.machine.loader import load_machine_text
 from camsim.run.evaluation import evaluate
 from camsim.run.simulation import simulate
 
-MACHINE = """schema = 1
-[machine]
-name = "driven follower with a body"
-[cam]
-speed = "600 rpm"
-start_angle = "{start_deg} deg"
-drives = "F"
-segments = [
-  {{ motion = "rise", law = "cycloidal", duration = "90 deg", lift = "20 mm" }},
-  {{ motion = "dwell", duration = "90 deg" }},
-  {{ motion = "fall", law = "cycloidal", duration = "90 deg", lift = "20 mm" }},
-  {{ motion = "dwell", duration = "90 deg" }},
-]
-[[mass]]
-name = "F"
-mass = "1 kg"
-[[mass]]
-name = "G"
-mass = "0.2 kg"
-[[element]]
-name = "closure"
-type = "spring"
-between = ["ground", "F"]
-stiffness = "1000 N/m"
-preload = "30 N"
-[[element]]
-name = "link"
-type = "spring"
-between = ["F", "G"]
-stiffness = "2e5 N/m"
-damping_ratio = 0.05
-[simulation]
-cycles = 1
-warmup_cycles = 2
-sample_rate = "20 kHz"
-"""
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the driven followers of test_event_grid
+from test_event_grid import _driven  # noqa: E402
 
 
 class _AlwaysLocating(CamForceWatch):
@@ -72,7 +41,8 @@ def _rows(run):
 
 @pytest.mark.parametrize("start_deg", [60.0, 0.0])
 def test_recorded_jumps_as_with_a_warm_up_that_locates_them(start_deg, monkeypatch):
-    machine = load_machine_text(MACHINE.format(start_deg=start_deg))
+    # a driven follower with a body on a spring, jumping twice a revolution at 600 rpm
+    machine = load_machine_text(_driven(20.0, True, start_deg=start_deg, warmup=2, cycles=1))
     fast = simulate(machine)
     fast_eval = evaluate(machine)
     monkeypatch.setattr("camsim.engine.integrator.CamForceWatch", _AlwaysLocating)
