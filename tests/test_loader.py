@@ -582,17 +582,16 @@ def _bare_text() -> str:
     ["element.K01.preload=30"], ["cam.speed=100 rpm", "simulation.cycles=2"],
 ])
 def test_bare_number_notes_as_from_the_overridden_document(overrides):
-    """Reference: camsim.machine.keys.bare_number_notes walking the overridden document itself
+    """Reference: camsim.machine.notes.bare_number_notes walking the overridden document itself
     (what every load did before the file's rows were kept per text)."""
     from camsim.display import option_quantities, written_units
-    from camsim.machine import keys
-    from camsim.machine import loader
+    from camsim.machine import loader, notes
 
     text = _bare_text()
     doc = loader._parsed(text, "x.toml")
     origin = {loader._apply_override(doc, a, "x.toml"): a for a in overrides}
     shown = written_units(text, option_quantities(overrides))
-    assert loader._document_notes(doc, text, shown, origin) == keys.bare_number_notes(doc, shown, skip=origin)
+    assert loader._document_notes(doc, text, shown, origin) == notes.bare_number_notes(doc, shown, skip=origin)
 
 
 def test_a_parsed_file_is_not_changed_by_an_earlier_loads_overrides():

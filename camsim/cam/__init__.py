@@ -6,7 +6,8 @@
 """
 
 from camsim.cam.laws import LAWS, NORTON_PEAKS, evaluate_law, fall, rise
-from camsim.cam.program import CamProgram, law_peaks, sample_revolution
+from camsim.cam.peaks import law_peaks, sample_revolution
+from camsim.cam.program import CamProgram
 
 
 def __getattr__(name: str):

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-from camsim.cam.program import CamProgram, sample_revolution
+from camsim.cam.peaks import sample_revolution
+from camsim.cam.program import CamProgram
 
 __all__ = ["SIGNIFICANT_FRACTION", "significant_harmonic"]
 

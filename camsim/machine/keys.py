@@ -21,17 +21,17 @@ dimension and SI unit), its value in a loaded machine (:meth:`TableKind.value`, 
 
 A bare number where a key has a unit is SI by the file format; :func:`bare_number_note` is
 the one warning that says so, with the value in the file's units
-(``cam.speed = 120 → 120 rad/s = 1146 rpm``).
+(``cam.speed = 120 → 120 rad/s = 1146 rpm``); :mod:`camsim.machine.notes` gives it for every
+value of a document and of the command line.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 from camsim import elements as element_kinds
 from camsim.elements import Param
-from camsim.errors import MachineFileError
 from camsim.machine import schema
 from camsim.machine.keypath import (  # noqa: F401 - the framework, re-exported
     KINDS,
@@ -43,8 +43,6 @@ from camsim.machine.keypath import (  # noqa: F401 - the framework, re-exported
     _dict_table,
     _find,
     _named_rows,
-    _NUMBER_FIRST,
-    _SAME_EVERYWHERE,
     bare_number_note,
     is_bare_number,
     parse,
@@ -54,8 +52,8 @@ from camsim.machine.keypath import (  # noqa: F401 - the framework, re-exported
 from camsim.machine.reading import _suggest
 
 __all__ = [
-    "Address", "KINDS", "Part", "TableKind", "address", "bare_number_note", "bare_number_notes", "document_paths",
-    "is_bare_number", "machine_value", "option_notes", "param", "parse", "register", "try_parse", "unit",
+    "Address", "KINDS", "Part", "TableKind", "address", "bare_number_note", "document_paths",
+    "is_bare_number", "machine_value", "param", "parse", "register", "try_parse", "unit",
 ]
 
 
@@ -697,68 +695,6 @@ def document_paths(doc: Mapping[str, Any]) -> list[str]:
         out += kind.paths(doc)
     return out
 
-
-
-def option_notes(option: str, axes: Iterable[tuple[str, Sequence[str]]], shown: Any,
-                 written: Mapping[str, str] | None = None) -> list[str]:
-    """The bare-number warnings of command-line values: one per key whose values are bare numbers.
-
-    ``axes``: (key path, value texts) as an option gave them (``--vary cam.speed=60:600:10``
-    gives ``("cam.speed", ["60", "70", …, "600"])``); ``written``: key → the text as written.
-    """
-    notes = []
-    for key, texts in axes:
-        note = bare_number_note(f"{option} {key}", list(texts), unit(key), shown, (written or {}).get(key, ""))
-        if note:
-            notes.append(note)
-    return notes
-
-
-def bare_number_notes(doc: Mapping[str, Any], shown: Any, skip: Iterable[str] = ()) -> list[str]:
-    """The bare-number warnings of a document that otherwise writes units: one per key.
-
-    A document that writes no unit at all (every value SI by the file format) gets none; nor
-    does a bare 0 (zero in every unit), an angle (a bare angle is degrees) or a time or
-    frequency (shown the same in every system). ``skip``: canonical paths not to report
-    (the values ``--set`` wrote: their own note says so).
-    """
-    return notes_of(value_notes(doc, shown), skip)
-
-
-def notes_of(rows: Sequence[tuple[str, bool, str | None]], skip: Iterable[str] = ()) -> list[str]:
-    """:func:`bare_number_notes` from the rows of :func:`value_notes`: none where no value
-    writes a unit, else each note whose canonical path is not in ``skip``."""
-    skip = set(skip)
-    if not any(writes for _, writes, _ in rows):
-        return []
-    return [note for path, _, note in rows if note and path not in skip]
-
-
-def value_notes(doc: Mapping[str, Any], shown: Any) -> list[tuple[str, bool, str | None]]:
-    """Per value of the document, in its order: (canonical path, whether it is written with a
-    unit, its bare-number note or None)."""
-    rows: list[tuple[str, bool, str | None]] = []
-    for path in document_paths(doc):
-        p = param(path)
-        try:
-            where = address(doc, path, make_table=_no_table)
-        except (MachineFileError, _Absent):
-            continue
-        value = where.table.get(where.leaf) if isinstance(where.table, dict) else None
-        if value is None:
-            continue
-        note = None
-        if p is not None and p.dimension not in _SAME_EVERYWHERE and p.unit and p.unit != "N/m^exponent":
-            note = bare_number_note(path, value, p.unit, shown) or None
-        rows.append((where.path, writes_unit(value), note))
-    return rows
-
-
-def writes_unit(value: Any) -> bool:
-    """Whether a document value is a quantity written with its unit (``"28.12 lbf"``)."""
-    from camsim.machine.reading import _has_unit
-
-    return isinstance(value, str) and bool(_NUMBER_FIRST.match(value)) and not is_bare_number(value) and _has_unit(value)
 
 
 class _Absent(Exception):

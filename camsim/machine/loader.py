@@ -232,11 +232,11 @@ def _parse_once(text: str) -> dict:
 
 @functools.lru_cache(maxsize=8)
 def _file_value_notes(text: str, shown) -> tuple:
-    """:func:`camsim.machine.keys.value_notes` of the file's own document (no override), per
+    """:func:`camsim.machine.notes.value_notes` of the file's own document (no override), per
     text and display units: an analysis's runs differ from it only in their overrides' values."""
-    from camsim.machine import keys
+    from camsim.machine import notes
 
-    return tuple(keys.value_notes(_parse_once(text), shown))
+    return tuple(notes.value_notes(_parse_once(text), shown))
 
 
 def _bare_number_notes(doc: dict, text: str, overrides: Sequence[str], origin: dict[str, str]) -> tuple[str, ...]:
@@ -257,31 +257,11 @@ def _bare_number_notes(doc: dict, text: str, overrides: Sequence[str], origin: d
 
 
 def _document_notes(doc: dict, text: str, shown, origin: dict[str, str]) -> list[str]:
-    """The bare-number notes of the document's own values (``keys.bare_number_notes`` with the
-    overridden values skipped), from the file's rows computed once per text: the rows of the
-    values no override wrote are the file's, and whether the document writes units at all
-    takes the overridden values as they now are. An override that is not a plain value of the
-    file (a table, a list, a key the file leaves out) walks the document as it is."""
-    from camsim.machine import keys
+    """The bare-number notes of the document's own values (the overridden ones skipped), from
+    the file's rows computed once per text (:func:`camsim.machine.notes.document_notes`)."""
+    from camsim.machine import notes
 
-    rows = _file_value_notes(text, shown)
-    values = {path: k for k, (path, _, _) in enumerate(rows)}
-    base = _parse_once(text)
-    now = {}
-    for path in origin:
-        if path not in values:
-            return keys.bare_number_notes(doc, shown, skip=origin)
-        try:
-            before = keys.address(base, path, make_table=keys._no_table)
-            after = keys.address(doc, path, make_table=keys._no_table)
-        except (MachineFileError, keys._Absent):
-            return keys.bare_number_notes(doc, shown, skip=origin)
-        old, new = before.table.get(before.leaf), after.table.get(after.leaf)
-        if isinstance(old, (dict, list)) or isinstance(new, (dict, list)):
-            return keys.bare_number_notes(doc, shown, skip=origin)
-        now[path] = keys.writes_unit(new)
-    rows = [(path, now.get(path, writes), note) for path, writes, note in rows]
-    return keys.notes_of(rows, skip=origin)
+    return notes.document_notes(doc, _parse_once(text), _file_value_notes(text, shown), origin, shown)
 
 
 def _in_file_units(message: str, text: str, overrides: Sequence[str]) -> str:

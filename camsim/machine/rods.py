@@ -40,7 +40,8 @@ def approach_speed(cam: Cam | None, initial: list[InitialCondition], simulation:
     ``cams``: every cam of a machine with several (default ``cam`` alone; issue 38)."""
     candidates: list[tuple[float, str]] = []
     for one in _cams(cam, cams):
-        from camsim.cam.program import CamProgram, sample_revolution
+        from camsim.cam.peaks import sample_revolution
+        from camsim.cam.program import CamProgram
 
         program = CamProgram(one)
         if program.speed:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from camsim.cam.laws import NORTON_PEAKS, evaluate_law, fall, rise
-from camsim.cam.program import law_peaks
+from camsim.cam.peaks import law_peaks
 from camsim.machine.description import LAWS
 
 # Norton's published factors: R. L. Norton, "Design of Machinery", table 8-2 (Cv, Ca), and

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from camsim.cam.program import CamProgram, sample_revolution
+from camsim.cam.peaks import sample_revolution
+from camsim.cam.program import CamProgram
 from camsim.machine.description import LAWS, Cam, Segment
 
 INCH = 0.0254

@@ -348,7 +348,7 @@ def run_sweep(
     base = source.load(fixed)  # the --set overrides alone
     if warn is not None:  # issue 44: bare numbers are SI, and say so before anything runs
         from camsim.display import display_units
-        from camsim.machine.keys import option_notes
+        from camsim.machine.notes import option_notes
 
         shown = display_units("file", base.text, [*vary, *values])
         written = {k.strip(): spec for k, _, spec in (t.partition("=") for t in (*vary, *values))}
