@@ -290,8 +290,9 @@ class EngineContext:
         sized to reach it (the events of a periodic machine recur every revolution, within
         the transient's drift), where doubling from 512 steps took four chunks and half a
         chunk's waste to cross a gap of 4,000 steps. Where no event comes in the predicted
-        chunk, the chunks double from its length as before: a prediction only ever moves
-        the chunks' ends, and every step is screened whatever they are."""
+        chunk, the next ones double from its length (at least 512 steps) as before: a
+        prediction only ever moves the chunks' ends, and every step is screened whatever
+        they are."""
         if self.period is None or self._noted_since is None or t_start < self._noted_since + self.period:
             return None  # the period before is not all seen: an event may come before any predicted
         i = bisect.bisect_right(self._predicted, t_start + 0.5 * self.h)
