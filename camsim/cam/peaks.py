@@ -172,13 +172,12 @@ def sampled_peaks(program) -> list[dict]:
     return out
 
 
-
 def sample_revolution(program, points: int = 3600) -> dict[str, np.ndarray]:
     """The cam program over one revolution from t = 0, at ``points`` equal time steps.
 
     Parameters
     ----------
-    program : CamProgram
+    program : camsim.cam.program.CamProgram
         A program with a cam (finite period).
     points : int
         Number of samples [-]; t = k·T/points for k = 0 … points − 1 (the end of the

@@ -252,7 +252,8 @@ class EngineContext:
 
     def _break_input(self, b: float) -> np.ndarray:
         """The cam input's limits from the left and from the right at a break time: (2, 4·c),
-        kept with the grid's blocks (a break is at the same time in every run on the grid)."""
+        kept in the input's store of breaks (a break is at the same time in every run on the
+        same cam)."""
         hit = self._break_cache.get(b)
         if hit is None:
             hit = np.stack([self.cam.channels_at(b, side="left"), self.cam.channels_at(b, side="right")])
